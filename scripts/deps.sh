@@ -1,0 +1,19 @@
+# Sourced by scripts/run and scripts/test: installs the Debian packages sid needs, if missing.
+SID_PACKAGES=(cmake g++ make libeigen3-dev libsundials-dev libgtest-dev libbenchmark-dev
+              libcli11-dev nlohmann-json3-dev gnuplot-nox)
+
+sid_install_missing_packages() {
+  local missing=()
+  for pkg in "${SID_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q 'install ok installed' \
+      || missing+=("$pkg")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  echo "sid: installing missing packages: ${missing[*]}"
+  local sudo=""
+  if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+sid_jobs() { nproc 2>/dev/null || echo 2; }
