@@ -1,0 +1,436 @@
+#pragma once
+/// @file
+/// @brief The Reinsch cubic smoothing spline (Reinsch 1967; Green & Silverman 1994, ch. 2), in
+/// O(n) per fit through a pentadiagonal LDLᵀ.
+///
+/// Two equivalent forms, with δyᵢ > 0 the standard deviation of yᵢ and wᵢ = 1/δyᵢ²:
+/// - constraint form (Reinsch): minimise ∫g''² subject to F(g) = Σ((g(tᵢ) − yᵢ)/δyᵢ)² ≤ S.
+///   The residuals are squared (the paper's eq. 14 drops the square). Default S = n.
+/// - penalty form: minimise ∫g''² + p Σ((g(tᵢ) − yᵢ)/δyᵢ)², i.e. Σ wᵢ(yᵢ − g(tᵢ))² + λ∫g''²
+///   with λ = 1/p. So λ is SciPy's `make_smoothing_spline(t, y, w=1/δy², lam=λ)`, and csaps'
+///   `smooth = 1/(1 + λ)` with the same weights.
+/// The paper writes the spline with c = g''/2, which makes its p twice the p used here.
+///
+/// Linear algebra (h = knot spacing, D = diag(δy), γ = g'' at the interior knots):
+///   (QᵀD²Q + pR) u = Qᵀy,  g = y − D²Q u,  γ = p u,  F(p) = ‖DQu‖²,
+/// with R tridiagonal ((hₖ + hₖ₊₁)/3, hₖ₊₁/6) and Qᵀ rows (1/hₖ, −1/hₖ − 1/hₖ₊₁, 1/hₖ₊₁).
+
+#include <sid/banded.hpp>
+#include <sid/cubic_spline.hpp>
+
+#include <Eigen/Core>
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace sid {
+
+/// @brief Raised when the smoothing parameter search fails on valid input (it never returns a
+/// fit that does not satisfy F = S).
+class SmoothingError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// @brief A smoothing fit: the spline, its parameters and how it was found.
+template <typename Scalar>
+struct SmoothingFit {
+  CubicSpline<Scalar> spline;
+  /// Reinsch's multiplier of the data term (0 = straight line, +∞ = interpolation).
+  Scalar p = Scalar(0);
+  /// λ = 1/p, the penalty weight (SciPy's `lam` with w = 1/δy²).
+  Scalar lambda = std::numeric_limits<Scalar>::infinity();
+  /// F = Σ((g(tᵢ) − yᵢ)/δyᵢ)² of the fit.
+  Scalar F = Scalar(0);
+  /// Newton (or bracketing) steps taken for the constraint form; 0 for the penalty form.
+  int iterations = 0;
+  /// Banded factorizations done, the unit of cost.
+  int factorizations = 0;
+};
+
+/// @brief Reinsch smoothing on one time grid; the grid set-up is shared by every signal fitted.
+///
+/// Class invariant: t has n >= 2 finite, strictly increasing entries.
+/// @tparam Scalar float or double.
+template <typename Scalar>
+class SmoothingSpline {
+ public:
+  using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
+  using Fit = SmoothingFit<Scalar>;
+
+  /// @param t sample times [any unit], strictly increasing, finite, at least 2.
+  explicit SmoothingSpline(const Eigen::Ref<const Vector>& t) : t_(t) {
+    if (t_.size() < 2)
+      throw std::invalid_argument("sid::SmoothingSpline: t needs at least 2 samples, got " +
+                                  std::to_string(t_.size()));
+    for (Eigen::Index i = 0; i < t_.size(); ++i) {
+      using std::isfinite;
+      if (!isfinite(t_[i]))
+        throw std::invalid_argument("sid::SmoothingSpline: t[" + std::to_string(i) + "] is not finite");
+      if (i > 0 && !(t_[i] > t_[i - 1]))
+        throw std::invalid_argument("sid::SmoothingSpline: t must be strictly increasing (t[" +
+                                    std::to_string(i) + "] <= t[" + std::to_string(i - 1) + "])");
+    }
+    h_ = t_.tail(size() - 1) - t_.head(size() - 1);
+    inv_h_ = h_.cwiseInverse();
+  }
+
+  Eigen::Index size() const { return t_.size(); }
+  const Vector& t() const { return t_; }
+
+  /// @brief Constraint form with per-point δy: the smoothest g with F(g) <= S.
+  /// S = 0 interpolates; S at or above the weighted straight-line fit's F gives that line.
+  /// @throws std::invalid_argument on bad sizes, non-finite y, δy <= 0 or S < 0;
+  /// SmoothingError if the search for p does not converge.
+  Fit fit_constrained(const Eigen::Ref<const Vector>& y, const Eigen::Ref<const Vector>& dy, Scalar S) const {
+    check_signal(y, "fit_constrained");
+    check_weights(dy, "fit_constrained");
+    return constrained(y, Weights{dy.data(), Scalar(0)}, S);
+  }
+  /// @brief Constraint form with one δy for all points.
+  Fit fit_constrained(const Eigen::Ref<const Vector>& y, Scalar dy, Scalar S) const {
+    check_signal(y, "fit_constrained");
+    check_scalar_weight(dy, "fit_constrained");
+    return constrained(y, Weights{nullptr, dy * dy}, S);
+  }
+  /// @brief Constraint form with the default S = n.
+  Fit fit_constrained(const Eigen::Ref<const Vector>& y, Scalar dy) const {
+    return fit_constrained(y, dy, static_cast<Scalar>(size()));
+  }
+
+  /// @brief Penalty form for a given p >= 0 (p = 0: the weighted straight line; p = +∞:
+  /// interpolation). @throws std::invalid_argument on bad input.
+  Fit fit_penalized(const Eigen::Ref<const Vector>& y, const Eigen::Ref<const Vector>& dy, Scalar p) const {
+    check_signal(y, "fit_penalized");
+    check_weights(dy, "fit_penalized");
+    return penalized(y, Weights{dy.data(), Scalar(0)}, p);
+  }
+  Fit fit_penalized(const Eigen::Ref<const Vector>& y, Scalar dy, Scalar p) const {
+    check_signal(y, "fit_penalized");
+    check_scalar_weight(dy, "fit_penalized");
+    return penalized(y, Weights{nullptr, dy * dy}, p);
+  }
+
+ private:
+  /// δyᵢ² per point, or one value for all.
+  struct Weights {
+    const Scalar* dy;
+    Scalar dy2_all;
+    Scalar dy2(Eigen::Index i) const { return dy ? dy[i] * dy[i] : dy2_all; }
+  };
+
+  /// Buffers of one fit, reused by every step of the p search (no allocation per step).
+  struct Workspace {
+    BandedLDLT<Scalar, 2> ldlt;
+    Eigen::Matrix<Scalar, 3, Eigen::Dynamic> m_band;  // QᵀD²Q, lower band
+    Vector qty, u, v, qu, qv;
+    Scalar F = Scalar(0), dF = Scalar(0);
+    int factorizations = 0;
+  };
+
+  using Band = typename BandedLDLT<Scalar, 2>::Band;
+
+  void check_signal(const Eigen::Ref<const Vector>& y, const char* who) const {
+    if (y.size() != size())
+      throw std::invalid_argument(std::string("sid::SmoothingSpline::") + who + ": y has " +
+                                  std::to_string(y.size()) + " samples but t has " + std::to_string(size()));
+    for (Eigen::Index i = 0; i < y.size(); ++i) {
+      using std::isfinite;
+      if (!isfinite(y[i]))
+        throw std::invalid_argument(std::string("sid::SmoothingSpline::") + who + ": y[" +
+                                    std::to_string(i) + "] is not finite");
+    }
+  }
+  void check_weights(const Eigen::Ref<const Vector>& dy, const char* who) const {
+    if (dy.size() != size())
+      throw std::invalid_argument(std::string("sid::SmoothingSpline::") + who + ": dy has " +
+                                  std::to_string(dy.size()) + " entries but t has " + std::to_string(size()));
+    for (Eigen::Index i = 0; i < dy.size(); ++i) {
+      using std::isfinite;
+      if (!(dy[i] > Scalar(0)) || !isfinite(dy[i]))
+        throw std::invalid_argument(std::string("sid::SmoothingSpline::") + who + ": dy[" +
+                                    std::to_string(i) + "] must be finite and > 0, got " +
+                                    std::to_string(static_cast<double>(dy[i])));
+    }
+  }
+  static void check_scalar_weight(Scalar dy, const char* who) {
+    using std::isfinite;
+    if (!(dy > Scalar(0)) || !isfinite(dy))
+      throw std::invalid_argument(std::string("sid::SmoothingSpline::") + who +
+                                  ": dy must be finite and > 0, got " + std::to_string(static_cast<double>(dy)));
+  }
+
+  Eigen::Index interior() const { return size() - 2; }
+
+  // ---- the straight line (p = 0) -------------------------------------------------------------
+
+  /// Weighted least-squares line; returns its F and writes the fit.
+  Fit line_fit(const Eigen::Ref<const Vector>& y, const Weights& w) const {
+    const Eigen::Index n = size();
+    Scalar sw(0), st(0), sy(0);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Scalar wi = Scalar(1) / w.dy2(i);
+      sw += wi;
+      st += wi * t_[i];
+      sy += wi * y[i];
+    }
+    const Scalar t_mean = st / sw, y_mean = sy / sw;
+    Scalar stt(0), sty(0);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Scalar wi = Scalar(1) / w.dy2(i), dt = t_[i] - t_mean;
+      stt += wi * dt * dt;
+      sty += wi * dt * (y[i] - y_mean);
+    }
+    const Scalar slope = sty / stt;
+    Fit fit;
+    Vector a(n - 1), b = Vector::Constant(n - 1, slope), zero = Vector::Zero(n - 1);
+    for (Eigen::Index i = 0; i < n - 1; ++i) a[i] = y_mean + slope * (t_[i] - t_mean);
+    Scalar F(0);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Scalar r = y_mean + slope * (t_[i] - t_mean) - y[i];
+      F += r * r / w.dy2(i);
+    }
+    fit.spline = CubicSpline<Scalar>(t_, std::move(a), std::move(b), zero, zero);
+    fit.p = Scalar(0);
+    fit.lambda = std::numeric_limits<Scalar>::infinity();
+    fit.F = F;
+    return fit;
+  }
+
+  // ---- the banded system ---------------------------------------------------------------------
+
+  void prepare(Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w) const {
+    const Eigen::Index m = interior(), n = size();
+    ws.ldlt.resize(m);
+    ws.m_band.resize(3, m);
+    ws.qty.resize(m);
+    ws.u.resize(m);
+    ws.v.resize(m);
+    ws.qu.resize(n);
+    ws.qv.resize(n);
+    for (Eigen::Index j = 0; j < m; ++j) {
+      // Column j of Q (interior knot j + 1) has entries at rows j, j+1, j+2.
+      const Scalar q0 = inv_h_[j], q2 = inv_h_[j + 1], q1 = -(q0 + q2);
+      const Scalar w0 = w.dy2(j), w1 = w.dy2(j + 1), w2 = w.dy2(j + 2);
+      ws.m_band(0, j) = w0 * q0 * q0 + w1 * q1 * q1 + w2 * q2 * q2;
+      if (j + 1 < m) {
+        const Scalar q1_next = -(inv_h_[j + 1] + inv_h_[j + 2]);
+        ws.m_band(1, j) = w1 * q1 * inv_h_[j + 1] + w2 * q2 * q1_next;
+      } else {
+        ws.m_band(1, j) = Scalar(0);
+      }
+      ws.m_band(2, j) = j + 2 < m ? w2 * q2 * inv_h_[j + 2] : Scalar(0);
+      ws.qty[j] = (y[j + 2] - y[j + 1]) * q2 - (y[j + 1] - y[j]) * q0;
+    }
+  }
+
+  /// (Q x)ᵢ for x on the interior knots (zero at both ends: natural spline).
+  void apply_q(const Vector& x, Vector& out) const {
+    const Eigen::Index n = size(), m = interior();
+    auto X = [&](Eigen::Index k) { return (k >= 1 && k <= m) ? x[k - 1] : Scalar(0); };
+    out[0] = X(1) * inv_h_[0];
+    for (Eigen::Index i = 1; i < n - 1; ++i) out[i] = (X(i + 1) - X(i)) * inv_h_[i] - (X(i) - X(i - 1)) * inv_h_[i - 1];
+    out[n - 1] = X(n - 2) * inv_h_[n - 2];
+  }
+
+  /// Factorizes QᵀD²Q + pR and solves for u; sets F. False if not numerically SPD.
+  bool solve_at(Workspace& ws, const Weights& w, Scalar p) const {
+    const Eigen::Index m = interior();
+    Band& a = ws.ldlt.band();
+    for (Eigen::Index j = 0; j < m; ++j) {
+      a(0, j) = ws.m_band(0, j) + p * (h_[j] + h_[j + 1]) / Scalar(3);
+      a(1, j) = ws.m_band(1, j) + (j + 1 < m ? p * h_[j + 1] / Scalar(6) : Scalar(0));
+      a(2, j) = ws.m_band(2, j);
+    }
+    ++ws.factorizations;
+    if (!ws.ldlt.factorize()) return false;
+    ws.u = ws.qty;
+    ws.ldlt.solve_in_place(ws.u);
+    apply_q(ws.u, ws.qu);
+    Scalar F(0);
+    for (Eigen::Index i = 0; i < size(); ++i) F += w.dy2(i) * ws.qu[i] * ws.qu[i];
+    using std::isfinite;
+    ws.F = F;
+    return isfinite(F);
+  }
+
+  /// dF/dp = −2 (DQu)ᵀ(DQv), v = A⁻¹Ru: written this way it has no cancellation at large p.
+  void derivative_at(Workspace& ws, const Weights& w) const {
+    const Eigen::Index m = interior();
+    for (Eigen::Index j = 0; j < m; ++j) {
+      Scalar r = (h_[j] + h_[j + 1]) / Scalar(3) * ws.u[j];
+      if (j > 0) r += h_[j] / Scalar(6) * ws.u[j - 1];
+      if (j + 1 < m) r += h_[j + 1] / Scalar(6) * ws.u[j + 1];
+      ws.v[j] = r;
+    }
+    ws.ldlt.solve_in_place(ws.v);
+    apply_q(ws.v, ws.qv);
+    Scalar s(0);
+    for (Eigen::Index i = 0; i < size(); ++i) s += w.dy2(i) * ws.qu[i] * ws.qv[i];
+    ws.dF = Scalar(-2) * s;
+  }
+
+  /// The spline from g at the knots and γ = g'' at the interior knots (natural ends).
+  Fit assemble(const Vector& g, const Vector& gamma_interior) const {
+    const Eigen::Index n = size();
+    auto gamma = [&](Eigen::Index k) { return (k >= 1 && k <= n - 2) ? gamma_interior[k - 1] : Scalar(0); };
+    Vector a = g.head(n - 1), b(n - 1), c(n - 1), d(n - 1);
+    for (Eigen::Index i = 0; i < n - 1; ++i) {
+      const Scalar gi = gamma(i), gn = gamma(i + 1);
+      b[i] = (g[i + 1] - g[i]) * inv_h_[i] - h_[i] * (Scalar(2) * gi + gn) / Scalar(6);
+      c[i] = gi / Scalar(2);
+      d[i] = (gn - gi) * inv_h_[i] / Scalar(6);
+    }
+    Fit fit;
+    fit.spline = CubicSpline<Scalar>(t_, std::move(a), std::move(b), std::move(c), std::move(d));
+    return fit;
+  }
+
+  Fit fit_from(const Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w, Scalar p) const {
+    Vector g(size());
+    for (Eigen::Index i = 0; i < size(); ++i) g[i] = y[i] - w.dy2(i) * ws.qu[i];
+    Fit fit = assemble(g, p * ws.u);
+    fit.p = p;
+    fit.lambda = Scalar(1) / p;
+    fit.F = ws.F;
+    fit.factorizations = ws.factorizations;
+    return fit;
+  }
+
+  Fit interpolate(const Eigen::Ref<const Vector>& y) const {
+    const Eigen::Index m = interior();
+    BandedLDLT<Scalar, 1> r(m);
+    Vector gamma(m);
+    for (Eigen::Index j = 0; j < m; ++j) {
+      r.band()(0, j) = (h_[j] + h_[j + 1]) / Scalar(3);
+      r.band()(1, j) = j + 1 < m ? h_[j + 1] / Scalar(6) : Scalar(0);
+      gamma[j] = (y[j + 2] - y[j + 1]) * inv_h_[j + 1] - (y[j + 1] - y[j]) * inv_h_[j];
+    }
+    if (!r.factorize())  // R is diagonally dominant: this cannot fail for increasing t
+      throw SmoothingError("sid::SmoothingSpline: interpolation system is singular");
+    r.solve_in_place(gamma);
+    Fit fit = assemble(y, gamma);
+    fit.p = std::numeric_limits<Scalar>::infinity();
+    fit.lambda = Scalar(0);
+    fit.F = Scalar(0);
+    fit.factorizations = 1;
+    return fit;
+  }
+
+  Fit penalized(const Eigen::Ref<const Vector>& y, const Weights& w, Scalar p) const {
+    using std::isnan;
+    if (!(p >= Scalar(0)) || isnan(p))
+      throw std::invalid_argument("sid::SmoothingSpline::fit_penalized: p must be >= 0, got " +
+                                  std::to_string(static_cast<double>(p)));
+    using std::isinf;
+    if (size() == 2 || p == Scalar(0)) return line_fit(y, w);
+    if (isinf(p)) return interpolate(y);
+    Workspace ws;
+    prepare(ws, y, w);
+    if (!solve_at(ws, w, p))
+      throw SmoothingError("sid::SmoothingSpline::fit_penalized: the system for p = " +
+                           std::to_string(static_cast<double>(p)) +
+                           " is not numerically positive definite (p too small for this data's scale)");
+    return fit_from(ws, y, w, p);
+  }
+
+  /// Newton on F(p)^(−1/2) = S^(−1/2) (monotone from the left, Reinsch), kept inside a bracket
+  /// and helped along by Newton on log F(log p) where that makes faster progress.
+  Fit constrained(const Eigen::Ref<const Vector>& y, const Weights& w, Scalar S) const {
+    using std::isfinite;
+    using std::abs;
+    using std::log;
+    using std::exp;
+    using std::sqrt;
+    if (!(S >= Scalar(0)) || !isfinite(S))
+      throw std::invalid_argument("sid::SmoothingSpline::fit_constrained: S must be finite and >= 0, got " +
+                                  std::to_string(static_cast<double>(S)));
+    Fit line = line_fit(y, w);
+    if (line.F <= S) return line;
+    if (S == Scalar(0)) return interpolate(y);
+
+    Workspace ws;
+    prepare(ws, y, w);
+    // Start where the data and roughness terms have equal trace: a scale-free guess.
+    Scalar tr_m(0), tr_r(0);
+    for (Eigen::Index j = 0; j < interior(); ++j) {
+      tr_m += ws.m_band(0, j);
+      tr_r += (h_[j] + h_[j + 1]) / Scalar(3);
+    }
+    Scalar p = tr_m / tr_r;
+    Scalar lo = Scalar(0), hi = std::numeric_limits<Scalar>::infinity();  // F(lo) > S > F(hi)
+    const Scalar eps = std::numeric_limits<Scalar>::epsilon();
+    const Scalar f_tol = Scalar(16) * eps, p_tol = Scalar(8) * eps;
+    const Scalar kNoiseFloorCheck = Scalar(1e-6);
+    Scalar previous_miss = std::numeric_limits<Scalar>::infinity();
+    constexpr int kMaxIterations = 100;
+    for (int it = 1; it <= kMaxIterations; ++it) {
+      Scalar next;
+      if (!solve_at(ws, w, p)) {
+        lo = p;  // not SPD in floating point: p is far too small
+        next = isfinite(hi) ? sqrt(lo * hi) : p * Scalar(1e3);
+      } else {
+        const Scalar ratio = ws.F / S;
+        const Scalar miss = abs(ratio - Scalar(1));
+        // Near the root Newton squares the miss each step; when it stops shrinking, F has hit
+        // its rounding floor (for large n each (Qu)ᵢ is a second difference of a smooth u and
+        // loses digits) and further steps would only chase noise.
+        if (miss <= f_tol || (miss < kNoiseFloorCheck && miss > Scalar(0.25) * previous_miss))
+          return finish(ws, y, w, p, it);
+        previous_miss = miss;
+        derivative_at(ws, w);
+        const Scalar reinsch = p + Scalar(2) * ws.F * (Scalar(1) - sqrt(ratio)) / ws.dF;
+        if (ratio > Scalar(1)) {
+          lo = p;
+          // Left of the root F falls steeply (like p⁻²): Newton on log F(log p) makes long,
+          // accurate steps there. Reinsch's step never passes the root: the safe fallback.
+          const Scalar slope = p * ws.dF / ws.F;
+          const Scalar log_newton = p * exp(-log(ratio) / slope);
+          next = (isfinite(log_newton) && log_newton > reinsch && log_newton < hi) ? log_newton : reinsch;
+        } else {
+          // Right of the root F is very flat (S - F grows only like p^(1/4) when S = n), so
+          // steps there are short; one Reinsch step from the right lands left of the root.
+          hi = p;
+          next = reinsch > lo ? reinsch : (lo > Scalar(0) ? sqrt(lo * hi) : p * Scalar(1e-4));
+        }
+        if (!(next > lo && next < hi) || !isfinite(next))
+          next = (lo > Scalar(0) && isfinite(hi)) ? sqrt(lo * hi) : (lo > Scalar(0) ? lo * Scalar(1e3) : hi * Scalar(1e-4));
+        if (abs(next - p) <= p_tol * p) return finish(ws, y, w, p, it);
+      }
+      p = next;
+    }
+    throw SmoothingError("sid::SmoothingSpline::fit_constrained: the search for p did not converge in " +
+                         std::to_string(kMaxIterations) + " steps (S = " + std::to_string(static_cast<double>(S)) +
+                         ", last p = " + std::to_string(static_cast<double>(p)) + ")");
+  }
+
+  Fit finish(const Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w, Scalar p, int iterations) const {
+    Fit fit = fit_from(ws, y, w, p);
+    fit.iterations = iterations;
+    return fit;
+  }
+
+  Vector t_, h_, inv_h_;
+};
+
+/// @brief One-shot constraint-form fit (see SmoothingSpline::fit_constrained).
+template <typename Scalar>
+SmoothingFit<Scalar> smooth_constrained(const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& t,
+                                        const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& y,
+                                        const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& dy,
+                                        Scalar S) {
+  return SmoothingSpline<Scalar>(t).fit_constrained(y, dy, S);
+}
+
+/// @brief One-shot penalty-form fit (see SmoothingSpline::fit_penalized).
+template <typename Scalar>
+SmoothingFit<Scalar> smooth_penalized(const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& t,
+                                      const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& y,
+                                      const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& dy,
+                                      Scalar p) {
+  return SmoothingSpline<Scalar>(t).fit_penalized(y, dy, p);
+}
+
+}  // namespace sid
