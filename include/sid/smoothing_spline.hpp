@@ -22,6 +22,7 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -61,24 +62,24 @@ class SmoothingSpline {
   using Fit = SmoothingFit<Scalar>;
 
   /// @param t sample times [any unit], strictly increasing, finite, at least 2.
-  explicit SmoothingSpline(const Eigen::Ref<const Vector>& t) : t_(t) {
-    if (t_.size() < 2)
+  explicit SmoothingSpline(const Eigen::Ref<const Vector>& t) : t_(std::make_shared<const Vector>(t)) {
+    if (t.size() < 2)
       throw std::invalid_argument("sid::SmoothingSpline: t needs at least 2 samples, got " +
-                                  std::to_string(t_.size()));
-    for (Eigen::Index i = 0; i < t_.size(); ++i) {
+                                  std::to_string(t.size()));
+    for (Eigen::Index i = 0; i < t.size(); ++i) {
       using std::isfinite;
-      if (!isfinite(t_[i]))
+      if (!isfinite(t[i]))
         throw std::invalid_argument("sid::SmoothingSpline: t[" + std::to_string(i) + "] is not finite");
-      if (i > 0 && !(t_[i] > t_[i - 1]))
+      if (i > 0 && !(t[i] > t[i - 1]))
         throw std::invalid_argument("sid::SmoothingSpline: t must be strictly increasing (t[" +
                                     std::to_string(i) + "] <= t[" + std::to_string(i - 1) + "])");
     }
-    h_ = t_.tail(size() - 1) - t_.head(size() - 1);
+    h_ = t.tail(size() - 1) - t.head(size() - 1);
     inv_h_ = h_.cwiseInverse();
   }
 
-  Eigen::Index size() const { return t_.size(); }
-  const Vector& t() const { return t_; }
+  Eigen::Index size() const { return t_->size(); }
+  const Vector& t() const { return *t_; }
 
   /// @brief Constraint form with per-point δy: the smoothest g with F(g) <= S.
   /// S = 0 interpolates; S at or above the weighted straight-line fit's F gives that line.
@@ -121,16 +122,16 @@ class SmoothingSpline {
     Scalar dy2(Eigen::Index i) const { return dy ? dy[i] * dy[i] : dy2_all; }
   };
 
+  using Band = typename BandedLDLT<Scalar, 2>::Band;
+
   /// Buffers of one fit, reused by every step of the p search (no allocation per step).
   struct Workspace {
     BandedLDLT<Scalar, 2> ldlt;
-    Eigen::Matrix<Scalar, 3, Eigen::Dynamic> m_band;  // QᵀD²Q, lower band
-    Vector qty, u, v, qu, qv;
+    Band m_band;  // QᵀD²Q (lower band), kept only while p is searched
+    Vector qty, u, v;
     Scalar F = Scalar(0), dF = Scalar(0);
     int factorizations = 0;
   };
-
-  using Band = typename BandedLDLT<Scalar, 2>::Band;
 
   void check_signal(const Eigen::Ref<const Vector>& y, const char* who) const {
     if (y.size() != size())
@@ -166,91 +167,98 @@ class SmoothingSpline {
 
   // ---- the straight line (p = 0) -------------------------------------------------------------
 
-  /// Weighted least-squares line; returns its F and writes the fit.
   Fit line_fit(const Eigen::Ref<const Vector>& y, const Weights& w) const {
+    const Vector& t = *t_;
     const Eigen::Index n = size();
     Scalar sw(0), st(0), sy(0);
     for (Eigen::Index i = 0; i < n; ++i) {
       const Scalar wi = Scalar(1) / w.dy2(i);
       sw += wi;
-      st += wi * t_[i];
+      st += wi * t[i];
       sy += wi * y[i];
     }
-    const Scalar t_mean = st / sw, y_mean = sy / sw;
+    const Scalar t_mean = st / sw, y_mean = sy / sw;  // centred: no cancellation for large t
     Scalar stt(0), sty(0);
     for (Eigen::Index i = 0; i < n; ++i) {
-      const Scalar wi = Scalar(1) / w.dy2(i), dt = t_[i] - t_mean;
+      const Scalar wi = Scalar(1) / w.dy2(i), dt = t[i] - t_mean;
       stt += wi * dt * dt;
       sty += wi * dt * (y[i] - y_mean);
     }
     const Scalar slope = sty / stt;
-    Fit fit;
     Vector a(n - 1), b = Vector::Constant(n - 1, slope), zero = Vector::Zero(n - 1);
-    for (Eigen::Index i = 0; i < n - 1; ++i) a[i] = y_mean + slope * (t_[i] - t_mean);
+    for (Eigen::Index i = 0; i < n - 1; ++i) a[i] = y_mean + slope * (t[i] - t_mean);
     Scalar F(0);
     for (Eigen::Index i = 0; i < n; ++i) {
-      const Scalar r = y_mean + slope * (t_[i] - t_mean) - y[i];
+      const Scalar r = y_mean + slope * (t[i] - t_mean) - y[i];
       F += r * r / w.dy2(i);
     }
+    Fit fit;
     fit.spline = CubicSpline<Scalar>(t_, std::move(a), std::move(b), zero, zero);
-    fit.p = Scalar(0);
-    fit.lambda = std::numeric_limits<Scalar>::infinity();
     fit.F = F;
     return fit;
   }
 
   // ---- the banded system ---------------------------------------------------------------------
 
-  void prepare(Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w) const {
-    const Eigen::Index m = interior(), n = size();
+  /// Column j of QᵀD²Q, i.e. entries (j, j), (j+1, j), (j+2, j); column j of Q (interior knot
+  /// j + 1) is (1/hⱼ, −1/hⱼ − 1/hⱼ₊₁, 1/hⱼ₊₁) at rows j, j+1, j+2.
+  void m_column(const Weights& w, Eigen::Index j, Scalar& m0, Scalar& m1, Scalar& m2) const {
+    const Eigen::Index m = interior();
+    const Scalar q0 = inv_h_[j], q2 = inv_h_[j + 1], q1 = -(q0 + q2);
+    const Scalar w1 = w.dy2(j + 1), w2 = w.dy2(j + 2);
+    m0 = w.dy2(j) * q0 * q0 + w1 * q1 * q1 + w2 * q2 * q2;
+    m1 = j + 1 < m ? w1 * q1 * inv_h_[j + 1] - w2 * q2 * (inv_h_[j + 1] + inv_h_[j + 2]) : Scalar(0);
+    m2 = j + 2 < m ? w2 * q2 * inv_h_[j + 2] : Scalar(0);
+  }
+
+  void prepare(Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w, bool keep_m) const {
+    const Eigen::Index m = interior();
     ws.ldlt.resize(m);
-    ws.m_band.resize(3, m);
     ws.qty.resize(m);
     ws.u.resize(m);
+    for (Eigen::Index j = 0; j < m; ++j)
+      ws.qty[j] = (y[j + 2] - y[j + 1]) * inv_h_[j + 1] - (y[j + 1] - y[j]) * inv_h_[j];
+    if (!keep_m) return;
     ws.v.resize(m);
-    ws.qu.resize(n);
-    ws.qv.resize(n);
-    for (Eigen::Index j = 0; j < m; ++j) {
-      // Column j of Q (interior knot j + 1) has entries at rows j, j+1, j+2.
-      const Scalar q0 = inv_h_[j], q2 = inv_h_[j + 1], q1 = -(q0 + q2);
-      const Scalar w0 = w.dy2(j), w1 = w.dy2(j + 1), w2 = w.dy2(j + 2);
-      ws.m_band(0, j) = w0 * q0 * q0 + w1 * q1 * q1 + w2 * q2 * q2;
-      if (j + 1 < m) {
-        const Scalar q1_next = -(inv_h_[j + 1] + inv_h_[j + 2]);
-        ws.m_band(1, j) = w1 * q1 * inv_h_[j + 1] + w2 * q2 * q1_next;
-      } else {
-        ws.m_band(1, j) = Scalar(0);
-      }
-      ws.m_band(2, j) = j + 2 < m ? w2 * q2 * inv_h_[j + 2] : Scalar(0);
-      ws.qty[j] = (y[j + 2] - y[j + 1]) * q2 - (y[j + 1] - y[j]) * q0;
-    }
+    ws.m_band.resize(3, m);
+    for (Eigen::Index j = 0; j < m; ++j) m_column(w, j, ws.m_band(0, j), ws.m_band(1, j), ws.m_band(2, j));
   }
 
   /// (Q x)ᵢ for x on the interior knots (zero at both ends: natural spline).
-  void apply_q(const Vector& x, Vector& out) const {
-    const Eigen::Index n = size(), m = interior();
-    auto X = [&](Eigen::Index k) { return (k >= 1 && k <= m) ? x[k - 1] : Scalar(0); };
-    out[0] = X(1) * inv_h_[0];
-    for (Eigen::Index i = 1; i < n - 1; ++i) out[i] = (X(i + 1) - X(i)) * inv_h_[i] - (X(i) - X(i - 1)) * inv_h_[i - 1];
-    out[n - 1] = X(n - 2) * inv_h_[n - 2];
+  Scalar apply_q(const Vector& x, Eigen::Index i) const {
+    const Eigen::Index m = interior();
+    const Scalar here = (i >= 1 && i <= m) ? x[i - 1] : Scalar(0);
+    Scalar out(0);
+    if (i + 1 < size()) out += ((i + 1 <= m ? x[i] : Scalar(0)) - here) * inv_h_[i];
+    if (i > 0) out -= (here - (i >= 2 ? x[i - 2] : Scalar(0))) * inv_h_[i - 1];
+    return out;
   }
 
   /// Factorizes QᵀD²Q + pR and solves for u; sets F. False if not numerically SPD.
   bool solve_at(Workspace& ws, const Weights& w, Scalar p) const {
     const Eigen::Index m = interior();
     Band& a = ws.ldlt.band();
+    const bool have_m = ws.m_band.cols() == m;
     for (Eigen::Index j = 0; j < m; ++j) {
-      a(0, j) = ws.m_band(0, j) + p * (h_[j] + h_[j + 1]) / Scalar(3);
-      a(1, j) = ws.m_band(1, j) + (j + 1 < m ? p * h_[j + 1] / Scalar(6) : Scalar(0));
-      a(2, j) = ws.m_band(2, j);
+      Scalar m0, m1, m2;
+      if (have_m) {
+        m0 = ws.m_band(0, j), m1 = ws.m_band(1, j), m2 = ws.m_band(2, j);
+      } else {
+        m_column(w, j, m0, m1, m2);
+      }
+      a(0, j) = m0 + p * (h_[j] + h_[j + 1]) / Scalar(3);
+      a(1, j) = m1 + (j + 1 < m ? p * h_[j + 1] / Scalar(6) : Scalar(0));
+      a(2, j) = m2;
     }
     ++ws.factorizations;
     if (!ws.ldlt.factorize()) return false;
     ws.u = ws.qty;
     ws.ldlt.solve_in_place(ws.u);
-    apply_q(ws.u, ws.qu);
     Scalar F(0);
-    for (Eigen::Index i = 0; i < size(); ++i) F += w.dy2(i) * ws.qu[i] * ws.qu[i];
+    for (Eigen::Index i = 0; i < size(); ++i) {
+      const Scalar qu = apply_q(ws.u, i);
+      F += w.dy2(i) * qu * qu;
+    }
     using std::isfinite;
     ws.F = F;
     return isfinite(F);
@@ -266,22 +274,27 @@ class SmoothingSpline {
       ws.v[j] = r;
     }
     ws.ldlt.solve_in_place(ws.v);
-    apply_q(ws.v, ws.qv);
     Scalar s(0);
-    for (Eigen::Index i = 0; i < size(); ++i) s += w.dy2(i) * ws.qu[i] * ws.qv[i];
+    for (Eigen::Index i = 0; i < size(); ++i) s += w.dy2(i) * apply_q(ws.u, i) * apply_q(ws.v, i);
     ws.dF = Scalar(-2) * s;
   }
 
-  /// The spline from g at the knots and γ = g'' at the interior knots (natural ends).
-  Fit assemble(const Vector& g, const Vector& gamma_interior) const {
-    const Eigen::Index n = size();
-    auto gamma = [&](Eigen::Index k) { return (k >= 1 && k <= n - 2) ? gamma_interior[k - 1] : Scalar(0); };
-    Vector a = g.head(n - 1), b(n - 1), c(n - 1), d(n - 1);
+  /// The spline through g(tᵢ) = yᵢ − δyᵢ²(Qx)ᵢ with g'' = scale·x at the interior knots
+  /// (natural ends), built in one pass.
+  Fit assemble(const Eigen::Ref<const Vector>& y, const Weights* w, const Vector& x, Scalar scale) const {
+    const Eigen::Index n = size(), m = interior();
+    auto gamma = [&](Eigen::Index k) { return (k >= 1 && k <= m) ? scale * x[k - 1] : Scalar(0); };
+    auto g = [&](Eigen::Index k) { return w ? y[k] - w->dy2(k) * apply_q(x, k) : y[k]; };
+    Vector a(n - 1), b(n - 1), c(n - 1), d(n - 1);
+    Scalar g_here = g(0), gamma_here = Scalar(0);
     for (Eigen::Index i = 0; i < n - 1; ++i) {
-      const Scalar gi = gamma(i), gn = gamma(i + 1);
-      b[i] = (g[i + 1] - g[i]) * inv_h_[i] - h_[i] * (Scalar(2) * gi + gn) / Scalar(6);
-      c[i] = gi / Scalar(2);
-      d[i] = (gn - gi) * inv_h_[i] / Scalar(6);
+      const Scalar g_next = g(i + 1), gamma_next = gamma(i + 1);
+      a[i] = g_here;
+      b[i] = (g_next - g_here) * inv_h_[i] - h_[i] * (Scalar(2) * gamma_here + gamma_next) / Scalar(6);
+      c[i] = gamma_here / Scalar(2);
+      d[i] = (gamma_next - gamma_here) * inv_h_[i] / Scalar(6);
+      g_here = g_next;
+      gamma_here = gamma_next;
     }
     Fit fit;
     fit.spline = CubicSpline<Scalar>(t_, std::move(a), std::move(b), std::move(c), std::move(d));
@@ -289,9 +302,7 @@ class SmoothingSpline {
   }
 
   Fit fit_from(const Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w, Scalar p) const {
-    Vector g(size());
-    for (Eigen::Index i = 0; i < size(); ++i) g[i] = y[i] - w.dy2(i) * ws.qu[i];
-    Fit fit = assemble(g, p * ws.u);
+    Fit fit = assemble(y, &w, ws.u, p);
     fit.p = p;
     fit.lambda = Scalar(1) / p;
     fit.F = ws.F;
@@ -311,7 +322,7 @@ class SmoothingSpline {
     if (!r.factorize())  // R is diagonally dominant: this cannot fail for increasing t
       throw SmoothingError("sid::SmoothingSpline: interpolation system is singular");
     r.solve_in_place(gamma);
-    Fit fit = assemble(y, gamma);
+    Fit fit = assemble(y, nullptr, gamma, Scalar(1));
     fit.p = std::numeric_limits<Scalar>::infinity();
     fit.lambda = Scalar(0);
     fit.F = Scalar(0);
@@ -328,7 +339,7 @@ class SmoothingSpline {
     if (size() == 2 || p == Scalar(0)) return line_fit(y, w);
     if (isinf(p)) return interpolate(y);
     Workspace ws;
-    prepare(ws, y, w);
+    prepare(ws, y, w, false);
     if (!solve_at(ws, w, p))
       throw SmoothingError("sid::SmoothingSpline::fit_penalized: the system for p = " +
                            std::to_string(static_cast<double>(p)) +
@@ -352,7 +363,7 @@ class SmoothingSpline {
     if (S == Scalar(0)) return interpolate(y);
 
     Workspace ws;
-    prepare(ws, y, w);
+    prepare(ws, y, w, true);
     // Start where the data and roughness terms have equal trace: a scale-free guess.
     Scalar tr_m(0), tr_r(0);
     for (Eigen::Index j = 0; j < interior(); ++j) {
@@ -412,7 +423,8 @@ class SmoothingSpline {
     return fit;
   }
 
-  Vector t_, h_, inv_h_;
+  std::shared_ptr<const Vector> t_;
+  Vector h_, inv_h_;
 };
 
 /// @brief One-shot constraint-form fit (see SmoothingSpline::fit_constrained).

@@ -1,0 +1,187 @@
+#include "app.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <new>
+#include <stdexcept>
+
+namespace sid::app {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string trim(const std::string& s) {
+  const char* ws = " \t\r\n";
+  const auto begin = s.find_first_not_of(ws);
+  if (begin == std::string::npos) return {};
+  return s.substr(begin, s.find_last_not_of(ws) - begin + 1);
+}
+
+void print_error(const char* name, const char* kind, const std::string& message) {
+  std::cerr << name << ": " << kind << ": " << message << std::endl;
+}
+
+}  // namespace
+
+int report_errors(const char* name, const std::function<int()>& body) {
+  // Order matters: CLI::Error and std::invalid_argument are also std::exception subclasses
+  // that would be caught by the generic handlers below.
+  try {
+    return body();
+  } catch (const CLI::ConstructionError& e) {
+    print_error(name, "internal error", std::string("bad option definition: ") + e.what());
+    return kExitInternalError;
+  } catch (const std::invalid_argument& e) {
+    print_error(name, "error", e.what());
+    return kExitBadInput;
+  } catch (const std::bad_alloc&) {
+    print_error(name, "error", "out of memory (is the input file unexpectedly large?)");
+    return kExitInternalError;
+  } catch (const std::runtime_error& e) {  // InputError, I/O and filesystem errors
+    print_error(name, "error", e.what());
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    print_error(name, "internal error", e.what());
+    return kExitInternalError;
+  } catch (...) {
+    print_error(name, "internal error", "unknown exception");
+    return kExitInternalError;
+  }
+}
+
+int run_app(const char* name, const std::string& description, int argc, char** argv,
+            const std::function<void(CLI::App&)>& define_options, const std::function<int()>& run) {
+  return report_errors(name, [&]() -> int {
+    CLI::App cli{description, name};
+    define_options(cli);
+    try {
+      cli.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+      // --help and --version arrive as "errors" with exit code 0; CLI11 prints them.
+      if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return cli.exit(e);
+      print_error(name, "error", e.what());
+      std::cerr << "Run '" << name << " --help' for the list of options." << std::endl;
+      return kExitBadInput;
+    }
+    return run();
+  });
+}
+
+void require(bool ok, const std::string& message) {
+  if (!ok) throw InputError(message);
+}
+
+void ensure_writable(const std::string& path, bool force) {
+  if (path == "-") return;
+  require(!path.empty(), "empty output file name");
+  const fs::path p(path);
+  std::error_code ec;
+  if (fs::is_directory(p, ec)) throw InputError("cannot write '" + path + "': it is a directory");
+  const fs::path parent = p.parent_path();
+  if (!parent.empty() && !fs::is_directory(parent, ec))
+    throw InputError("cannot write '" + path + "': directory '" + parent.string() +
+                     "' does not exist");
+  if (fs::exists(p, ec) && !force)
+    throw InputError("refusing to overwrite '" + path + "' (use --force)");
+}
+
+std::string ensure_output_directory(const std::string& dir, const std::vector<std::string>& files,
+                                    bool force) {
+  require(!dir.empty(), "empty output directory name");
+  const fs::path d(dir);
+  std::error_code ec;
+  if (fs::exists(d, ec)) {
+    if (!fs::is_directory(d, ec))
+      throw InputError("cannot use '" + dir + "' as output directory: it is a file");
+    if (!force)
+      for (const auto& f : files)
+        if (fs::exists(d / f, ec))
+          throw InputError("refusing to overwrite '" + (d / f).string() + "' (use --force)");
+  } else if (!fs::create_directories(d, ec) && ec) {
+    throw InputError("cannot create directory '" + dir + "': " + ec.message());
+  }
+  return dir;
+}
+
+std::string ensure_output_directory(const std::string& dir, bool force) {
+  require(!dir.empty(), "empty output directory name");
+  std::error_code ec;
+  if (!force && fs::is_directory(dir, ec) && !fs::is_empty(dir, ec))
+    throw InputError("refusing to write into '" + dir +
+                     "': it already holds files that could be overwritten (use --force)");
+  return ensure_output_directory(dir, std::vector<std::string>{}, force);
+}
+
+std::string path_in(const std::string& dir, const std::string& file) {
+  return (fs::path(dir) / file).string();
+}
+
+std::vector<double> parse_doubles(const std::string& text, const std::string& what) {
+  const std::string all = trim(text);
+  require(!all.empty(), what + ": no values given (expected numbers separated by commas)");
+  std::vector<double> values;
+  std::string::size_type start = 0;
+  while (true) {
+    const auto comma = all.find(',', start);
+    const std::string cell = trim(all.substr(start, comma - start));
+    const std::string which = what + ": value " + std::to_string(values.size() + 1);
+    require(!cell.empty(), which + " is empty in '" + text + "'");
+    char* end = nullptr;
+    const double v = std::strtod(cell.c_str(), &end);
+    require(end != cell.c_str() && *end == '\0', which + " '" + cell + "' is not a number");
+    require(std::isfinite(v), which + " '" + cell + "' is not finite");
+    values.push_back(v);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return values;
+}
+
+std::vector<double> parse_doubles(const std::string& text, const std::string& what,
+                                  std::size_t count) {
+  std::vector<double> values = parse_doubles(text, what);
+  require(values.size() == count, what + " needs " + std::to_string(count) + " value" +
+                                      (count == 1 ? "" : "s") + ", got " +
+                                      std::to_string(values.size()));
+  return values;
+}
+
+nlohmann::json to_json_array(const Eigen::Ref<const Eigen::VectorXd>& v) {
+  nlohmann::json out = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < v.size(); ++i) out.push_back(v[i]);
+  return out;
+}
+
+nlohmann::json to_json_rows(const Eigen::Ref<const Eigen::MatrixXd>& m) {
+  nlohmann::json out = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < m.rows(); ++i) {
+    nlohmann::json row = nlohmann::json::array();
+    for (Eigen::Index j = 0; j < m.cols(); ++j) row.push_back(m(i, j));
+    out.push_back(std::move(row));
+  }
+  return out;
+}
+
+void write_json(const std::string& path, const nlohmann::json& value) {
+  // nlohmann::json prints doubles as the shortest text that reads back bit-identical.
+  const std::string text =
+      value.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
+  if (path == "-") {
+    std::cout << text << std::flush;
+    if (!std::cout) throw std::runtime_error("cannot write to standard output");
+    return;
+  }
+  std::ofstream out(path, std::ios::binary);
+  if (!out)
+    throw std::runtime_error("cannot open '" + path + "' for writing: " + std::strerror(errno));
+  out << text;
+  out.close();
+  if (!out) throw std::runtime_error("error while writing '" + path + "' (disk full?)");
+}
+
+}  // namespace sid::app

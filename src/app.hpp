@@ -1,0 +1,81 @@
+#pragma once
+/// @file
+/// @brief Plumbing every sid app shares: option parsing and error reporting around main,
+/// refusing to overwrite outputs, parsing lists of numbers, writing JSON.
+
+#include <CLI/CLI.hpp>
+#include <Eigen/Core>
+#include <cstddef>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "csv.hpp"  // InputError
+
+namespace sid::app {
+
+/// Exit codes of every app.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitInternalError = 1;  ///< a bug: an exception nobody expected
+inline constexpr int kExitBadInput = 2;       ///< bad options, bad files, refused overwrite
+
+/// @brief The body of every main. Builds a CLI::App (name, description), lets define_options
+/// add the options, parses argv, then calls run and returns its exit code.
+///
+/// Errors become messages on stderr and exit codes, never a crash:
+/// - `--help` prints every option to stdout and returns 0;
+/// - a CLI11 parse error prints "NAME: error: MESSAGE" and a hint to `--help`, returns 2;
+/// - InputError, std::invalid_argument (the library's bad-input error) and other
+///   std::runtime_error print "NAME: error: MESSAGE", return 2;
+/// - anything else prints "NAME: internal error: ..." and returns 1.
+/// @param define_options adds options bound to variables that outlive the call (typically
+///   locals of main captured by reference).
+int run_app(const char* name, const std::string& description, int argc, char** argv,
+            const std::function<void(CLI::App&)>& define_options, const std::function<int()>& run);
+
+/// @brief The error-to-exit-code part of run_app alone, for code that parses by itself.
+int report_errors(const char* name, const std::function<int()>& body);
+
+/// @brief Throws InputError(message) unless ok: the one-line check for option values.
+void require(bool ok, const std::string& message);
+
+/// @brief Refuses to overwrite: throws InputError "refusing to overwrite 'x.csv' (use --force)"
+/// when path exists and force is false. Also fails early (before any work is done) when path is
+/// a directory or its parent directory does not exist. "-" (standard output) always passes.
+void ensure_writable(const std::string& path, bool force);
+
+/// @brief Prepares a directory of outputs: creates it (and its parents) if missing; fails if it
+/// is a file. Without force, refuses when any of the named files already exists in it.
+/// @return dir itself, for chaining.
+std::string ensure_output_directory(const std::string& dir, const std::vector<std::string>& files,
+                                    bool force);
+
+/// @brief As above when the file names are not known in advance: without force, refuses any
+/// directory that already holds files.
+std::string ensure_output_directory(const std::string& dir, bool force);
+
+/// @brief dir + "/" + file (std::filesystem join, as a string).
+std::string path_in(const std::string& dir, const std::string& file);
+
+/// @brief Parses "0.1, 0.2,3e-4" (commas, optional spaces). what names the option in messages.
+/// @throws InputError "--theta: value 3 'abc' is not a number" and the like; NaN/Inf rejected.
+std::vector<double> parse_doubles(const std::string& text, const std::string& what);
+
+/// @brief As above, requiring exactly count values: "--theta needs 7 values, got 6".
+std::vector<double> parse_doubles(const std::string& text, const std::string& what,
+                                  std::size_t count);
+
+/// @brief An Eigen vector as a JSON array (numbers keep every bit: nlohmann prints the shortest
+/// text that reads back the same double; NaN/Inf become null).
+nlohmann::json to_json_array(const Eigen::Ref<const Eigen::VectorXd>& v);
+
+/// @brief A matrix as a JSON array of rows.
+nlohmann::json to_json_rows(const Eigen::Ref<const Eigen::MatrixXd>& m);
+
+/// @brief Writes pretty JSON (indent 2, trailing newline) to path ("-" is standard output).
+/// Overwrites: call ensure_writable first.
+/// @throws std::runtime_error when the file cannot be written.
+void write_json(const std::string& path, const nlohmann::json& value);
+
+}  // namespace sid::app

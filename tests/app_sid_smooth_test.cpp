@@ -1,0 +1,275 @@
+// Runs the sid_smooth binary on temporary files, as a user would, and checks its output, messages
+// and exit codes.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include "csv.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kExactTol = 1e-12;      // a line is in the penalty's null space: rounding only
+constexpr double kDerivativeTol = 1e-9;  // derivatives divide by knot spacings
+
+struct AppRun {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+class SidSmooth : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("sid_smooth_test_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  std::string file(const std::string& name) const { return (dir_ / name).string(); }
+  std::string write(const std::string& name, const std::string& text) const {
+    std::ofstream(file(name), std::ios::binary) << text;
+    return file(name);
+  }
+  static std::string read(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+
+  // Runs sid_smooth with args (already shell-quoted where needed) from inside the temp dir.
+  AppRun run(const std::string& args) const {
+    const std::string out = file("stdout.txt"), err = file("stderr.txt");
+    const std::string command = "cd '" + dir_.string() + "' && '" SID_APP_DIR "/sid_smooth' " +
+                                args + " >'" + out + "' 2>'" + err + "'";
+    const int status = std::system(command.c_str());
+    AppRun r;
+    // A crash (signal) leaves exit_code at -1, which every test rejects.
+    if (status != -1 && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+    r.out = read(out);
+    r.err = read(err);
+    return r;
+  }
+
+  // Expects exit code 2, nothing on stdout and an error message containing what.
+  void expect_input_error(const std::string& args, const std::string& what) const {
+    const AppRun r = run(args);
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
+    EXPECT_EQ(r.err.rfind("sid_smooth: error: ", 0), 0u) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos)
+        << args << "\nexpected: " << what << "\ngot: " << r.err;
+    EXPECT_TRUE(r.out.empty()) << args << "\n" << r.out;
+  }
+
+  sid::app::CsvTable parse_output(const std::string& text) const {
+    std::istringstream in(text);
+    return sid::app::parse_csv(in, "sid_smooth output");
+  }
+
+  fs::path dir_;
+};
+
+// Uneven sampling so the derivatives are not helped by symmetric spacing.
+std::string line_csv() {
+  std::string text = "# a straight line\ny,t,z\n";
+  double t = 0.0;
+  for (int i = 0; i < 40; ++i) {
+    text += sid::app::format_double(2.0 + 3.0 * t) + "," + sid::app::format_double(t) + "," +
+            sid::app::format_double(-1.0 - 0.5 * t) + "\n";
+    t += 0.01 + 0.005 * (i % 3);
+  }
+  return text;
+}
+
+void expect_line(const sid::app::CsvTable& table, const std::string& name, double a, double b) {
+  const Eigen::VectorXd& t = table.column("t");
+  const Eigen::VectorXd& y = table.column(name);
+  const Eigen::VectorXd& yd = table.column(name + "_d");
+  const Eigen::VectorXd& ydd = table.column(name + "_dd");
+  for (Eigen::Index i = 0; i < t.size(); ++i) {
+    EXPECT_NEAR(y[i], a + b * t[i], kExactTol) << name << " row " << i;
+    EXPECT_NEAR(yd[i], b, kDerivativeTol) << name << " row " << i;
+    EXPECT_NEAR(ydd[i], 0.0, kDerivativeTol) << name << " row " << i;
+  }
+}
+
+}  // namespace
+
+TEST_F(SidSmooth, HelpExplainsEveryOptionAndExitsZero) {
+  const AppRun r = run("--help");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  for (const char* word : {"--time", "--signal", "--sigma", "--weights", "--S", "--lambda",
+                           "--output", "--force", "--quiet", "S = n", "lambda = 1/p", "_dd"})
+    EXPECT_NE(r.out.find(word), std::string::npos) << "help does not mention " << word;
+}
+
+TEST_F(SidSmooth, StraightLineComesOutExactlyWithSlopeAndZeroCurvature) {
+  write("line.csv", line_csv());
+  const AppRun r = run("--sigma 0.01 line.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto table = parse_output(r.out);
+  EXPECT_EQ(table.names, (std::vector<std::string>{"t", "y", "y_d", "y_dd", "z", "z_d", "z_dd"}));
+  ASSERT_EQ(table.rows(), 40);
+  expect_line(table, "y", 2.0, 3.0);
+  expect_line(table, "z", -1.0, -0.5);
+  // The summary names each signal and its parameters.
+  EXPECT_NE(r.err.find("y: p = "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("lambda = "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("iterations = "), std::string::npos) << r.err;
+}
+
+TEST_F(SidSmooth, StraightLineIsExactInPenaltyFormToo) {
+  write("line.csv", line_csv());
+  const AppRun r = run("--sigma 0.01 --lambda 1e-4 --signal z -q line.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(r.err.empty()) << "--quiet still printed: " << r.err;
+  const auto table = parse_output(r.out);
+  EXPECT_EQ(table.names, (std::vector<std::string>{"t", "z", "z_d", "z_dd"}));
+  expect_line(table, "z", -1.0, -0.5);
+}
+
+TEST_F(SidSmooth, RecoversDerivativesOfNoisySine) {
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  std::string text = "t,q\n";
+  for (int i = 0; i <= 400; ++i) {
+    const double t = 0.01 * i;
+    text +=
+        sid::app::format_double(t) + "," + sid::app::format_double(std::sin(t) + noise(rng)) + "\n";
+  }
+  write("sine.csv", text);
+  const AppRun r = run("--sigma 0.01 -o out.csv sine.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto table = sid::app::read_csv(file("out.csv"));
+  const Eigen::VectorXd t = table.column("t");
+  // Away from the ends (natural end conditions bias g'' there) the derivatives are close in
+  // the RMS sense; the bounds are about twice what other noise draws give.
+  const Eigen::Index lo = 40, len = t.size() - 80;
+  const Eigen::ArrayXd ts = t.segment(lo, len).array();
+  const double d_rms =
+      std::sqrt((table.column("q_d").segment(lo, len).array() - ts.cos()).square().mean());
+  const double dd_rms =
+      std::sqrt((table.column("q_dd").segment(lo, len).array() + ts.sin()).square().mean());
+  EXPECT_LT(d_rms, 0.04);
+  EXPECT_LT(dd_rms, 0.5);
+}
+
+TEST_F(SidSmooth, PerSampleWeightsColumnIsUsedAndNotSmoothed) {
+  std::string text = "t,y,dy\n";
+  for (int i = 0; i < 20; ++i)
+    text += std::to_string(i) + "," + std::to_string(1.0 + 0.25 * i) + "," +
+            (i % 2 ? "0.1" : "0.2") + "\n";
+  write("w.csv", text);
+  const AppRun r = run("--weights dy w.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto table = parse_output(r.out);
+  EXPECT_EQ(table.names, (std::vector<std::string>{"t", "y", "y_d", "y_dd"}));
+  expect_line(table, "y", 1.0, 0.25);
+}
+
+TEST_F(SidSmooth, SigmaPerSignalMustMatchSignalCount) {
+  write("line.csv", line_csv());
+  EXPECT_EQ(run("--sigma 0.01,0.02 line.csv").exit_code, 0);
+  expect_input_error("--sigma 0.01,0.02,0.03 line.csv",
+                     "--sigma needs 1 value or 2 (one per signal: y, z), got 3");
+}
+
+TEST_F(SidSmooth, RefusesToOverwriteWithoutForce) {
+  write("line.csv", line_csv());
+  write("out.csv", "precious\n");
+  expect_input_error("--sigma 0.01 -o out.csv line.csv",
+                     "refusing to overwrite 'out.csv' (use --force)");
+  EXPECT_EQ(read(file("out.csv")), "precious\n");
+  const AppRun r = run("--sigma 0.01 -o out.csv --force line.csv");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(read(file("out.csv")).substr(0, 4), "t,y,");
+}
+
+TEST_F(SidSmooth, ReportsBadCsvContent) {
+  write("empty.csv", "");
+  expect_input_error("--sigma 1 empty.csv", "empty.csv: the file is empty");
+  write("one.csv", "t,y\n0,1\n");
+  expect_input_error("--sigma 1 one.csv", "needs at least 2 data rows, got 1");
+  write("back.csv", "t,y\n0,1\n1,2\n0.5,3\n");
+  expect_input_error("--sigma 1 back.csv", "back.csv, line 4, column 't': not strictly increasing");
+  write("dup.csv", "t,y\n0,1\n1,2\n1,3\n");
+  expect_input_error("--sigma 1 dup.csv",
+                     "dup.csv, line 4, column 't': not strictly increasing (1 repeats 1");
+  write("nan.csv", "t,y\n0,1\n1,nan\n");
+  expect_input_error("--sigma 1 nan.csv", "nan.csv, line 3, column 'y': 'nan' is NaN");
+  write("inf.csv", "t,y\n0,1\n1,-Inf\n");
+  expect_input_error("--sigma 1 inf.csv", "inf.csv, line 3, column 'y': '-Inf' is infinite");
+  write("ragged.csv", "t,y\n0,1\n1\n");
+  expect_input_error("--sigma 1 ragged.csv",
+                     "ragged.csv, line 3: row has 1 cells, the header (line 1) has 2");
+  write("text.csv", "t,y\n0,1\n1,abc\n");
+  expect_input_error("--sigma 1 text.csv", "text.csv, line 3, column 'y': 'abc' is not a number");
+  write("zero_dy.csv", "t,y,dy\n0,1,1\n1,2,0\n");
+  expect_input_error("--weights dy zero_dy.csv",
+                     "line 3, column 'dy' (--weights): a standard deviation must be > 0");
+  write("only_t.csv", "t\n0\n1\n");
+  expect_input_error("--sigma 1 only_t.csv", "nothing to smooth");
+  expect_input_error("--sigma 1 missing.csv", "cannot open 'missing.csv'");
+}
+
+TEST_F(SidSmooth, ReportsMissingColumns) {
+  write("line.csv", line_csv());
+  expect_input_error("--sigma 1 --time time line.csv", "no column 'time'; columns are: y, t, z");
+  expect_input_error("--sigma 1 --signal q1 line.csv", "no column 'q1'; columns are: y, t, z");
+  expect_input_error("--weights dy line.csv", "no column 'dy'");
+  expect_input_error("--sigma 1 --signal t line.csv", "--signal t: that is the time column");
+  expect_input_error("--sigma 1 --signal y,y line.csv", "--signal y is given twice");
+}
+
+TEST_F(SidSmooth, ReportsBadOptionValues) {
+  write("line.csv", line_csv());
+  expect_input_error("line.csv", "no noise level: give --sigma");
+  expect_input_error("--sigma 0 line.csv", "--sigma must be > 0, got 0");
+  expect_input_error("--sigma -1 line.csv", "--sigma must be > 0, got -1");
+  expect_input_error("--sigma 1,-2 line.csv", "--sigma must be > 0, got -2 (for z)");
+  expect_input_error("--sigma abc line.csv", "--sigma: value 1 'abc' is not a number");
+  expect_input_error("--sigma 1 --S -1 line.csv", "--S must be a finite number >= 0, got -1");
+  expect_input_error("--sigma 1 --S nan line.csv", "--S must be a finite number >= 0, got nan");
+  expect_input_error("--sigma 1 --lambda 0 line.csv",
+                     "--lambda must be a finite number > 0, got 0");
+  expect_input_error("--sigma 1 --lambda -3 line.csv",
+                     "--lambda must be a finite number > 0, got -3");
+  expect_input_error("--sigma 1 --S abc line.csv", "--S");
+  expect_input_error("--sigma 1 --S 1 --lambda 1 line.csv", "excludes");
+  expect_input_error("--sigma 1 --weights y line.csv", "excludes");
+  expect_input_error("--sigma 1 --bogus line.csv", "--bogus");
+  expect_input_error("--sigma 1", "INPUT");
+  expect_input_error("--sigma 1 -o nodir/out.csv line.csv", "directory 'nodir' does not exist");
+}
+
+TEST_F(SidSmooth, ParseErrorsPointToHelp) {
+  const AppRun r = run("--bogus");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("sid_smooth --help"), std::string::npos) << r.err;
+}
+
+TEST_F(SidSmooth, SZeroInterpolatesTheData) {
+  write("pts.csv", "t,y\n0,0\n1,1\n2,0\n3,1\n4,0\n");
+  const AppRun r = run("--sigma 0.1 --S 0 -q pts.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto table = parse_output(r.out);
+  const Eigen::VectorXd expected = (Eigen::VectorXd(5) << 0, 1, 0, 1, 0).finished();
+  EXPECT_LT((table.column("y") - expected).cwiseAbs().maxCoeff(), kExactTol);
+}
