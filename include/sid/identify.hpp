@@ -1,0 +1,236 @@
+#pragma once
+/// @file
+/// @brief The identification pipeline of the paper: measured (t, q, τ) → q̇, q̈ by a chosen
+/// method → window → regressor X, y (eq. 10) → QR least squares.
+
+#include <sid/butterworth.hpp>
+#include <sid/finite_difference.hpp>
+#include <sid/least_squares.hpp>
+#include <sid/model/regressor.hpp>
+#include <sid/model/two_link_arm.hpp>
+#include <sid/smoothing_spline.hpp>
+#include <sid/trajectory.hpp>
+
+#include <Eigen/Core>
+
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sid {
+
+/// @brief How q̇ and q̈ are obtained from the measured q.
+enum class DerivativeMethod {
+  ForwardDifference,   ///< "raw": q̇ᵢ = (qᵢ₊₁ − qᵢ)/Ts, q̈ likewise from q̇ (paper eq. 47–48)
+  FilteredDifference,  ///< "filtered": the same, then q, q̇, q̈ each filtered by filtfilt
+  SmoothingSpline,     ///< "css": Reinsch spline per joint, derivatives analytic
+};
+
+/// @brief The method's short name as used by the apps and reports.
+inline const char* method_name(DerivativeMethod method) {
+  switch (method) {
+    case DerivativeMethod::ForwardDifference: return "raw";
+    case DerivativeMethod::FilteredDifference: return "filtered";
+    case DerivativeMethod::SmoothingSpline: return "css";
+  }
+  return "unknown";
+}
+
+/// @brief Parses "raw", "filtered" or "css". @throws std::invalid_argument otherwise.
+inline DerivativeMethod parse_derivative_method(const std::string& name) {
+  if (name == "raw") return DerivativeMethod::ForwardDifference;
+  if (name == "filtered") return DerivativeMethod::FilteredDifference;
+  if (name == "css") return DerivativeMethod::SmoothingSpline;
+  throw std::invalid_argument("sid::parse_derivative_method: unknown method '" + name +
+                              "' (expected raw, filtered or css)");
+}
+
+/// @brief Butterworth low-pass settings of the filtered method (order, cutoff relative to
+/// Nyquist). Defaults are the paper's: 10 Hz, 3 Hz and 2 Hz at 400 Hz sampling.
+struct DifferenceFilters {
+  int q_order = 3;
+  double q_cutoff = 0.05;
+  int qd_order = 3;
+  double qd_cutoff = 0.015;
+  int qdd_order = 4;
+  double qdd_cutoff = 0.01;
+};
+
+/// @brief Options of the identification pipeline.
+struct IdentifyOptions {
+  DerivativeMethod method = DerivativeMethod::SmoothingSpline;
+  /// δq per joint [rad]: the standard deviation the CSS constraint assumes (paper: δq = σq).
+  Vector2<double> sigma_q = Vector2<double>::Constant(1e-3);
+  /// S of the CSS constraint; empty = number of samples (the paper's choice).
+  std::optional<double> S;
+  /// Samples with t < t₀ + skip are dropped (the start transient) [s].
+  double skip = 0.25;
+  /// The filtered method drops t < t₀ + filtered_skip instead (filter start-up) [s].
+  double filtered_skip = 1.7475;
+  /// Samples with t > t_last − skip_end are dropped too [s]. The paper keeps them (0), but a
+  /// natural spline has g'' = 0 at the last knot, so CSS's q̈ is wrong over the last few
+  /// samples unless the motion happens to stop there.
+  double skip_end = 0.0;
+  DifferenceFilters filters;
+  double gravity = kPaperGravity;  ///< [m/s²]
+  LeastSquaresOptions least_squares;
+};
+
+/// @brief What the pipeline found, with everything needed to report it.
+struct Identification {
+  DerivativeMethod method = DerivativeMethod::SmoothingSpline;
+  Kinematics<double> kinematics;  ///< the samples used (after the window)
+  LeastSquaresResult<double> fit;
+  /// Reinsch's p per joint (CSS only; NaN otherwise).
+  Vector2<double> smoothing_p = Vector2<double>::Constant(std::nan(""));
+
+  Eigen::Index samples_used() const { return kinematics.size(); }
+};
+
+namespace detail {
+
+/// Sampling period of a uniform grid. @throws std::invalid_argument if t is not uniform.
+inline double uniform_period(const VectorX<double>& t, const char* who) {
+  const Eigen::Index n = t.size();
+  const double ts = (t[n - 1] - t[0]) / static_cast<double>(n - 1);
+  constexpr double kUniformTolerance = 1e-6;  // relative jitter a logged time stamp may have
+  for (Eigen::Index i = 1; i < n; ++i)
+    if (std::abs((t[i] - t[i - 1]) - ts) > kUniformTolerance * ts)
+      throw std::invalid_argument(std::string(who) + ": finite differences need uniform sampling, but t[" +
+                                  std::to_string(i) + "] - t[" + std::to_string(i - 1) + "] = " +
+                                  std::to_string(t[i] - t[i - 1]) + " differs from the mean period " +
+                                  std::to_string(ts));
+  return ts;
+}
+
+inline Kinematics<double> rows_of(const Trajectory<double>& data, Eigen::Index begin, Eigen::Index count) {
+  Kinematics<double> k;
+  k.t = data.t.segment(begin, count);
+  k.q = data.q.middleRows(begin, count);
+  k.tau = data.tau.middleRows(begin, count);
+  return k;
+}
+
+}  // namespace detail
+
+/// @brief q, q̇, q̈ (and τ) at every sample the method can produce: all n for CSS, the first
+/// n − 2 for the difference methods (q̈ needs qᵢ₊₂). For the filtered method q, q̇, q̈ are the
+/// filtered signals. Smoothing parameters p are written to *p_out when given.
+/// @throws std::invalid_argument on an invalid trajectory, too few samples, non-uniform sampling
+/// for the difference methods, or δq <= 0.
+inline Kinematics<double> estimate_kinematics(const Trajectory<double>& data, const IdentifyOptions& options,
+                                              Vector2<double>* p_out = nullptr) {
+  const char* who = "sid::estimate_kinematics";
+  data.validate(who);
+  const Eigen::Index n = data.size();
+  switch (options.method) {
+    case DerivativeMethod::SmoothingSpline: {
+      if (n < 3) throw std::invalid_argument(std::string(who) + ": CSS needs at least 3 samples, got " + std::to_string(n));
+      const SmoothingSpline<double> spline(data.t);
+      Kinematics<double> k = detail::rows_of(data, 0, n);
+      k.qd.resize(n, 2);
+      k.qdd.resize(n, 2);
+      for (int j = 0; j < 2; ++j) {
+        if (!(options.sigma_q[j] > 0.0) || !std::isfinite(options.sigma_q[j]))
+          throw std::invalid_argument(std::string(who) + ": sigma_q of joint " + std::to_string(j + 1) +
+                                      " must be finite and > 0");
+        const VectorX<double> qj = data.q.col(j);
+        const auto fit = spline.fit_constrained(qj, options.sigma_q[j], options.S.value_or(static_cast<double>(n)));
+        fit.spline.derivatives_at_knots(0, k.q.col(j));
+        fit.spline.derivatives_at_knots(1, k.qd.col(j));
+        fit.spline.derivatives_at_knots(2, k.qdd.col(j));
+        if (p_out) (*p_out)[j] = fit.p;
+      }
+      return k;
+    }
+    case DerivativeMethod::ForwardDifference:
+    case DerivativeMethod::FilteredDifference: {
+      const Eigen::Index min_samples =
+          options.method == DerivativeMethod::ForwardDifference ? 3 : 3 * (options.filters.qdd_order + 1) + 3;
+      if (n < min_samples)
+        throw std::invalid_argument(std::string(who) + ": method " + method_name(options.method) + " needs at least " +
+                                    std::to_string(min_samples) + " samples, got " + std::to_string(n));
+      const double ts = detail::uniform_period(data.t, who);
+      const auto d = forward_differences(data.q, ts);
+      const Eigen::Index m = n - 2;  // samples with q̈
+      Kinematics<double> k = detail::rows_of(data, 0, m);
+      if (options.method == DerivativeMethod::ForwardDifference) {
+        k.qd = d.first.topRows(m);
+        k.qdd = d.second;
+        return k;
+      }
+      const auto& f = options.filters;
+      // Each signal is filtered over all the samples it has, then cut to the common range.
+      k.q = filtfilt(butterworth_lowpass(f.q_order, f.q_cutoff), data.q).topRows(m);
+      k.qd = filtfilt(butterworth_lowpass(f.qd_order, f.qd_cutoff), d.first).topRows(m);
+      k.qdd = filtfilt(butterworth_lowpass(f.qdd_order, f.qdd_cutoff), d.second);
+      return k;
+    }
+  }
+  throw std::invalid_argument(std::string(who) + ": unknown method");
+}
+
+/// @brief The samples with t_from <= t <= t_to (a small tolerance keeps a sample that sits on a
+/// bound despite rounding, e.g. 100 · 0.0025).
+inline Kinematics<double> window(const Kinematics<double>& k, double t_from,
+                                 double t_to = std::numeric_limits<double>::infinity()) {
+  const double tol_from = 1e-9 * (1.0 + std::abs(t_from));
+  const double tol_to = std::isfinite(t_to) ? 1e-9 * (1.0 + std::abs(t_to)) : 0.0;
+  Eigen::Index begin = 0, end = k.size();
+  while (begin < end && k.t[begin] < t_from - tol_from) ++begin;
+  while (end > begin && k.t[end - 1] > t_to + tol_to) --end;
+  const Eigen::Index count = end - begin;
+  Kinematics<double> w;
+  w.t = k.t.segment(begin, count);
+  w.q = k.q.middleRows(begin, count);
+  w.qd = k.qd.middleRows(begin, count);
+  w.qdd = k.qdd.middleRows(begin, count);
+  w.tau = k.tau.middleRows(begin, count);
+  return w;
+}
+
+/// @brief The paper's 7 parameter names, "theta1".."theta7".
+inline std::vector<std::string> two_link_parameter_names() {
+  std::vector<std::string> names;
+  for (int k = 1; k <= 7; ++k) names.push_back("theta" + std::to_string(k));
+  return names;
+}
+
+/// @brief Least squares of the two-link arm on given kinematics (joint 1's rows, then joint 2's).
+/// @throws std::invalid_argument if there are not more equations than parameters.
+inline LeastSquaresResult<double> fit_two_link(const Kinematics<double>& k, double gravity,
+                                               LeastSquaresOptions options = {}) {
+  if (2 * k.size() <= 7)
+    throw std::invalid_argument("sid::fit_two_link: " + std::to_string(k.size()) +
+                                " samples give too few equations for 7 parameters");
+  if (options.column_names.empty()) options.column_names = two_link_parameter_names();
+  const auto regression = stack_two_link_regression(k, gravity);
+  return least_squares(regression.X, regression.y, 2, options);
+}
+
+/// @brief The whole pipeline: derivatives by options.method, window, least squares.
+/// A rank-deficient regressor is reported in result.fit.status (not thrown).
+/// @throws std::invalid_argument on bad input (see estimate_kinematics) or when the window
+/// leaves too few samples.
+inline Identification identify(const Trajectory<double>& data, const IdentifyOptions& options = {}) {
+  Identification result;
+  result.method = options.method;
+  const Kinematics<double> all = estimate_kinematics(data, options, &result.smoothing_p);
+  const double skip = options.method == DerivativeMethod::FilteredDifference ? options.filtered_skip : options.skip;
+  if (!(skip >= 0.0) || !std::isfinite(skip))
+    throw std::invalid_argument("sid::identify: skip must be finite and >= 0");
+  if (!(options.skip_end >= 0.0) || !std::isfinite(options.skip_end))
+    throw std::invalid_argument("sid::identify: skip_end must be finite and >= 0");
+  result.kinematics = window(all, data.t[0] + skip, data.t[data.size() - 1] - options.skip_end);
+  if (2 * result.kinematics.size() <= 7)
+    throw std::invalid_argument("sid::identify: only " + std::to_string(result.kinematics.size()) +
+                                " samples are left after skipping " + std::to_string(skip) +
+                                " s; 7 parameters need at least 4");
+  result.fit = fit_two_link(result.kinematics, options.gravity, options.least_squares);
+  return result;
+}
+
+}  // namespace sid

@@ -1,0 +1,105 @@
+#include <sid/cvode/experiment.hpp>
+#include <sid/study/montecarlo.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+namespace {
+
+// A mean within this many standard errors of the truth counts as unbiased: with 7 parameters
+// and a few methods, 4 standard errors keeps the false-alarm rate below 1e-3.
+constexpr double kStandardErrors = 4.0;
+
+const sid::Kinematics<double>& truth() {
+  static const sid::Kinematics<double> k = [] {
+    const auto theta = sid::paper_arm_parameters<double>();
+    const auto run = sid::simulate_arm_experiment(
+        [&](const auto& q, const auto& qd, const auto& tau) { return sid::two_link_forward_dynamics(theta, q, qd, tau); });
+    if (!run.ok()) throw std::runtime_error("simulation failed: " + run.message);
+    return run.truth;
+  }();
+  return k;
+}
+
+const sid::MethodSummary& summary(const sid::MonteCarloResult& r, std::size_t level, sid::StudyMethod m) {
+  for (const auto& s : r.levels.at(level).methods)
+    if (s.method == m) return s;
+  throw std::runtime_error("method not in result");
+}
+
+}  // namespace
+
+TEST(MonteCarlo, SameSeedGivesSameNumbersForAnyThreadCount) {
+  sid::MonteCarloOptions options;
+  options.runs = 3;
+  options.sigma_q2_levels = {1e-6};
+  options.threads = 1;
+  const auto one = sid::run_monte_carlo(truth(), options);
+  options.threads = 2;
+  const auto two = sid::run_monte_carlo(truth(), options);
+  ASSERT_EQ(one.levels[0].methods.size(), 4u);
+  for (std::size_t m = 0; m < 4; ++m) {
+    const auto& a = one.levels[0].methods[m].estimates;
+    const auto& b = two.levels[0].methods[m].estimates;
+    EXPECT_TRUE(a.allFinite());
+    EXPECT_EQ(a, b) << sid::study_method_name(one.levels[0].methods[m].method);  // bit for bit
+  }
+  options.seed += 1;
+  const auto other = sid::run_monte_carlo(truth(), options);
+  EXPECT_NE(other.levels[0].methods[0].estimates, one.levels[0].methods[0].estimates);
+}
+
+TEST(MonteCarlo, RunGeneratorDependsOnlyOnSeedLevelAndRun) {
+  auto a = sid::run_generator(7, 1, 2), b = sid::run_generator(7, 1, 2);
+  auto c = sid::run_generator(7, 2, 1), d = sid::run_generator(7 + (1ull << 32), 1, 2);
+  const auto x = a();
+  EXPECT_EQ(x, b());
+  EXPECT_NE(x, c());
+  EXPECT_NE(x, d());  // the seed's high half matters too
+}
+
+TEST(MonteCarlo, StatisticsMatchThePapersQualitativeFindings) {
+  sid::MonteCarloOptions options;
+  options.runs = 20;
+  options.sigma_q2_levels = {1e-6, 1e-4};
+  options.methods = {sid::StudyMethod::Oracle, sid::StudyMethod::Css, sid::StudyMethod::Raw};
+  const auto r = sid::run_monte_carlo(truth(), options);
+  const Eigen::VectorXd theta = options.theta;
+  // The oracle (exact kinematics, noisy torque) is unbiased.
+  for (std::size_t level = 0; level < 2; ++level) {
+    const auto& oracle = summary(r, level, sid::StudyMethod::Oracle);
+    for (int k = 0; k < 7; ++k)
+      EXPECT_LE(std::abs(oracle.mean[k] - theta[k]), kStandardErrors * oracle.standard_error[k])
+          << "oracle theta" << k + 1 << " at level " << level;
+  }
+  // CSS at sigma_q2 = 1e-6: theta1, theta4, theta6, theta7 unbiased.
+  const auto& css = summary(r, 0, sid::StudyMethod::Css);
+  for (int k : {0, 3, 5, 6})
+    EXPECT_LE(std::abs(css.mean[k] - theta[k]), kStandardErrors * css.standard_error[k]) << "css theta" << k + 1;
+  // Raw differences at 1e-4 amplify the angle noise into q-double-dot: theta1 collapses to ~0.
+  const auto& raw = summary(r, 1, sid::StudyMethod::Raw);
+  EXPECT_LT(std::abs(raw.mean[0]), 0.1 * theta[0]);
+  EXPECT_GT(raw.rms_rel_error_pct, 10.0 * css.rms_rel_error_pct);
+  // Summary fields are consistent with the estimates.
+  EXPECT_EQ(css.failed_runs, 0);
+  EXPECT_NEAR(css.std_pct[0], 100.0 * std::sqrt(css.variance[0]) / theta[0], 1e-12);
+  EXPECT_NEAR(css.mean[0], css.estimates.col(0).mean(), 1e-15);
+}
+
+TEST(MonteCarlo, RejectsImpossibleOptions) {
+  sid::MonteCarloOptions options;
+  options.runs = 1;
+  EXPECT_THROW(sid::run_monte_carlo(truth(), options), std::invalid_argument);
+  options.runs = 2;
+  options.sigma_q2_levels = {1e-6, -1.0};
+  EXPECT_THROW(sid::run_monte_carlo(truth(), options), std::invalid_argument);
+  options.sigma_q2_levels = {};
+  EXPECT_THROW(sid::run_monte_carlo(truth(), options), std::invalid_argument);
+  options.sigma_q2_levels = {1e-6};
+  options.methods = {};
+  EXPECT_THROW(sid::run_monte_carlo(truth(), options), std::invalid_argument);
+  EXPECT_THROW(sid::parse_study_method("spline"), std::invalid_argument);
+  EXPECT_EQ(sid::parse_study_method("oracle"), sid::StudyMethod::Oracle);
+}
