@@ -1,0 +1,296 @@
+// sid_identify: identify the 7 dynamic parameters of the two-link arm from a CSV log of joint
+// angles and torques (derivatives by raw differences, filtered differences or the smoothing
+// spline, then least squares) and print the estimate with its statistics.
+
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <optional>
+#include <sid/identify.hpp>
+#include <sid/model/two_link_arm.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "app.hpp"
+#include "csv.hpp"
+
+namespace {
+
+constexpr const char* kName = "sid_identify";
+
+constexpr const char* kDescription =
+    "Identify the parameters theta1..theta7 of the two-link arm from measured joint angles and\n"
+    "torques: estimate the joint velocities and accelerations (raw differences, filtered\n"
+    "differences or the cubic smoothing spline), then solve tau = Z(q, qd, qdd) theta by least\n"
+    "squares, and print the estimate with standard deviations and fit statistics.\n";
+
+constexpr const char* kFooter = R"(
+Input: a CSV file with a header row and the columns t [s], q1, q2 [rad], tau1, tau2 [N m] in
+any order (other columns are ignored); lines starting with '#' are comments. t must be strictly
+increasing; every cell a finite number. The raw and filtered methods need uniform sampling.
+q1 is measured from the downward vertical, q2 relative to link 1 (the sid_simulate convention).
+
+Methods (--method):
+  raw       forward differences qd_i = (q_{i+1} - q_i)/Ts, qdd likewise (the last 2 samples
+            have no qdd and are dropped)
+  filtered  the same differences, then q, qd, qdd each filtered forward-backward by Butterworth
+            low-pass filters (orders 3, 3, 4; cut-offs 0.05, 0.015, 0.01 of Nyquist, the paper's
+            10, 3, 2 Hz at 400 Hz sampling)
+  css       (default) cubic smoothing spline per joint (Reinsch): the smoothest curve g with
+            sum(((g(t_i) - q_i) / dq)^2) <= S; derivatives analytic. dq = --sigma-q is the
+            standard deviation of the angle noise [rad] (one value for both joints, or two
+            comma-separated); S = --S, default the number of samples n. --sigma-q is required
+            unless --S is given, in which case dq = 1 (unit weights) unless --sigma-q is also
+            given; S is then a sum of squared residuals [rad^2]: --S n*sigma^2 is the same
+            constraint as --sigma-q sigma (n = number of samples in the file).
+
+Window: samples with t < t_0 + --skip are not used (the start transient). Default 0.25 s,
+for the filtered method 1.7475 s (filter start-up).
+
+Output (standard output): per parameter the estimate, its standard deviation (from the residual
+variance and (X^T X)^-1), the relative standard deviation in %, the unit and, with --true, the
+true value and the error 100 (estimate - true)/|true| in %; then the residual RMS per joint
+[N m], the samples used, the 2-norm condition number of the column-scaled regressor, for css the
+smoothing parameter p per joint (p in Reinsch's S-form: lambda = 1/p), and any warning.
+Units: theta1..theta3 [kg m^2], theta4, theta5 [kg m], theta6, theta7 [N m s/rad].
+
+--json FILE also writes the result as JSON: names, units, theta, std, rel_std_pct,
+residual_rms, condition_number, ill_conditioned, warning, method, samples_used, samples_total,
+skip, smoothing_p (null unless css), sigma_q, S, and with --true also true and error_pct.
+
+Exit codes: 0 success, 2 bad input or options, or a regressor whose columns are linearly
+dependent (the data do not excite every parameter; the message names the columns), 1 internal
+error.
+
+Examples:
+  sid_identify --sigma-q 1e-3 log.csv
+  sid_identify --method filtered --json result.json log.csv
+  sid_simulate | sid_identify --sigma-q 1e-3 -
+)";
+
+const char* const kUnits[7] = {"kg m^2", "kg m^2", "kg m^2", "kg m", "kg m", "N m s/rad",
+                               "N m s/rad"};
+
+struct Options {
+  std::string input;
+  std::string method = "css";
+  std::string sigma_q;
+  std::optional<double> S;
+  std::optional<double> skip;
+  std::string truth;
+  std::string json;
+  bool force = false;
+};
+
+void define_options(CLI::App& cli, Options& o) {
+  cli.footer(kFooter);
+  cli.add_option("INPUT", o.input, "input CSV file ('-' reads standard input)")->required();
+  cli.add_option("-m,--method", o.method, "derivative method: raw, filtered or css")
+      ->capture_default_str();
+  cli.add_option("--sigma-q", o.sigma_q,
+                 "css: standard deviation dq of the angle noise [rad], one value or two "
+                 "(joint 1,joint 2); required for css unless --S is given");
+  cli.add_option("--S", o.S,
+                 "css: constraint sum(((g - q)/dq)^2) <= S, S >= 0 (default: number of samples)");
+  cli.add_option("--skip", o.skip,
+                 "drop samples with t < t_0 + SKIP [s] (default 0.25; filtered: 1.7475)");
+  cli.add_option("--true", o.truth,
+                 "true theta1..theta7, comma-separated: adds the true value and the error in %");
+  cli.add_option("--json", o.json, "also write the result as JSON to FILE ('-': standard output)");
+  cli.add_flag("--force", o.force, "overwrite the --json file if it exists");
+}
+
+std::string short_number(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6g", v);
+  return buffer;
+}
+
+std::string fixed(const char* format, double v) {
+  if (std::isnan(v)) return "n/a";
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, format, v);
+  return buffer;
+}
+
+sid::IdentifyOptions make_options(const Options& o) {
+  using sid::app::require;
+  sid::IdentifyOptions options;
+  try {
+    options.method = sid::parse_derivative_method(o.method);
+  } catch (const std::invalid_argument&) {
+    throw sid::app::InputError("--method: unknown method '" + o.method +
+                               "' (expected raw, filtered or css)");
+  }
+  const bool css = options.method == sid::DerivativeMethod::SmoothingSpline;
+  if (o.S) {
+    require(std::isfinite(*o.S) && *o.S >= 0.0,
+            "--S must be a finite number >= 0, got " + short_number(*o.S));
+    options.S = *o.S;
+  }
+  if (!o.sigma_q.empty()) {
+    const std::vector<double> s = sid::app::parse_doubles(o.sigma_q, "--sigma-q");
+    require(s.size() == 1 || s.size() == 2,
+            "--sigma-q needs 1 value or 2 (joint 1,joint 2), got " + std::to_string(s.size()));
+    for (std::size_t j = 0; j < s.size(); ++j)
+      require(s[j] > 0.0, "--sigma-q must be > 0 [rad], got " + short_number(s[j]) +
+                              (s.size() == 2 ? " (joint " + std::to_string(j + 1) + ")" : ""));
+    options.sigma_q = sid::Vector2<double>(s.front(), s.back());
+  } else if (css) {
+    require(o.S.has_value(),
+            "--method css needs --sigma-q V: the standard deviation of the angle noise [rad] "
+            "(or --S V to give the smoothing constraint directly, with unit weights)");
+    options.sigma_q = sid::Vector2<double>::Ones();
+  }
+  if (!css && (o.S || !o.sigma_q.empty()))
+    std::cerr << kName << ": note: --sigma-q and --S only apply to --method css; ignored for "
+              << o.method << "\n";
+  if (o.skip) {
+    require(std::isfinite(*o.skip) && *o.skip >= 0.0,
+            "--skip must be a finite number >= 0 [s], got " + short_number(*o.skip));
+    options.skip = *o.skip;
+    options.filtered_skip = *o.skip;
+  }
+  return options;
+}
+
+// The least-squares warning without its "sid::least_squares: warning: " prefix.
+std::string warning_text(const std::string& message) {
+  const std::string marker = "warning: ";
+  const auto at = message.find(marker);
+  return at == std::string::npos ? message : message.substr(at + marker.size());
+}
+
+struct Report {
+  std::string text;
+  nlohmann::json json;
+};
+
+Report make_report(const sid::IdentifyOptions& options,
+                   const sid::app::CsvTable& table, const sid::Identification& id,
+                   const std::optional<sid::TwoLinkParameters<double>>& truth) {
+  const auto& fit = id.fit;
+  const std::string input = table.source == "-" ? "<stdin>" : table.source;
+  const std::vector<std::string> names = sid::two_link_parameter_names();
+  const bool css = options.method == sid::DerivativeMethod::SmoothingSpline;
+  const double skip = options.method == sid::DerivativeMethod::FilteredDifference
+                          ? options.filtered_skip
+                          : options.skip;
+  Eigen::VectorXd error_pct;
+  if (truth) {
+    error_pct.resize(7);
+    for (int k = 0; k < 7; ++k)
+      error_pct[k] = (*truth)[k] != 0.0
+                         ? 100.0 * (fit.theta[k] - (*truth)[k]) / std::abs((*truth)[k])
+                         : std::nan("");
+  }
+
+  std::ostringstream out;
+  out << kName << ": " << input << ", method " << sid::method_name(options.method) << ", "
+      << id.samples_used() << " of " << table.rows() << " samples used (t >= "
+      << short_number(id.kinematics.t[0]) << " s)\n\n";
+  char line[256];
+  std::snprintf(line, sizeof line, "%-9s %15s %12s %11s  %-10s", "parameter", "estimate", "std",
+                "rel.std %", "unit");
+  out << line;
+  if (truth) {
+    std::snprintf(line, sizeof line, " %15s %10s", "true", "error %");
+    out << line;
+  }
+  out << "\n";
+  for (int k = 0; k < 7; ++k) {
+    std::snprintf(line, sizeof line, "%-9s %15s %12s %11s  %-10s", names[static_cast<std::size_t>(k)].c_str(),
+                  fixed("%.8g", fit.theta[k]).c_str(), fixed("%.3g", fit.std_dev[k]).c_str(),
+                  fixed("%.4f", fit.relative_std_dev[k]).c_str(), kUnits[k]);
+    out << line;
+    if (truth) {
+      std::snprintf(line, sizeof line, " %15s %10s", fixed("%.8g", (*truth)[k]).c_str(),
+                    fixed("%+.4f", error_pct[k]).c_str());
+      out << line;
+    }
+    out << "\n";
+  }
+  out << "\nresidual RMS [N m]: joint 1 " << short_number(fit.residual_rms[0]) << ", joint 2 "
+      << short_number(fit.residual_rms[1]) << "\n";
+  out << "samples used: " << id.samples_used() << " (" << 2 * id.samples_used()
+      << " equations; skip " << short_number(skip) << " s)\n";
+  out << "condition number (column-scaled regressor): " << short_number(fit.condition_number)
+      << "\n";
+  if (css)
+    out << "smoothing p (css): joint 1 " << short_number(id.smoothing_p[0]) << ", joint 2 "
+        << short_number(id.smoothing_p[1]) << " (sigma_q = " << short_number(options.sigma_q[0])
+        << ", " << short_number(options.sigma_q[1]) << " rad; S = "
+        << short_number(options.S.value_or(static_cast<double>(table.rows()))) << ")\n";
+  if (fit.ill_conditioned) out << "warning: " << warning_text(fit.message) << "\n";
+
+  nlohmann::json j;
+  j["input"] = input;
+  j["method"] = sid::method_name(options.method);
+  j["names"] = names;
+  j["units"] = std::vector<std::string>(std::begin(kUnits), std::end(kUnits));
+  j["theta"] = sid::app::to_json_array(fit.theta);
+  j["std"] = sid::app::to_json_array(fit.std_dev);
+  j["rel_std_pct"] = sid::app::to_json_array(fit.relative_std_dev);
+  j["residual_rms"] = sid::app::to_json_array(fit.residual_rms);
+  j["condition_number"] = fit.condition_number;
+  j["ill_conditioned"] = fit.ill_conditioned;
+  j["warning"] = fit.ill_conditioned ? nlohmann::json(warning_text(fit.message)) : nlohmann::json(nullptr);
+  j["samples_used"] = id.samples_used();
+  j["samples_total"] = table.rows();
+  j["skip"] = skip;
+  j["t_first_used"] = id.kinematics.t[0];
+  j["smoothing_p"] = css ? sid::app::to_json_array(id.smoothing_p) : nlohmann::json(nullptr);
+  j["sigma_q"] = css ? sid::app::to_json_array(options.sigma_q) : nlohmann::json(nullptr);
+  j["S"] = css ? nlohmann::json(options.S.value_or(static_cast<double>(table.rows())))
+               : nlohmann::json(nullptr);
+  if (truth) {
+    j["true"] = sid::app::to_json_array(*truth);
+    j["error_pct"] = sid::app::to_json_array(error_pct);
+  }
+  return {out.str(), j};
+}
+
+int identify(const Options& o) {
+  using sid::app::require;
+  const sid::IdentifyOptions options = make_options(o);
+  std::optional<sid::TwoLinkParameters<double>> truth;
+  if (!o.truth.empty()) {
+    const std::vector<double> v = sid::app::parse_doubles(o.truth, "--true", 7);
+    truth = Eigen::Map<const sid::TwoLinkParameters<double>>(v.data());
+  }
+  if (!o.json.empty()) sid::app::ensure_writable(o.json, o.force);
+
+  const sid::app::CsvTable table = sid::app::read_csv(o.input);
+  const sid::Trajectory<double> data = sid::app::trajectory_from_table(table);
+  require(data.size() >= 3, table.source + ": identification needs at least 3 data rows, got " +
+                                std::to_string(data.size()));
+  sid::Identification id;
+  try {
+    id = sid::identify(data, options);
+  } catch (const std::invalid_argument& e) {
+    throw sid::app::InputError(table.source + ": " + e.what());
+  }
+  if (!id.fit.ok())
+    throw sid::app::InputError(table.source + ": the parameters cannot be identified from these "
+                                              "data: " +
+                               id.fit.message);
+
+  const Report report = make_report(options, table, id, truth);
+  // With the JSON on standard output the table goes to standard error, so each stays parseable.
+  (o.json == "-" ? std::cerr : std::cout) << report.text << std::flush;
+  if (id.fit.ill_conditioned && o.json != "-")
+    std::cerr << kName << ": warning: " << warning_text(id.fit.message) << "\n";
+  if (!o.json.empty()) sid::app::write_json(o.json, report.json);
+  return sid::app::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  return sid::app::run_app(
+      kName, kDescription, argc, argv, [&](CLI::App& cli) { define_options(cli, options); },
+      [&] { return identify(options); });
+}

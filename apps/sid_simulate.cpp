@@ -1,0 +1,282 @@
+// sid_simulate: simulate the paper's open-loop experiment on the two-link arm with CVODE and write
+// the measured (noisy) joint angles and torques as CSV, optionally with the true signals.
+
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <system_error>
+#include <iostream>
+#include <random>
+#include <sid/cvode/experiment.hpp>
+#include <sid/measurement_noise.hpp>
+#include <sid/model/two_link_arm.hpp>
+#include <string>
+#include <vector>
+
+#include "app.hpp"
+#include "csv.hpp"
+
+namespace {
+
+constexpr const char* kName = "sid_simulate";
+
+constexpr const char* kDescription =
+    "Simulate the open-loop experiment of the paper (two-link arm, u1 = 6 sin t, u2 = 4 cos t)\n"
+    "and write the measured joint angles and torques (true values + Gaussian noise) as CSV.\n";
+
+constexpr const char* kFooter = R"(
+The arm: D(q) qdd + C(q, qd) qd + G(q) + diag(theta6, theta7) qd = tau, with
+  D = [[th1 + th2 + 2 th3 cos q2, th2 + th3 cos q2], [th2 + th3 cos q2, th2]],
+  G = [th4 g sin q1 + th5 g sin(q1 + q2), th5 g sin(q1 + q2)], g = 9.81 m/s^2;
+q1 [rad] from the downward vertical, q2 [rad] relative to link 1. The input torque is
+tau1 = 6 sin t, tau2 = 4 cos t [N m]; the arm starts at rest at q = 0. Samples are taken at
+t_k = k Ts [s], k = 0 .. round(T / Ts) (T = 10, Ts = 0.0025 give 4001 samples).
+
+Parameters (default: the paper's, corrected as in PAPER_NOTES):
+  --theta t1,...,t7   theta1..theta3 [kg m^2], theta4, theta5 [kg m], theta6, theta7 [N m s/rad]
+                      default 0.034015193438,0.003064135808,0.0045320492,0.13291456,
+                              0.01694224,0.6189,0.6189
+  --physical l1,lc1,lc2,m1,m2,I1,I2,mu1,mu2
+                      link 1 length, centre-of-mass distances [m], masses [kg], inertias about
+                      the centres of mass [kg m^2], viscous friction [N m s/rad]; converted by
+                      theta1 = m1 lc1^2 + I1 + m2 l1^2, theta2 = m2 lc2^2 + I2, theta3 = m2 l1 lc2,
+                      theta4 = m1 lc1 + m2 l1, theta5 = m2 lc2, theta6 = mu1, theta7 = mu2.
+The mass matrix D(q) must be positive definite for every q (theta2 > 0 and
+theta1 theta2 > theta3^2); other values are refused.
+
+Noise (independent, zero mean, Gaussian, the same variance on both joints):
+  --sigma-q2 V    variance of the angle noise [rad^2]      (default 1e-6; 0 = exact angles)
+  --sigma-tau2 V  variance of the torque noise [(N m)^2]   (default 1e-2; 0 = exact torques)
+  --seed N        seed of std::mt19937_64 (default 1). The same seed and options give the same
+                  file, byte for byte (with this build's standard library). The seed is printed
+                  to standard error and recorded in the file's comment lines.
+
+Output (standard output unless --output), 17 significant digits, '#' comment lines first
+(settings: seed, variances, theta, tolerances), then the header:
+  t,q1,q2,tau1,tau2                         time [s], measured angles [rad], torques [N m]
+  with --truth also q1_true,q2_true,qd1,qd2,qdd1,qdd2,tau1_true,tau2_true
+                                            true angles [rad], velocities [rad/s],
+                                            accelerations [rad/s^2] and torques [N m]
+The file is what sid_identify reads.
+
+Exit codes: 0 success, 2 bad options or a failed simulation (message on standard error),
+1 internal error.
+
+Examples:
+  sid_simulate -o run.csv
+  sid_simulate --sigma-q2 1e-8 --seed 7 --truth -o run7.csv
+  sid_simulate --sigma-q2 0 --sigma-tau2 0 --physical 0.2675,0.0398,0.0392,0.4347,0.4322,0.0024,0.0024,0.6189,0.6189
+)";
+
+struct Options {
+  double T = 10.0;
+  double Ts = 0.0025;
+  double sigma_q2 = 1e-6;
+  double sigma_tau2 = 1e-2;
+  std::string seed = "1";
+  std::string theta;
+  std::string physical;
+  std::string output = "-";
+  bool force = false;
+  bool truth = false;
+  bool quiet = false;
+  double rtol = 1e-10;
+  double atol = 1e-10;
+};
+
+void define_options(CLI::App& cli, Options& o) {
+  cli.footer(kFooter);
+  cli.add_option("--T", o.T, "duration of the experiment T [s], > Ts")->capture_default_str();
+  cli.add_option("--Ts", o.Ts, "sampling period Ts [s], > 0")->capture_default_str();
+  cli.add_option("--sigma-q2", o.sigma_q2, "variance of the angle noise [rad^2], >= 0")
+      ->capture_default_str();
+  cli.add_option("--sigma-tau2", o.sigma_tau2, "variance of the torque noise [(N m)^2], >= 0")
+      ->capture_default_str();
+  cli.add_option("--seed", o.seed,
+                 "seed of the noise generator (std::mt19937_64), an integer 0 .. 2^64 - 1")
+      ->capture_default_str();
+  auto* theta = cli.add_option("--theta", o.theta,
+                               "the 7 base parameters theta1..theta7, comma-separated "
+                               "(default: the paper's)");
+  auto* physical = cli.add_option("--physical", o.physical,
+                                  "physical parameters l1,lc1,lc2,m1,m2,I1,I2,mu1,mu2 "
+                                  "(instead of --theta)");
+  theta->excludes(physical);
+  cli.add_flag("--truth", o.truth,
+               "also write the true q, qd, qdd and tau (columns q1_true, ..., tau2_true)");
+  cli.add_option("-o,--output", o.output, "output CSV file ('-' is standard output)")
+      ->capture_default_str();
+  cli.add_flag("--force", o.force, "overwrite the output file if it exists");
+  cli.add_flag("-q,--quiet", o.quiet, "do not print the seed and summary to standard error");
+  cli.add_option("--rtol", o.rtol, "CVODE relative tolerance, > 0")->capture_default_str();
+  cli.add_option("--atol", o.atol, "CVODE absolute tolerance [rad, rad/s], > 0")
+      ->capture_default_str();
+}
+
+std::string short_number(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6g", v);
+  return buffer;
+}
+
+// The shortest text that reads back as the same double (0.0025, not 0.0025000000000000001).
+std::string shortest(double v) {
+  char buffer[64];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
+  return std::string(buffer, result.ptr);
+}
+
+// Exact (shortest round-trip text) for the file's comments, short (6 digits) for messages.
+std::string join_numbers(const Eigen::VectorXd& v, bool exact = false) {
+  std::string out;
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    out += (i ? "," : "") + (exact ? shortest(v[i]) : short_number(v[i]));
+  return out;
+}
+
+// CVODE's messages end with a period; ours continue after them.
+std::string without_final_period(std::string text) {
+  while (!text.empty() && (text.back() == '.' || text.back() == ' ' || text.back() == '\n'))
+    text.pop_back();
+  return text;
+}
+
+sid::TwoLinkParameters<double> choose_theta(const Options& o) {
+  using sid::app::require;
+  if (!o.theta.empty()) {
+    const std::vector<double> v = sid::app::parse_doubles(o.theta, "--theta", 7);
+    return Eigen::Map<const sid::TwoLinkParameters<double>>(v.data());
+  }
+  if (!o.physical.empty()) {
+    const std::vector<double> v = sid::app::parse_doubles(o.physical, "--physical", 9);
+    const char* names[] = {"l1", "lc1", "lc2", "m1", "m2", "I1", "I2", "mu1", "mu2"};
+    for (int k : {0, 3, 4})
+      require(v[static_cast<std::size_t>(k)] > 0.0,
+              std::string("--physical: ") + names[k] + " must be > 0, got " +
+                  short_number(v[static_cast<std::size_t>(k)]));
+    for (int k : {5, 6})
+      require(v[static_cast<std::size_t>(k)] >= 0.0,
+              std::string("--physical: ") + names[k] + " must be >= 0, got " +
+                  short_number(v[static_cast<std::size_t>(k)]));
+    const sid::TwoLinkPhysical<double> p{v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8]};
+    return sid::two_link_parameters(p);
+  }
+  return sid::paper_arm_parameters();
+}
+
+// CLI11 would wrap "-1" around to 2^64 - 1; a seed is digits only.
+std::uint64_t parse_seed(const std::string& text) {
+  std::uint64_t seed = 0;
+  const char* end = text.data() + text.size();
+  const auto result = std::from_chars(text.data(), end, seed);
+  sid::app::require(!text.empty() && result.ec == std::errc() && result.ptr == end,
+                    "--seed must be an integer from 0 to 18446744073709551615, got '" + text +
+                        "'");
+  return seed;
+}
+
+void check_options(const Options& o) {
+  using sid::app::require;
+  require(std::isfinite(o.Ts) && o.Ts > 0.0, "--Ts must be a finite number > 0 [s], got " +
+                                                  short_number(o.Ts));
+  require(std::isfinite(o.T) && o.T > o.Ts,
+          "--T must be a finite number greater than --Ts (" + short_number(o.Ts) + " s), got " +
+              short_number(o.T));
+  require(o.T / o.Ts <= 1e8, "--T / --Ts = " + short_number(o.T / o.Ts) +
+                                 " samples is too many (at most 1e8)");
+  require(std::isfinite(o.sigma_q2) && o.sigma_q2 >= 0.0,
+          "--sigma-q2 must be a finite variance >= 0 [rad^2], got " + short_number(o.sigma_q2));
+  require(std::isfinite(o.sigma_tau2) && o.sigma_tau2 >= 0.0,
+          "--sigma-tau2 must be a finite variance >= 0 [(N m)^2], got " +
+              short_number(o.sigma_tau2));
+  require(std::isfinite(o.rtol) && o.rtol > 0.0,
+          "--rtol must be a finite number > 0, got " + short_number(o.rtol));
+  require(std::isfinite(o.atol) && o.atol > 0.0,
+          "--atol must be a finite number > 0, got " + short_number(o.atol));
+}
+
+int simulate(const Options& o) {
+  using sid::app::require;
+  check_options(o);
+  const std::uint64_t seed = parse_seed(o.seed);
+  const sid::TwoLinkParameters<double> theta = choose_theta(o);
+  const std::string source = !o.physical.empty() ? "--physical" : "--theta";
+  // D(q) is positive definite for every q iff theta2 > 0 and det = theta1 theta2 -
+  // theta3^2 cos^2 q2 > 0 for every q2, i.e. theta1 theta2 > theta3^2.
+  require(theta[1] > 0.0 && theta[0] * theta[1] > theta[2] * theta[2],
+          source + ": the mass matrix D(q) is not positive definite for every q (needs theta2 > 0 "
+                   "and theta1 theta2 > theta3^2; theta = " +
+              join_numbers(theta) + ")");
+  sid::app::ensure_writable(o.output, o.force);
+
+  sid::ArmExperiment experiment;
+  experiment.duration = o.T;
+  experiment.sample_time = o.Ts;
+  experiment.simulator.rtol = o.rtol;
+  experiment.simulator.atol = o.atol;
+  auto fd = [&theta](const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
+                     const sid::Vector2<double>& tau) {
+    return sid::two_link_forward_dynamics(theta, q, qd, tau, sid::kPaperGravity);
+  };
+  const sid::ExperimentResult run = sid::simulate_arm_experiment(fd, sid::PaperInput(), experiment);
+  if (!run.ok()) {
+    const Eigen::Index done = run.truth.size();
+    const std::string where =
+        done > 0 ? "after t = " + short_number(run.truth.t[done - 1]) + " s" : "at the start";
+    throw sid::app::InputError(
+        "the simulation failed " + where + " (" + sid::to_string(run.status) +
+        (run.flag_name.empty() ? std::string() : ", " + run.flag_name) + ")" +
+        (run.message.empty() ? std::string() : ": " + without_final_period(run.message)) +
+        "; check the parameters (theta = " + join_numbers(theta) +
+        "; negative friction makes the arm unstable) or the tolerances --rtol/--atol");
+  }
+  for (Eigen::Index i = 0; i < run.truth.size(); ++i)
+    require(run.truth.q.row(i).allFinite() && run.truth.qd.row(i).allFinite() &&
+                run.truth.qdd.row(i).allFinite(),
+            "the simulation produced a non-finite state at t = " +
+                short_number(run.truth.t[i]) + " s; check the parameters");
+
+  std::mt19937_64 rng(seed);
+  const sid::Trajectory<double> measured = sid::add_measurement_noise(
+      run.truth, sid::MeasurementNoise<double>{o.sigma_q2, o.sigma_tau2}, rng);
+
+  std::vector<std::string> names{"t", "q1", "q2", "tau1", "tau2"};
+  std::vector<Eigen::VectorXd> columns{measured.t, measured.q.col(0), measured.q.col(1),
+                                       measured.tau.col(0), measured.tau.col(1)};
+  if (o.truth) {
+    const sid::Kinematics<double>& k = run.truth;
+    for (const char* name :
+         {"q1_true", "q2_true", "qd1", "qd2", "qdd1", "qdd2", "tau1_true", "tau2_true"})
+      names.emplace_back(name);
+    for (const auto* m : {&k.q, &k.qd, &k.qdd, &k.tau})
+      for (Eigen::Index j = 0; j < 2; ++j) columns.emplace_back(m->col(j));
+  }
+  const std::vector<std::string> comments{
+      "sid_simulate: the paper's open-loop experiment, u1 = 6 sin t, u2 = 4 cos t [N m], "
+      "q(0) = qd(0) = 0, g = 9.81 m/s^2",
+      "T = " + shortest(o.T) + " s, Ts = " + shortest(o.Ts) +
+          " s, samples = " + std::to_string(measured.size()),
+      "seed = " + std::to_string(seed) + " (std::mt19937_64), sigma_q2 = " +
+          shortest(o.sigma_q2) + " rad^2, sigma_tau2 = " +
+          shortest(o.sigma_tau2) + " (N m)^2",
+      "theta = " + join_numbers(theta, true),
+      "CVODE rtol = " + shortest(o.rtol) +
+          ", atol = " + shortest(o.atol)};
+  sid::app::write_csv(o.output, names, columns, comments);
+  if (!o.quiet)
+    std::cerr << kName << ": seed " << seed << ", sigma_q2 = " << short_number(o.sigma_q2)
+              << " rad^2, sigma_tau2 = " << short_number(o.sigma_tau2) << " (N m)^2, "
+              << measured.size() << " samples"
+              << (o.output == "-" ? std::string() : " written to " + o.output) << "\n";
+  return sid::app::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  return sid::app::run_app(
+      kName, kDescription, argc, argv, [&](CLI::App& cli) { define_options(cli, options); },
+      [&] { return simulate(options); });
+}

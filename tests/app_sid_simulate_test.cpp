@@ -1,0 +1,286 @@
+// Runs the sid_simulate binary as a user would and checks its CSV output against the reference
+// trajectory, its reproducibility, its noise, its messages and its exit codes.
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "csv.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// CVODE at rtol = atol = 1e-10 against SciPy DOP853 at 1e-12 (tests/data/README.md).
+constexpr double kAngleTol = 1e-8;       // rad
+constexpr double kVelocityTol = 1e-6;    // rad/s
+constexpr double kTorqueTol = 1e-14;     // N m: the same sin/cos at the same t
+
+struct AppRun {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+class SidSimulate : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("sid_simulate_test_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  std::string file(const std::string& name) const { return (dir_ / name).string(); }
+  static std::string read(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  }
+
+  // Runs sid_simulate with args (already shell-quoted where needed) from inside the temp dir.
+  AppRun run(const std::string& args) const {
+    const std::string out = file("stdout.txt"), err = file("stderr.txt");
+    const std::string command = "cd '" + dir_.string() + "' && '" SID_APP_DIR "/sid_simulate' " +
+                                args + " >'" + out + "' 2>'" + err + "'";
+    const int status = std::system(command.c_str());
+    AppRun r;
+    if (status != -1 && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+    r.out = read(out);
+    r.err = read(err);
+    return r;
+  }
+
+  // Runs args writing to file name; expects success and returns the parsed table.
+  sid::app::CsvTable simulate_to(const std::string& name, const std::string& args) const {
+    const AppRun r = run(args + " -q -o " + name);
+    EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.err;
+    return sid::app::read_csv(file(name));
+  }
+
+  // Expects exit code 2, nothing on stdout, no file out.csv and an error message containing what.
+  void expect_input_error(const std::string& args, const std::string& what) const {
+    const AppRun r = run(args + " -o out.csv");
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
+    EXPECT_EQ(r.err.rfind("sid_simulate: error: ", 0), 0u) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos)
+        << args << "\nexpected: " << what << "\ngot: " << r.err;
+    EXPECT_TRUE(r.out.empty()) << args << "\n" << r.out;
+    EXPECT_FALSE(fs::exists(file("out.csv"))) << args << ": wrote an output despite the error";
+  }
+
+  fs::path dir_;
+};
+
+double max_abs_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  EXPECT_EQ(a.size(), b.size());
+  if (a.size() != b.size()) return std::numeric_limits<double>::infinity();
+  return (a - b).cwiseAbs().maxCoeff();
+}
+
+}  // namespace
+
+TEST(SidSimulateHelp, ExplainsEveryOptionWithUnitsAndExitsZero) {
+  const std::string command = "'" SID_APP_DIR "/sid_simulate' --help";
+  FILE* pipe = ::popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string out;
+  char buffer[4096];
+  while (std::size_t got = std::fread(buffer, 1, sizeof buffer, pipe)) out.append(buffer, got);
+  const int status = ::pclose(pipe);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  for (const char* word : {"--T", "--Ts", "--sigma-q2", "--sigma-tau2", "--seed", "--theta",
+                           "--physical", "--truth", "--output", "--force", "--rtol", "--atol",
+                           "--quiet", "rad^2", "(N m)^2", "[s]", "kg m^2", "N m s/rad",
+                           "q1_true", "qdd2", "4001", "Exit codes"})
+    EXPECT_NE(out.find(word), std::string::npos) << "help does not mention " << word;
+}
+
+TEST_F(SidSimulate, NoiseFreeRunMatchesTheReferenceTrajectory) {
+  const sid::app::CsvTable sim =
+      simulate_to("sim.csv", "--sigma-q2 0 --sigma-tau2 0 --truth");
+  const sid::app::CsvTable ref =
+      sid::app::read_csv(SID_TEST_DATA_DIR "/trajectory_noise_free.csv");
+  ASSERT_EQ(sim.rows(), 4001);
+  ASSERT_EQ(ref.rows(), 4001);
+  EXPECT_EQ(sim.names, (std::vector<std::string>{"t", "q1", "q2", "tau1", "tau2", "q1_true",
+                                                  "q2_true", "qd1", "qd2", "qdd1", "qdd2",
+                                                  "tau1_true", "tau2_true"}));
+  EXPECT_EQ(sim.column("t"), ref.column("t"));  // t_k = k Ts exactly, as numpy.arange
+  for (const char* q : {"q1", "q2"}) {
+    EXPECT_LT(max_abs_difference(sim.column(q), ref.column(q)), kAngleTol) << q;
+    EXPECT_LT(max_abs_difference(sim.column(std::string(q) + "_true"), ref.column(q)), kAngleTol)
+        << q;
+  }
+  for (const char* qd : {"qd1", "qd2"})
+    EXPECT_LT(max_abs_difference(sim.column(qd), ref.column(qd)), kVelocityTol) << qd;
+  for (const char* tau : {"tau1", "tau2"}) {
+    EXPECT_LT(max_abs_difference(sim.column(tau), ref.column(tau)), kTorqueTol) << tau;
+    EXPECT_LT(max_abs_difference(sim.column(std::string(tau) + "_true"), ref.column(tau)),
+              kTorqueTol)
+        << tau;
+  }
+  // The model's acceleration at t = 0 (PAPER_NOTES: qdd2(0) ~ 2205 rad/s^2).
+  EXPECT_NEAR(sim.column("qdd2")[0], ref.column("qdd2")[0], 1e-6);
+}
+
+TEST_F(SidSimulate, CommentHeaderRecordsTheSettingsAndIsSkippedByReadCsv) {
+  const AppRun r = run("--seed 17 --sigma-q2 1e-8 --T 0.1 -q");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_EQ(r.out.rfind("# ", 0), 0u) << r.out.substr(0, 200);
+  const std::string header = r.out.substr(0, r.out.find("\nt,"));
+  for (const char* word : {"seed = 17", "sigma_q2 = 1e-08", "sigma_tau2 = 0.01",
+                           "theta = 0.034015193438,0.003064135808,0.0045320492,0.13291456,"
+                           "0.01694224,0.6189,0.6189",
+                           "Ts = 0.0025"})
+    EXPECT_NE(header.find(word), std::string::npos) << "comments lack " << word << ":\n" << header;
+  std::istringstream in(r.out);
+  const sid::app::CsvTable table = sid::app::parse_csv(in, "stdout");
+  EXPECT_EQ(table.names, (std::vector<std::string>{"t", "q1", "q2", "tau1", "tau2"}));
+  EXPECT_EQ(table.rows(), 41);
+}
+
+TEST_F(SidSimulate, SameSeedGivesIdenticalBytesAndAnotherSeedDifferentNoise) {
+  ASSERT_EQ(run("--seed 5 -q -o a.csv").exit_code, 0);
+  ASSERT_EQ(run("--seed 5 -q -o b.csv").exit_code, 0);
+  ASSERT_EQ(run("--seed 6 -q -o c.csv").exit_code, 0);
+  const std::string a = read(file("a.csv")), b = read(file("b.csv")), c = read(file("c.csv"));
+  ASSERT_FALSE(a.empty());
+  EXPECT_EQ(a, b);
+  EXPECT_NE(a, c);
+  const sid::app::CsvTable ta = sid::app::read_csv(file("a.csv"));
+  const sid::app::CsvTable tc = sid::app::read_csv(file("c.csv"));
+  EXPECT_EQ(ta.column("t"), tc.column("t"));
+  EXPECT_GT(max_abs_difference(ta.column("q1"), tc.column("q1")), 1e-4);  // sigma_q = 1e-3
+}
+
+TEST_F(SidSimulate, NoiseHasTheRequestedVariances) {
+  const sid::app::CsvTable t = simulate_to("n.csv", "--sigma-q2 4e-6 --sigma-tau2 0.01 --truth");
+  const auto n = static_cast<double>(t.rows());
+  // Sample variance of n = 4001 Gaussian draws: relative standard error sqrt(2/n) = 2.2 %.
+  const std::vector<std::pair<std::string, double>> cases{
+      {"q1", 4e-6}, {"q2", 4e-6}, {"tau1", 0.01}, {"tau2", 0.01}};
+  for (const auto& [name, variance] : cases) {
+    const Eigen::VectorXd e = t.column(name) - t.column(name + "_true");
+    const double mean = e.mean();
+    const double var = (e.array() - mean).square().sum() / (n - 1.0);
+    EXPECT_NEAR(var / variance, 1.0, 0.1) << name;
+    EXPECT_LT(std::abs(mean), 5.0 * std::sqrt(variance / n)) << name;
+  }
+  EXPECT_GT(max_abs_difference(t.column("q1"), t.column("q2")), 0.0);
+}
+
+TEST_F(SidSimulate, PhysicalParametersOfThePaperGiveThePaperTrajectory) {
+  const sid::app::CsvTable by_theta = simulate_to("a.csv", "--sigma-q2 0 --sigma-tau2 0");
+  const sid::app::CsvTable by_physical = simulate_to(
+      "b.csv",
+      "--sigma-q2 0 --sigma-tau2 0 "
+      "--physical 0.2675,0.0398,0.0392,0.4347,0.4322,0.0024,0.0024,0.6189,0.6189");
+  // theta from the physical values differs in the last bits, so CVODE's adaptive steps differ:
+  // the two agree to the integration accuracy.
+  for (const char* q : {"q1", "q2"})
+    EXPECT_LT(max_abs_difference(by_theta.column(q), by_physical.column(q)), kAngleTol) << q;
+}
+
+TEST_F(SidSimulate, ThetaChangesTheTrajectory) {
+  const sid::app::CsvTable paper = simulate_to("a.csv", "--sigma-q2 0 --sigma-tau2 0 --T 2");
+  const sid::app::CsvTable heavier = simulate_to(
+      "b.csv",
+      "--sigma-q2 0 --sigma-tau2 0 --T 2 "
+      "--theta 0.05,0.003064135808,0.0045320492,0.13291456,0.01694224,0.6189,0.6189");
+  EXPECT_GT(max_abs_difference(paper.column("q1"), heavier.column("q1")), 1e-3);
+}
+
+TEST_F(SidSimulate, GridHasRoundOfTOverTsPlusOneSamplesFromZero) {
+  const sid::app::CsvTable t = simulate_to("g.csv", "--T 1 --Ts 0.01");
+  ASSERT_EQ(t.rows(), 101);
+  EXPECT_EQ(t.column("t")[0], 0.0);
+  EXPECT_DOUBLE_EQ(t.column("t")[100], 1.0);
+}
+
+TEST_F(SidSimulate, WritesToStandardOutputAndReportsTheSeedUnlessQuiet) {
+  const AppRun loud = run("--T 0.05 --seed 123");
+  ASSERT_EQ(loud.exit_code, 0) << loud.err;
+  EXPECT_NE(loud.out.find("t,q1,q2,tau1,tau2"), std::string::npos);
+  EXPECT_NE(loud.err.find("seed 123"), std::string::npos) << loud.err;
+  const AppRun quiet = run("--T 0.05 --seed 123 --quiet");
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.err;
+  EXPECT_TRUE(quiet.err.empty()) << quiet.err;
+  EXPECT_EQ(quiet.out, loud.out);
+}
+
+TEST_F(SidSimulate, BadOptionsExitTwoWithAMessageNamingTheOption) {
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {"--Ts 0", "--Ts"},
+      {"--Ts -0.001", "--Ts"},
+      {"--Ts nan", "--Ts"},
+      {"--T 0.001", "--T must be"},
+      {"--T 0.0025", "--T must be"},
+      {"--T inf", "--T must be"},
+      {"--sigma-q2 -1e-6", "--sigma-q2"},
+      {"--sigma-q2 nan", "--sigma-q2"},
+      {"--sigma-tau2 -0.01", "--sigma-tau2"},
+      {"--sigma-tau2 inf", "--sigma-tau2"},
+      {"--seed -1", "--seed"},
+      {"--seed 1.5", "--seed"},
+      {"--seed abc", "--seed"},
+      {"--theta 1,2,3", "--theta needs 7 values, got 3"},
+      {"--theta 0.03,0.003,0.004,0.13,0.017,0.6,0.6,0.1", "--theta needs 7 values, got 8"},
+      {"--theta 0.03,0.003,0.004,0.13,0.017,0.6,abc", "--theta: value 7 'abc' is not a number"},
+      {"--theta 0.03,0.003,nan,0.13,0.017,0.6,0.6", "--theta: value 3"},
+      {"--physical 0.2675,0.0398", "--physical needs 9 values"},
+      {"--physical 0.2675,0.0398,0.0392,-0.4347,0.4322,0.0024,0.0024,0.6189,0.6189",
+       "--physical: m1 must be > 0"},
+      {"--theta 0.034,0.003,0.0045,0.13,0.017,0.6,0.6 "
+       "--physical 0.2675,0.0398,0.0392,0.4347,0.4322,0.0024,0.0024,0.6189,0.6189",
+       "--theta excludes --physical"},
+      {"--rtol 0", "--rtol"},
+      {"--atol -1e-10", "--atol"},
+      {"--no-such-option", "no-such-option"},
+  };
+  for (const auto& [args, what] : cases) expect_input_error(args, what);
+}
+
+TEST_F(SidSimulate, MassMatrixThatIsNotPositiveDefiniteIsRefused) {
+  expect_input_error("--theta 0.001,0.003,0.0045,0.13,0.017,0.6,0.6", "positive definite");
+  expect_input_error("--theta 0.034,-0.003,0.0045,0.13,0.017,0.6,0.6", "positive definite");
+  expect_input_error("--theta 0,0,0,0,0,0,0", "positive definite");
+}
+
+TEST_F(SidSimulate, FailedSimulationExitsTwoWithTheReason) {
+  // Strongly negative friction: the arm accelerates without bound and CVODE gives up.
+  expect_input_error("--theta 0.034,0.003,0.0045,0.13,0.017,-50,0.6", "simulation failed");
+  const AppRun r = run("--theta 0.034,0.003,0.0045,0.13,0.017,-50,0.6 -o out.csv");
+  EXPECT_NE(r.err.find("CV_"), std::string::npos) << r.err;
+}
+
+TEST_F(SidSimulate, RefusesToOverwriteWithoutForce) {
+  {
+    std::ofstream(file("out.csv")) << "precious\n";
+  }
+  const AppRun refused = run("--T 0.1 -o out.csv");
+  EXPECT_EQ(refused.exit_code, 2) << refused.err;
+  EXPECT_NE(refused.err.find("refusing to overwrite"), std::string::npos) << refused.err;
+  EXPECT_EQ(read(file("out.csv")), "precious\n");
+  const AppRun forced = run("--T 0.1 -o out.csv --force");
+  EXPECT_EQ(forced.exit_code, 0) << forced.err;
+  EXPECT_EQ(sid::app::read_csv(file("out.csv")).rows(), 41);
+}
