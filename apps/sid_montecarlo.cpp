@@ -1,0 +1,333 @@
+// sid_montecarlo: the paper's Monte Carlo study (section 3.1). Simulates the true trajectory of
+// the two-link arm once, then for every noise level and run adds measurement noise, estimates
+// the parameters by each method and reports sample means and variances beside the paper's.
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <iostream>
+#include <sid/cvode/experiment.hpp>
+#include <sid/model/two_link_arm.hpp>
+#include <sid/study/montecarlo.hpp>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "app.hpp"
+#include "csv.hpp"
+#include "montecarlo_report.hpp"
+#include "plot.hpp"
+
+namespace {
+
+constexpr const char* kName = "sid_montecarlo";
+
+constexpr const char* kDescription =
+    "The Monte Carlo study of the paper (Dolinsky & Celikovsky, section 3.1): identify the 7\n"
+    "parameters of the simulated two-link arm from noisy joint angles and torques, many times per\n"
+    "noise level, by each method, and report sample means and variances beside the paper's\n"
+    "tables 2-7.\n";
+
+constexpr const char* kFooter = R"(
+The experiment: the arm starts at rest at q = 0 and is driven open loop by u1 = 6 sin t,
+u2 = 4 cos t [N m] for T = 10 s; the true trajectory is simulated once with CVODE and sampled
+every Ts = 0.0025 s (4001 samples). Each run adds independent Gaussian noise to it: variance
+sigma_q2 [rad^2] on both joint angles and sigma_tau2 [(N m)^2] on both torques. The true
+parameters are the paper's, corrected as in PAPER_NOTES:
+  theta = 0.034015193438, 0.003064135808, 0.0045320492, 0.13291456, 0.01694224, 0.6189, 0.6189
+
+Methods (how q-dot and q-double-dot are estimated from the noisy angles; then least squares):
+  raw       forward differences qd_i = (q_{i+1} - q_i) / Ts, qdd likewise from qd
+  filtered  the same differences, then q, qd, qdd each filtered forward-backward by the paper's
+            Butterworth low-pass filters (q: order 3, 10 Hz; qd: order 3, 3 Hz; qdd: order 4,
+            2 Hz); drops t < 1.7475 s (the filters' start-up)
+  css       Reinsch cubic smoothing spline with dq = sigma_q and S = n, derivatives analytic
+  oracle    the exact q, qd, qdd with the noisy torques: the floor no estimator beats on average
+            (not in the paper)
+Every method drops t < 0.25 s (the start transient).
+
+Reproducibility: a run's noise depends only on (seed, level index, run index), so the numbers
+printed and written are the same for any --threads. The seed is printed; the default is fixed.
+
+Output (standard output): the settings, then per noise level the paper's layout: sample means
+(true value | each method, "ours / paper" for raw, filtered and css where the paper has the
+level), sample variances likewise ("~" marks the paper's order-of-magnitude-only entries), bias
+and standard deviation in % of the true value, and the ranking of the methods by RMS relative
+error (sqrt of the mean over runs and parameters of ((theta-hat - theta) / theta)^2) with the
+worst |bias|. Last line: the wall time. A progress bar is drawn on standard error when it is a
+terminal and the study takes more than a second (not with --quiet).
+
+Files (existing files are never overwritten without --force):
+  --json FILE    {"runs", "seed", "true_theta", "levels": [{"sigma_q2", "methods": {"raw":
+                 {"mean", "var", "bias_pct", "std_pct", "rms_rel_error_pct", ...}, ...}}],
+                 "wall_seconds", ...}; NaN becomes null. '-' writes the JSON to standard output
+                 instead of the tables.
+  --csv-dir DIR  every theta-hat of every run: estimates.csv (level,method,run,theta1..theta7)
+                 and one METHOD_LEVEL.csv (run,theta1..theta7) per level and method; nan marks
+                 a failed run
+  --plots DIR    fig2_qdd1.png, fig3_qdd2.png: the paper's Fig. 2 and 3, the exact, CSS and
+                 filtered accelerations of run 0 at sigma_q2 = 1e-6 (the noise of that run of
+                 the study when 1e-6 is a level, else of the default study), the filtered
+                 method's clipped start marked; fig2_qdd1_detail.png, fig3_qdd2_detail.png: the
+                 same from t = 0.25 s (the start transient no longer sets the scale);
+                 theta1.png .. theta7.png: box plots of the
+                 estimates by method and level with the true value. Each PNG comes with its
+                 data (.dat) and gnuplot script (.gp); without gnuplot those are still written
+                 (install it with: sudo apt-get install gnuplot-nox).
+
+Exit codes: 0 success, 2 bad options or unwritable outputs (message on standard error),
+1 internal error.
+
+Examples:
+  sid_montecarlo
+  sid_montecarlo --runs 100 --levels 1e-6 --methods css,oracle --json study.json
+  sid_montecarlo --runs 10 --plots figures --csv-dir estimates --threads 4
+)";
+
+struct Options {
+  int runs = 30;
+  std::string levels = "1e-8,1e-6,1e-4";
+  double sigma_tau2 = 1e-2;
+  std::string methods = "raw,filtered,css,oracle";
+  std::string seed = std::to_string(sid::MonteCarloOptions().seed);
+  int threads = 0;
+  std::string json;
+  std::string csv_dir;
+  std::string plots;
+  bool quiet = false;
+  bool force = false;
+};
+
+void define_options(CLI::App& cli, Options& o) {
+  cli.footer(kFooter);
+  cli.add_option("--runs", o.runs, "number of runs (noisy data sets) per noise level N >= 2")
+      ->capture_default_str();
+  cli.add_option("--levels", o.levels,
+                 "angle noise variances sigma_q2 > 0 [rad^2], comma-separated")
+      ->capture_default_str();
+  cli.add_option("--sigma-tau2", o.sigma_tau2, "torque noise variance >= 0 [(N m)^2]")
+      ->capture_default_str();
+  cli.add_option("--methods", o.methods,
+                 "methods to compare, comma-separated, any subset and order of raw, filtered, "
+                 "css, oracle")
+      ->capture_default_str();
+  cli.add_option("--seed", o.seed, "seed of the noise, an integer 0 .. 2^64 - 1")
+      ->capture_default_str();
+  cli.add_option("--threads", o.threads,
+                 "worker threads K >= 0 (0 = all cores); the results do not depend on it")
+      ->capture_default_str();
+  cli.add_option("--json", o.json, "write the summary as JSON to FILE ('-' = standard output)");
+  cli.add_option("--csv-dir", o.csv_dir, "write every estimate of every run as CSV into DIR");
+  cli.add_option("--plots", o.plots, "draw the figures (PNG via gnuplot) into DIR");
+  cli.add_flag("-q,--quiet", o.quiet, "no progress bar and no notes on standard error");
+  cli.add_flag("--force", o.force, "overwrite existing output files");
+}
+
+std::string short_number(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6g", v);
+  return buffer;
+}
+
+// CLI11 would wrap "-1" around to 2^64 - 1; a seed is digits only.
+std::uint64_t parse_seed(const std::string& text) {
+  std::uint64_t seed = 0;
+  const char* end = text.data() + text.size();
+  const auto result = std::from_chars(text.data(), end, seed);
+  sid::app::require(!text.empty() && result.ec == std::errc() && result.ptr == end,
+                    "--seed must be an integer from 0 to 18446744073709551615, got '" + text + "'");
+  return seed;
+}
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t");
+  if (b == std::string::npos) return "";
+  return s.substr(b, s.find_last_not_of(" \t") - b + 1);
+}
+
+std::vector<sid::StudyMethod> parse_methods(const std::string& text) {
+  using sid::app::require;
+  std::vector<sid::StudyMethod> methods;
+  require(!trim(text).empty(), "--methods: no methods given (expected raw, filtered, css, oracle)");
+  std::string::size_type start = 0;
+  while (true) {
+    const auto comma = text.find(',', start);
+    const std::string name = trim(text.substr(start, comma - start));
+    require(!name.empty(), "--methods: empty method name in '" + text + "'");
+    sid::StudyMethod m{};
+    try {
+      m = sid::parse_study_method(name);
+    } catch (const std::invalid_argument&) {
+      throw sid::app::InputError("--methods: unknown method '" + name +
+                                 "' (expected raw, filtered, css or oracle)");
+    }
+    require(std::find(methods.begin(), methods.end(), m) == methods.end(),
+            "--methods: '" + name + "' is given twice");
+    methods.push_back(m);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return methods;
+}
+
+sid::MonteCarloOptions study_options(const Options& o) {
+  using sid::app::require;
+  sid::MonteCarloOptions study;
+  require(o.runs >= 2, "--runs must be >= 2 (a sample variance needs two runs), got " +
+                           std::to_string(o.runs));
+  require(o.runs <= 1000000, "--runs must be <= 1000000, got " + std::to_string(o.runs));
+  study.runs = o.runs;
+  study.sigma_q2_levels = sid::app::parse_doubles(o.levels, "--levels");
+  require(study.sigma_q2_levels.size() <= 100, "--levels: at most 100 levels");
+  for (std::size_t k = 0; k < study.sigma_q2_levels.size(); ++k) {
+    const double v = study.sigma_q2_levels[k];
+    require(v > 0.0, "--levels: value " + std::to_string(k + 1) + " (" + short_number(v) +
+                         ") must be > 0: every sigma_q2 is a variance, and CSS needs sigma_q > 0");
+    for (std::size_t j = 0; j < k; ++j)
+      require(sid::app::level_label(study.sigma_q2_levels[j]) != sid::app::level_label(v),
+              "--levels: " + sid::app::level_label(v) + " is given twice");
+  }
+  require(std::isfinite(o.sigma_tau2) && o.sigma_tau2 >= 0.0,
+          "--sigma-tau2 must be a finite variance >= 0 [(N m)^2], got " + short_number(o.sigma_tau2));
+  study.sigma_tau2 = o.sigma_tau2;
+  study.methods = parse_methods(o.methods);
+  study.seed = parse_seed(o.seed);
+  require(o.threads >= 0, "--threads must be >= 0 (0 = all cores), got " + std::to_string(o.threads));
+  study.threads = o.threads;
+  return study;
+}
+
+// A progress bar on standard error, drawn once the study has run for a second.
+class ProgressBar {
+ public:
+  explicit ProgressBar(bool enabled) : enabled_(enabled), start_(Clock::now()) {}
+
+  void update(int done, int total) {
+    if (!enabled_) return;
+    const auto now = Clock::now();
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    if (elapsed < 1.0) return;
+    if (drawn_ && done < total && std::chrono::duration<double>(now - last_).count() < 0.1) return;
+    last_ = now;
+    drawn_ = true;
+    constexpr int kWidth = 40;
+    const int filled = total > 0 ? static_cast<int>(static_cast<long long>(kWidth) * done / total) : kWidth;
+    std::string bar(static_cast<std::size_t>(filled), '#');
+    bar += std::string(static_cast<std::size_t>(kWidth - filled), '.');
+    const double left = done > 0 ? elapsed * (total - done) / done : 0.0;
+    std::fprintf(stderr, "\r%s: [%s] %d/%d runs, %.0f s, about %.0f s left ", kName, bar.c_str(), done,
+                 total, elapsed, left);
+    std::fflush(stderr);
+  }
+
+  void finish() {
+    if (!drawn_) return;
+    std::fprintf(stderr, "\r%s\r", std::string(100, ' ').c_str());
+    std::fflush(stderr);
+    drawn_ = false;
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  bool enabled_;
+  bool drawn_ = false;
+  Clock::time_point start_, last_;
+};
+
+// Runs check and prefixes the option's name to its InputError ("--json: refusing to ...").
+template <typename Check>
+void for_option(const std::string& option, const Check& check) {
+  try {
+    check();
+  } catch (const sid::app::InputError& e) {
+    throw sid::app::InputError(option + ": " + e.what());
+  }
+}
+
+sid::Kinematics<double> simulate_truth(const sid::TwoLinkParameters<double>& theta) {
+  auto fd = [&theta](const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
+                     const sid::Vector2<double>& tau) {
+    return sid::two_link_forward_dynamics(theta, q, qd, tau, sid::kPaperGravity);
+  };
+  const sid::ExperimentResult run = sid::simulate_arm_experiment(fd, sid::PaperInput(), sid::ArmExperiment());
+  if (!run.ok())
+    throw std::runtime_error("the simulation of the true trajectory failed (" + run.flag_name + "): " +
+                             run.message);
+  return run.truth;
+}
+
+int study(const Options& o) {
+  // Check every option and output path before any work, so a typo fails fast.
+  sid::MonteCarloOptions options = study_options(o);
+  const bool json_to_stdout = o.json == "-";
+  if (!o.json.empty()) for_option("--json", [&] { sid::app::ensure_writable(o.json, o.force); });
+  if (!o.csv_dir.empty())
+    for_option("--csv-dir", [&] {
+      sid::app::ensure_output_directory(o.csv_dir, sid::app::montecarlo_csv_files(options), o.force);
+    });
+  if (!o.plots.empty())
+    for_option("--plots", [&] {
+      sid::app::ensure_output_directory(o.plots, sid::app::montecarlo_plot_files(), o.force);
+    });
+
+  const sid::Kinematics<double> truth = simulate_truth(options.theta);
+  if (!json_to_stdout) std::cout << sid::app::montecarlo_header(options, truth.size()) << std::flush;
+
+  ProgressBar bar(!o.quiet && ::isatty(2) != 0);
+  options.progress = [&bar](int done, int total) { bar.update(done, total); };
+  sid::MonteCarloResult result;
+  try {
+    result = sid::run_monte_carlo(truth, options);
+  } catch (...) {
+    bar.finish();
+    throw;
+  }
+  bar.finish();
+
+  if (!json_to_stdout)
+    std::cout << sid::app::montecarlo_tables(result) << "\n"
+              << sid::app::montecarlo_wall_line(result) << std::flush;
+
+  if (!o.json.empty()) {
+    sid::app::write_json(o.json, sid::app::montecarlo_json(result, options, truth.size()));
+    if (!o.quiet && !json_to_stdout) std::cerr << kName << ": wrote " << o.json << "\n";
+  }
+  if (!o.csv_dir.empty()) {
+    sid::app::write_montecarlo_csv(o.csv_dir, result);
+    if (!o.quiet) std::cerr << kName << ": wrote the estimates of every run into " << o.csv_dir << "\n";
+  }
+  if (!o.plots.empty()) {
+    const auto plots = sid::app::write_montecarlo_plots(o.plots, truth, result, options);
+    bool all_rendered = true;
+    for (const auto& p : plots) all_rendered = all_rendered && p.rendered;
+    if (!all_rendered) {
+      // Say once how to draw them (the messages of all plots are alike).
+      int not_drawn = 0;
+      for (const auto& p : plots)
+        if (!p.rendered && not_drawn++ == 0) std::cerr << kName << ": " << p.message << "\n";
+      if (not_drawn > 1)
+        std::cerr << kName << ": the same holds for the other " << not_drawn - 1
+                  << " figures; to draw them all: cd '" << o.plots
+                  << "' && for f in *.gp; do gnuplot \"$f\"; done\n";
+    } else if (!o.quiet) {
+      std::cerr << kName << ": wrote " << plots.size() << " figures (PNG, data and gnuplot script) into "
+                << o.plots << "\n";
+    }
+  }
+  return sid::app::kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  return sid::app::run_app(
+      kName, kDescription, argc, argv, [&](CLI::App& cli) { define_options(cli, options); },
+      [&] { return study(options); });
+}
