@@ -20,6 +20,9 @@ inline constexpr int kExitOk = 0;
 inline constexpr int kExitInternalError = 1;  ///< a bug: an exception nobody expected
 inline constexpr int kExitBadInput = 2;       ///< bad options, bad files, refused overwrite
 
+/// Keeps large allocations in the heap (glibc only; see app.cpp). run_app calls it.
+void tune_allocator();
+
 /// @brief The body of every main. Builds a CLI::App (name, description), lets define_options
 /// add the options, parses argv, then calls run and returns its exit code.
 ///

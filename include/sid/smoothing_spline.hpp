@@ -347,14 +347,43 @@ class SmoothingSpline {
     return fit_from(ws, y, w, p);
   }
 
-  /// Newton on F(p)^(−1/2) = S^(−1/2) (monotone from the left, Reinsch), kept inside a bracket
-  /// and helped along by Newton on log F(log p) where that makes faster progress.
+  /// A point of the search: x = log p, u = 1/p, r = F/S − 1 and dr/du.
+  struct SearchPoint {
+    Scalar x = Scalar(0), u = Scalar(0), r = Scalar(0), dr_du = Scalar(0);
+    bool known = false;
+  };
+
+  /// The root between a and b (r of opposite signs) of the cubic Hermite interpolant of r(u)
+  /// through both points, found by bisection on the cubic itself; returned as log p.
+  static Scalar hermite_root(const SearchPoint& a, const SearchPoint& b) {
+    using std::log;
+    const Scalar h = b.u - a.u;
+    auto cubic = [&](Scalar s) {
+      const Scalar s2 = s * s, s3 = s2 * s;
+      return (Scalar(2) * s3 - Scalar(3) * s2 + Scalar(1)) * a.r + (s3 - Scalar(2) * s2 + s) * h * a.dr_du +
+             (Scalar(-2) * s3 + Scalar(3) * s2) * b.r + (s3 - s2) * h * b.dr_du;
+    };
+    Scalar lo(0), hi(1);
+    const bool rising = a.r < Scalar(0);
+    for (int i = 0; i < 60; ++i) {
+      const Scalar mid = Scalar(0.5) * (lo + hi);
+      ((cubic(mid) < Scalar(0)) == rising ? lo : hi) = mid;
+    }
+    return -log(a.u + Scalar(0.5) * (lo + hi) * h);
+  }
+
+  /// Finds p with F(p) = S. F falls monotonically from the straight line's F (p → 0) to 0
+  /// (p → ∞), steeply left of the root and very flatly right of it (S − F grows only like
+  /// p^(1/4) there when S = n). Reinsch's Newton on F^(−1/2) from p = 0 is safe but slow (and
+  /// p ≈ 0 is not numerically SPD for large n), so: start a million times below the
+  /// trace-balanced p; from the right jump left by 10⁴; from the left take Newton steps on the
+  /// model that fits there; once the root is bracketed, step to the root of the cubic Hermite
+  /// interpolant of F(1/p) between the bracket ends (values and slopes both known).
   Fit constrained(const Eigen::Ref<const Vector>& y, const Weights& w, Scalar S) const {
     using std::isfinite;
     using std::abs;
     using std::log;
     using std::exp;
-    using std::sqrt;
     if (!(S >= Scalar(0)) || !isfinite(S))
       throw std::invalid_argument("sid::SmoothingSpline::fit_constrained: S must be finite and >= 0, got " +
                                   std::to_string(static_cast<double>(S)));
@@ -364,57 +393,60 @@ class SmoothingSpline {
 
     Workspace ws;
     prepare(ws, y, w, true);
-    // Start where the data and roughness terms have equal trace: a scale-free guess.
+    // Start where the data and roughness terms have equal trace, a scale-free guess; noisy data
+    // put the root far below it, hence the first jump.
     Scalar tr_m(0), tr_r(0);
     for (Eigen::Index j = 0; j < interior(); ++j) {
       tr_m += ws.m_band(0, j);
       tr_r += (h_[j] + h_[j + 1]) / Scalar(3);
     }
-    Scalar p = tr_m / tr_r;
-    Scalar lo = Scalar(0), hi = std::numeric_limits<Scalar>::infinity();  // F(lo) > S > F(hi)
+    Scalar x = log(tr_m / tr_r) - log(Scalar(1e6));
+    SearchPoint lo, hi;  // lo: F > S (left of the root), hi: F < S
+    const Scalar jump = log(Scalar(1e4));
     const Scalar eps = std::numeric_limits<Scalar>::epsilon();
-    const Scalar f_tol = Scalar(16) * eps, p_tol = Scalar(8) * eps;
+    const Scalar f_tol = Scalar(16) * eps, x_tol = Scalar(8) * eps;
     const Scalar kNoiseFloorCheck = Scalar(1e-6);
     Scalar previous_miss = std::numeric_limits<Scalar>::infinity();
     constexpr int kMaxIterations = 100;
     for (int it = 1; it <= kMaxIterations; ++it) {
+      const Scalar p = exp(x);
       Scalar next;
       if (!solve_at(ws, w, p)) {
-        lo = p;  // not SPD in floating point: p is far too small
-        next = isfinite(hi) ? sqrt(lo * hi) : p * Scalar(1e3);
+        // Not SPD in floating point: p is far too small. Treat as left of the root.
+        lo = SearchPoint{x, exp(-x), std::numeric_limits<Scalar>::infinity(), Scalar(0), true};
+        next = hi.known ? Scalar(0.5) * (x + hi.x) : x + jump;
       } else {
         const Scalar ratio = ws.F / S;
         const Scalar miss = abs(ratio - Scalar(1));
-        // Near the root Newton squares the miss each step; when it stops shrinking, F has hit
-        // its rounding floor (for large n each (Qu)ᵢ is a second difference of a smooth u and
-        // loses digits) and further steps would only chase noise.
+        // Near the root the miss shrinks fast; when it stops shrinking, F has hit its rounding
+        // floor (for large n each (Qu)ᵢ is a second difference of a smooth u and loses digits)
+        // and further steps would only chase noise.
         if (miss <= f_tol || (miss < kNoiseFloorCheck && miss > Scalar(0.25) * previous_miss))
           return finish(ws, y, w, p, it);
         previous_miss = miss;
         derivative_at(ws, w);
-        const Scalar reinsch = p + Scalar(2) * ws.F * (Scalar(1) - sqrt(ratio)) / ws.dF;
-        if (ratio > Scalar(1)) {
-          lo = p;
-          // Left of the root F falls steeply (like p⁻²): Newton on log F(log p) makes long,
-          // accurate steps there. Reinsch's step never passes the root: the safe fallback.
-          const Scalar slope = p * ws.dF / ws.F;
-          const Scalar log_newton = p * exp(-log(ratio) / slope);
-          next = (isfinite(log_newton) && log_newton > reinsch && log_newton < hi) ? log_newton : reinsch;
-        } else {
-          // Right of the root F is very flat (S - F grows only like p^(1/4) when S = n), so
-          // steps there are short; one Reinsch step from the right lands left of the root.
-          hi = p;
-          next = reinsch > lo ? reinsch : (lo > Scalar(0) ? sqrt(lo * hi) : p * Scalar(1e-4));
-        }
-        if (!(next > lo && next < hi) || !isfinite(next))
-          next = (lo > Scalar(0) && isfinite(hi)) ? sqrt(lo * hi) : (lo > Scalar(0) ? lo * Scalar(1e3) : hi * Scalar(1e-4));
-        if (abs(next - p) <= p_tol * p) return finish(ws, y, w, p, it);
+        const Scalar g = p * ws.dF / ws.F;  // d log F / d log p
+        const SearchPoint here{x, Scalar(1) / p, ratio - Scalar(1), -ratio * g * p, true};
+        (here.r > Scalar(0) ? lo : hi) = here;
+        // Left of the root the signal's residual dominates F − S: far left F ∝ p⁻² (Newton on
+        // log F is exact for a power law), nearer F − S ∝ 1/p (Newton in 1/p is exact).
+        // Right of it F is flat and Newton creeps, so jump. Once bracketed, interpolate.
+        const Scalar u_next = Scalar(1) + here.r / (ratio * g);  // in units of 1/p
+        const Scalar newton = ratio > Scalar(2) ? x - log(ratio) / g : (u_next > Scalar(0) ? x - log(u_next) : x + jump);
+        if (lo.known && hi.known)
+          next = isfinite(lo.r) ? hermite_root(lo, hi) : Scalar(0.5) * (lo.x + hi.x);
+        else if (lo.known)
+          next = std::min(newton, x + jump);
+        else
+          next = std::min(newton, x - jump);
+        if (lo.known && hi.known && !(next > lo.x && next < hi.x)) next = Scalar(0.5) * (lo.x + hi.x);
+        if (abs(next - x) <= x_tol * (Scalar(1) + abs(x))) return finish(ws, y, w, p, it);
       }
-      p = next;
+      x = next;
     }
     throw SmoothingError("sid::SmoothingSpline::fit_constrained: the search for p did not converge in " +
                          std::to_string(kMaxIterations) + " steps (S = " + std::to_string(static_cast<double>(S)) +
-                         ", last p = " + std::to_string(static_cast<double>(p)) + ")");
+                         ", last p = " + std::to_string(static_cast<double>(exp(x))) + ")");
   }
 
   Fit finish(const Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w, Scalar p, int iterations) const {
