@@ -40,7 +40,7 @@ class BandedLDLT {
 
   void resize(Eigen::Index n) {
     if (n < 0) throw std::invalid_argument("sid::BandedLDLT: size must be >= 0, got " + std::to_string(n));
-    band_.setZero(Bandwidth + 1, n);
+    band_.setZero(Bandwidth + 1, n);  // no reallocation when n is unchanged
     factorized_ = false;
   }
 
@@ -147,30 +147,33 @@ class BandedLDLT {
   // The pentadiagonal case (the Reinsch system) as straight-line code with the previous rows
   // held in registers: no per-row branches, about half the time of the general loops.
   bool factorize_pentadiagonal() noexcept {
+    // With eₖ = L(·, k) D(k) (the numerators before the division), D(j+1) = A − L e − L e needs
+    // only one division on the dependency chain from D(j) to D(j+1).
     const Eigen::Index n = size();
     Scalar* b = band_.data();
-    Scalar d_prev2(0), d_prev1(0);    // D(j-2), D(j-1)
-    Scalar l_j_prev2(0), l_j_prev1(0);  // L(j, j-2), L(j, j-1)
-    Scalar l_next_prev1(0);            // L(j+1, j-1)
+    Scalar l_j_1(0), e_j_1(0);        // L(j, j-1), L(j, j-1) D(j-1)
+    Scalar l_j_2(0), e_j_2(0);        // L(j, j-2), L(j, j-2) D(j-2)
+    Scalar l_next_1(0), e_next_1(0);  // L(j+1, j-1), L(j+1, j-1) D(j-1)
     using std::isfinite;
     for (Eigen::Index j = 0; j < n; ++j) {
       Scalar* col = b + j * kRows;
-      const Scalar d = col[0] - l_j_prev1 * l_j_prev1 * d_prev1 - l_j_prev2 * l_j_prev2 * d_prev2;
+      const Scalar d = col[0] - l_j_1 * e_j_1 - l_j_2 * e_j_2;
       if (!(d > Scalar(0)) || !isfinite(d)) {
         factorized_ = false;
         return false;
       }
-      const Scalar inv_d = Scalar(1) / d;
-      const Scalar l1 = (col[1] - l_next_prev1 * l_j_prev1 * d_prev1) * inv_d;  // L(j+1, j)
-      const Scalar l2 = col[2] * inv_d;                                        // L(j+2, j)
+      const Scalar e1 = col[1] - l_next_1 * e_j_1;  // L(j+1, j) D(j)
+      const Scalar e2 = col[2];                     // L(j+2, j) D(j)
+      const Scalar l1 = e1 / d, l2 = e2 / d;
       col[0] = d;
       col[1] = j + 1 < n ? l1 : Scalar(0);
       col[2] = j + 2 < n ? l2 : Scalar(0);
-      d_prev2 = d_prev1;
-      d_prev1 = d;
-      l_j_prev2 = l_next_prev1;  // row j+1's L(j+1, j-1) becomes L(j', j'-2)
-      l_j_prev1 = l1;
-      l_next_prev1 = l2;
+      l_j_2 = l_next_1;
+      e_j_2 = e_next_1;
+      l_j_1 = l1;
+      e_j_1 = e1;
+      l_next_1 = l2;
+      e_next_1 = e2;
     }
     factorized_ = true;
     return true;

@@ -128,10 +128,21 @@ class SmoothingSpline {
   struct Workspace {
     BandedLDLT<Scalar, 2> ldlt;
     Band m_band;  // QᵀD²Q (lower band), kept only while p is searched
-    Vector qty, u, v;
+    Vector qty;
+    Vector u, v;    // on all n knots, zero at both ends (natural spline): u = γ/p
+    Vector qu, qv;  // Q u, Q v
     Scalar F = Scalar(0), dF = Scalar(0);
     int factorizations = 0;
+    bool has_m = false;
   };
+
+  /// One workspace per thread, reused by every fit on that thread: fresh buffers per fit cost
+  /// more in page faults than the fit itself (glibc trims the freed heap top after each fit).
+  /// The memory (about 9 n scalars of the largest fit) stays until the thread ends.
+  static Workspace& thread_workspace() {
+    thread_local Workspace ws;
+    return ws;
+  }
 
   void check_signal(const Eigen::Ref<const Vector>& y, const char* who) const {
     if (y.size() != size())
@@ -204,61 +215,78 @@ class SmoothingSpline {
   /// j + 1) is (1/hⱼ, −1/hⱼ − 1/hⱼ₊₁, 1/hⱼ₊₁) at rows j, j+1, j+2.
   void m_column(const Weights& w, Eigen::Index j, Scalar& m0, Scalar& m1, Scalar& m2) const {
     const Eigen::Index m = interior();
+    if (j + 2 < m) {
+      full_m_column(w, j, m0, m1, m2);
+      return;
+    }
     const Scalar q0 = inv_h_[j], q2 = inv_h_[j + 1], q1 = -(q0 + q2);
     const Scalar w1 = w.dy2(j + 1), w2 = w.dy2(j + 2);
     m0 = w.dy2(j) * q0 * q0 + w1 * q1 * q1 + w2 * q2 * q2;
     m1 = j + 1 < m ? w1 * q1 * inv_h_[j + 1] - w2 * q2 * (inv_h_[j + 1] + inv_h_[j + 2]) : Scalar(0);
-    m2 = j + 2 < m ? w2 * q2 * inv_h_[j + 2] : Scalar(0);
+    m2 = Scalar(0);
+  }
+  /// m_column for j + 2 < m, without the end-of-matrix branches (the hot loop).
+  void full_m_column(const Weights& w, Eigen::Index j, Scalar& m0, Scalar& m1, Scalar& m2) const {
+    const Scalar q0 = inv_h_[j], q2 = inv_h_[j + 1], q1 = -(q0 + q2);
+    const Scalar w1 = w.dy2(j + 1), w2 = w.dy2(j + 2);
+    m0 = w.dy2(j) * q0 * q0 + w1 * q1 * q1 + w2 * q2 * q2;
+    m1 = w1 * q1 * inv_h_[j + 1] - w2 * q2 * (inv_h_[j + 1] + inv_h_[j + 2]);
+    m2 = w2 * q2 * inv_h_[j + 2];
   }
 
   void prepare(Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w, bool keep_m) const {
     const Eigen::Index m = interior();
+    ws.factorizations = 0;
+    ws.has_m = keep_m;
     ws.ldlt.resize(m);
     ws.qty.resize(m);
-    ws.u.resize(m);
+    ws.u.setZero(size());
+    ws.qu.resize(size());
     for (Eigen::Index j = 0; j < m; ++j)
       ws.qty[j] = (y[j + 2] - y[j + 1]) * inv_h_[j + 1] - (y[j + 1] - y[j]) * inv_h_[j];
     if (!keep_m) return;
-    ws.v.resize(m);
+    ws.v.setZero(size());
+    ws.qv.resize(size());
     ws.m_band.resize(3, m);
     for (Eigen::Index j = 0; j < m; ++j) m_column(w, j, ws.m_band(0, j), ws.m_band(1, j), ws.m_band(2, j));
   }
 
-  /// (Q x)ᵢ for x on the interior knots (zero at both ends: natural spline).
-  Scalar apply_q(const Vector& x, Eigen::Index i) const {
-    const Eigen::Index m = interior();
-    const Scalar here = (i >= 1 && i <= m) ? x[i - 1] : Scalar(0);
-    Scalar out(0);
-    if (i + 1 < size()) out += ((i + 1 <= m ? x[i] : Scalar(0)) - here) * inv_h_[i];
-    if (i > 0) out -= (here - (i >= 2 ? x[i - 2] : Scalar(0))) * inv_h_[i - 1];
-    return out;
+  /// out = Q x for x on all knots with x₀ = xₙ₋₁ = 0 (natural spline), in one branch-free pass.
+  void apply_q(const Vector& x, Vector& out) const {
+    const Eigen::Index n = size();
+    out[0] = x[1] * inv_h_[0];
+    for (Eigen::Index i = 1; i + 1 < n; ++i)
+      out[i] = (x[i + 1] - x[i]) * inv_h_[i] - (x[i] - x[i - 1]) * inv_h_[i - 1];
+    out[n - 1] = x[n - 2] * inv_h_[n - 2];
   }
 
   /// Factorizes QᵀD²Q + pR and solves for u; sets F. False if not numerically SPD.
   bool solve_at(Workspace& ws, const Weights& w, Scalar p) const {
     const Eigen::Index m = interior();
     Band& a = ws.ldlt.band();
-    const bool have_m = ws.m_band.cols() == m;
+    const bool have_m = ws.has_m;
+    const Scalar p3 = p / Scalar(3), p6 = p / Scalar(6);
     for (Eigen::Index j = 0; j < m; ++j) {
       Scalar m0, m1, m2;
       if (have_m) {
         m0 = ws.m_band(0, j), m1 = ws.m_band(1, j), m2 = ws.m_band(2, j);
+      } else if (j + 2 < m) {
+        full_m_column(w, j, m0, m1, m2);
       } else {
         m_column(w, j, m0, m1, m2);
       }
-      a(0, j) = m0 + p * (h_[j] + h_[j + 1]) / Scalar(3);
-      a(1, j) = m1 + (j + 1 < m ? p * h_[j + 1] / Scalar(6) : Scalar(0));
+      a(0, j) = m0 + p3 * (h_[j] + h_[j + 1]);
+      a(1, j) = m1 + p6 * h_[j + 1];  // the entry past the last row is never read
       a(2, j) = m2;
     }
     ++ws.factorizations;
     if (!ws.ldlt.factorize()) return false;
-    ws.u = ws.qty;
-    ws.ldlt.solve_in_place(ws.u);
+    auto u = ws.u.segment(1, m);
+    u = ws.qty;
+    ws.ldlt.solve_in_place(u);
+    apply_q(ws.u, ws.qu);
     Scalar F(0);
-    for (Eigen::Index i = 0; i < size(); ++i) {
-      const Scalar qu = apply_q(ws.u, i);
-      F += w.dy2(i) * qu * qu;
-    }
+    for (Eigen::Index i = 0; i < size(); ++i) F += w.dy2(i) * ws.qu[i] * ws.qu[i];
     using std::isfinite;
     ws.F = F;
     return isfinite(F);
@@ -267,32 +295,32 @@ class SmoothingSpline {
   /// dF/dp = −2 (DQu)ᵀ(DQv), v = A⁻¹Ru: written this way it has no cancellation at large p.
   void derivative_at(Workspace& ws, const Weights& w) const {
     const Eigen::Index m = interior();
-    for (Eigen::Index j = 0; j < m; ++j) {
-      Scalar r = (h_[j] + h_[j + 1]) / Scalar(3) * ws.u[j];
-      if (j > 0) r += h_[j] / Scalar(6) * ws.u[j - 1];
-      if (j + 1 < m) r += h_[j + 1] / Scalar(6) * ws.u[j + 1];
-      ws.v[j] = r;
-    }
-    ws.ldlt.solve_in_place(ws.v);
+    for (Eigen::Index k = 1; k <= m; ++k)  // knot k = interior unknown k − 1; u is zero at the ends
+      ws.v[k] = (h_[k - 1] + h_[k]) / Scalar(3) * ws.u[k] + h_[k - 1] / Scalar(6) * ws.u[k - 1] +
+                h_[k] / Scalar(6) * ws.u[k + 1];
+    auto v = ws.v.segment(1, m);
+    ws.ldlt.solve_in_place(v);
+    apply_q(ws.v, ws.qv);
     Scalar s(0);
-    for (Eigen::Index i = 0; i < size(); ++i) s += w.dy2(i) * apply_q(ws.u, i) * apply_q(ws.v, i);
+    for (Eigen::Index i = 0; i < size(); ++i) s += w.dy2(i) * ws.qu[i] * ws.qv[i];
     ws.dF = Scalar(-2) * s;
   }
 
-  /// The spline through g(tᵢ) = yᵢ − δyᵢ²(Qx)ᵢ with g'' = scale·x at the interior knots
-  /// (natural ends), built in one pass.
-  Fit assemble(const Eigen::Ref<const Vector>& y, const Weights* w, const Vector& x, Scalar scale) const {
-    const Eigen::Index n = size(), m = interior();
-    auto gamma = [&](Eigen::Index k) { return (k >= 1 && k <= m) ? scale * x[k - 1] : Scalar(0); };
-    auto g = [&](Eigen::Index k) { return w ? y[k] - w->dy2(k) * apply_q(x, k) : y[k]; };
+  /// The spline through g(tᵢ) = yᵢ − δyᵢ²(Q x)ᵢ (or yᵢ when qx is null) with g'' = scale·x at
+  /// the knots (x on all knots, zero at both ends: natural), built in one pass.
+  Fit assemble(const Eigen::Ref<const Vector>& y, const Weights* w, const Vector* qx, const Vector& x,
+               Scalar scale) const {
+    const Eigen::Index n = size();
+    auto g = [&](Eigen::Index k) { return qx ? y[k] - w->dy2(k) * (*qx)[k] : y[k]; };
     Vector a(n - 1), b(n - 1), c(n - 1), d(n - 1);
     Scalar g_here = g(0), gamma_here = Scalar(0);
+    const Scalar sixth = Scalar(1) / Scalar(6);
     for (Eigen::Index i = 0; i < n - 1; ++i) {
-      const Scalar g_next = g(i + 1), gamma_next = gamma(i + 1);
+      const Scalar g_next = g(i + 1), gamma_next = scale * x[i + 1];
       a[i] = g_here;
-      b[i] = (g_next - g_here) * inv_h_[i] - h_[i] * (Scalar(2) * gamma_here + gamma_next) / Scalar(6);
-      c[i] = gamma_here / Scalar(2);
-      d[i] = (gamma_next - gamma_here) * inv_h_[i] / Scalar(6);
+      b[i] = (g_next - g_here) * inv_h_[i] - h_[i] * (Scalar(2) * gamma_here + gamma_next) * sixth;
+      c[i] = Scalar(0.5) * gamma_here;
+      d[i] = (gamma_next - gamma_here) * inv_h_[i] * sixth;
       g_here = g_next;
       gamma_here = gamma_next;
     }
@@ -302,7 +330,7 @@ class SmoothingSpline {
   }
 
   Fit fit_from(const Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w, Scalar p) const {
-    Fit fit = assemble(y, &w, ws.u, p);
+    Fit fit = assemble(y, &w, &ws.qu, ws.u, p);
     fit.p = p;
     fit.lambda = Scalar(1) / p;
     fit.F = ws.F;
@@ -313,16 +341,17 @@ class SmoothingSpline {
   Fit interpolate(const Eigen::Ref<const Vector>& y) const {
     const Eigen::Index m = interior();
     BandedLDLT<Scalar, 1> r(m);
-    Vector gamma(m);
+    Vector gamma = Vector::Zero(size());  // natural: zero at both ends
+    auto interior_gamma = gamma.segment(1, m);
     for (Eigen::Index j = 0; j < m; ++j) {
       r.band()(0, j) = (h_[j] + h_[j + 1]) / Scalar(3);
       r.band()(1, j) = j + 1 < m ? h_[j + 1] / Scalar(6) : Scalar(0);
-      gamma[j] = (y[j + 2] - y[j + 1]) * inv_h_[j + 1] - (y[j + 1] - y[j]) * inv_h_[j];
+      interior_gamma[j] = (y[j + 2] - y[j + 1]) * inv_h_[j + 1] - (y[j + 1] - y[j]) * inv_h_[j];
     }
     if (!r.factorize())  // R is diagonally dominant: this cannot fail for increasing t
       throw SmoothingError("sid::SmoothingSpline: interpolation system is singular");
-    r.solve_in_place(gamma);
-    Fit fit = assemble(y, nullptr, gamma, Scalar(1));
+    r.solve_in_place(interior_gamma);
+    Fit fit = assemble(y, nullptr, nullptr, gamma, Scalar(1));
     fit.p = std::numeric_limits<Scalar>::infinity();
     fit.lambda = Scalar(0);
     fit.F = Scalar(0);
@@ -338,7 +367,7 @@ class SmoothingSpline {
     using std::isinf;
     if (size() == 2 || p == Scalar(0)) return line_fit(y, w);
     if (isinf(p)) return interpolate(y);
-    Workspace ws;
+    Workspace& ws = thread_workspace();
     prepare(ws, y, w, false);
     if (!solve_at(ws, w, p))
       throw SmoothingError("sid::SmoothingSpline::fit_penalized: the system for p = " +
@@ -391,7 +420,7 @@ class SmoothingSpline {
     if (line.F <= S) return line;
     if (S == Scalar(0)) return interpolate(y);
 
-    Workspace ws;
+    Workspace& ws = thread_workspace();
     prepare(ws, y, w, true);
     // Start where the data and roughness terms have equal trace, a scale-free guess; noisy data
     // put the root far below it, hence the first jump.
