@@ -48,6 +48,8 @@ Methods (how q-dot and q-double-dot are estimated from the noisy angles; then le
             Butterworth low-pass filters (q: order 3, 10 Hz; qd: order 3, 3 Hz; qdd: order 4,
             2 Hz); drops t < 1.7475 s (the filters' start-up)
   css       Reinsch cubic smoothing spline with dq = sigma_q and S = n, derivatives analytic
+  css_gcv   the same spline with lambda chosen by generalized cross-validation: it is not told
+            sigma_q (not in the paper)
   oracle    the exact q, qd, qdd with the noisy torques: the floor no estimator beats on average
             (not in the paper)
 Every method drops t < 0.25 s (the start transient).
@@ -115,7 +117,7 @@ void define_options(CLI::App& cli, Options& o) {
       ->capture_default_str();
   cli.add_option("--methods", o.methods,
                  "methods to compare, comma-separated, any subset and order of raw, filtered, "
-                 "css, oracle")
+                 "css, css_gcv, oracle")
       ->capture_default_str();
   cli.add_option("--seed", o.seed, "seed of the noise, an integer 0 .. 2^64 - 1")
       ->capture_default_str();
@@ -154,7 +156,7 @@ std::string trim(const std::string& s) {
 std::vector<sid::StudyMethod> parse_methods(const std::string& text) {
   using sid::app::require;
   std::vector<sid::StudyMethod> methods;
-  require(!trim(text).empty(), "--methods: no methods given (expected raw, filtered, css, oracle)");
+  require(!trim(text).empty(), "--methods: no methods given (expected raw, filtered, css, css_gcv, oracle)");
   std::string::size_type start = 0;
   while (true) {
     const auto comma = text.find(',', start);
@@ -165,7 +167,7 @@ std::vector<sid::StudyMethod> parse_methods(const std::string& text) {
       m = sid::parse_study_method(name);
     } catch (const std::invalid_argument&) {
       throw sid::app::InputError("--methods: unknown method '" + name +
-                                 "' (expected raw, filtered, css or oracle)");
+                                 "' (expected raw, filtered, css, css_gcv or oracle)");
     }
     require(std::find(methods.begin(), methods.end(), m) == methods.end(),
             "--methods: '" + name + "' is given twice");

@@ -58,7 +58,25 @@ void BM_SmoothingConstrainedS(benchmark::State& state) {
   state.SetComplexityN(state.range(0));
 }
 
+void BM_SmoothingGcv(benchmark::State& state) {
+  const Signal s = make_signal(state.range(0));
+  int evaluations = 0;
+  double sigma = 0.0;
+  for (auto _ : state) {
+    const sid::SmoothingSpline<double> spline(s.t);
+    const auto fit = spline.fit_cross_validated(s.y);  // no noise level given
+    evaluations = fit.iterations;
+    sigma = fit.sigma;
+    touch_derivatives(fit);
+  }
+  state.counters["evaluations"] = evaluations;
+  state.counters["sigma_hat_over_sigma"] = sigma / kSigma;
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+  state.SetComplexityN(state.range(0));
+}
+
 }  // namespace
 
+BENCHMARK(BM_SmoothingGcv)->Arg(4001)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMicrosecond)->Complexity(benchmark::oN);
 BENCHMARK(BM_SmoothingFixedP)->Arg(4001)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMicrosecond)->Complexity(benchmark::oN);
 BENCHMARK(BM_SmoothingConstrainedS)->Arg(4001)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMicrosecond)->Complexity(benchmark::oN);

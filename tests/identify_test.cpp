@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 #include <string>
 
 namespace {
@@ -128,4 +129,25 @@ TEST(Identify, RejectsBadInputWithReasons) {
   expect_invalid([&] { (void)sid::identify(broken, sid::IdentifyOptions{}); }, "q at row 3");
   expect_invalid([] { (void)sid::parse_derivative_method("spline"); }, "unknown method 'spline'");
   EXPECT_EQ(sid::parse_derivative_method("filtered"), sid::DerivativeMethod::FilteredDifference);
+}
+
+TEST(Identify, GcvSmoothingFindsTheNoiseLevelByItself) {
+  auto data = reference_trajectory();
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 1e-3);
+  for (Eigen::Index i = 0; i < data.size(); ++i) data.q(i, 0) += noise(rng), data.q(i, 1) += noise(rng);
+  sid::IdentifyOptions options;
+  options.smoothing = sid::SmoothingMode::Gcv;
+  options.sigma_q.setConstant(std::nan(""));  // not needed, and must not be used
+  const auto result = sid::identify(data, options);
+  ASSERT_TRUE(result.fit.ok()) << result.fit.message;
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_NEAR(result.smoothing.sigma[j], 1e-3, 0.1e-3) << "joint " << j + 1;
+    EXPECT_GT(result.smoothing.trace[j], 2.0);
+    EXPECT_NEAR(result.smoothing.lambda[j] * result.smoothing.p[j], 1.0, 1e-12);
+  }
+  // Noise-free torques: the angle noise alone limits the estimate.
+  EXPECT_LT(max_relative_error(result.fit.theta, sid::paper_arm_parameters<double>()), 0.05);
+  EXPECT_THROW(sid::parse_smoothing_mode("spline"), std::invalid_argument);
+  EXPECT_EQ(sid::parse_smoothing_mode("cv"), sid::SmoothingMode::Cv);
 }

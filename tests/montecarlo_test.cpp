@@ -35,12 +35,13 @@ TEST(MonteCarlo, SameSeedGivesSameNumbersForAnyThreadCount) {
   sid::MonteCarloOptions options;
   options.runs = 3;
   options.sigma_q2_levels = {1e-6};
+  options.methods.push_back(sid::StudyMethod::CssGcv);
   options.threads = 1;
   const auto one = sid::run_monte_carlo(truth(), options);
   options.threads = 2;
   const auto two = sid::run_monte_carlo(truth(), options);
-  ASSERT_EQ(one.levels[0].methods.size(), 4u);
-  for (std::size_t m = 0; m < 4; ++m) {
+  ASSERT_EQ(one.levels[0].methods.size(), 5u);
+  for (std::size_t m = 0; m < 5; ++m) {
     const auto& a = one.levels[0].methods[m].estimates;
     const auto& b = two.levels[0].methods[m].estimates;
     EXPECT_TRUE(a.allFinite());
@@ -86,6 +87,25 @@ TEST(MonteCarlo, StatisticsMatchThePapersQualitativeFindings) {
   EXPECT_EQ(css.failed_runs, 0);
   EXPECT_NEAR(css.std_pct[0], 100.0 * std::sqrt(css.variance[0]) / theta[0], 1e-12);
   EXPECT_NEAR(css.mean[0], css.estimates.col(0).mean(), 1e-15);
+}
+
+TEST(MonteCarlo, GcvSmoothingNeedsNoNoiseLevelAndNearsTheOracle) {
+  sid::MonteCarloOptions options;
+  options.runs = 12;
+  options.sigma_q2_levels = {1e-8, 1e-6};
+  options.methods = {sid::StudyMethod::Css, sid::StudyMethod::CssGcv, sid::StudyMethod::Oracle};
+  const auto r = sid::run_monte_carlo(truth(), options);
+  for (std::size_t level = 0; level < 2; ++level) {
+    const auto& gcv = summary(r, level, sid::StudyMethod::CssGcv);
+    const auto& oracle = summary(r, level, sid::StudyMethod::Oracle);
+    EXPECT_EQ(gcv.failed_runs, 0);
+    // Issue 5's target (<= 1.15 x oracle), with room for 12 runs instead of 30.
+    EXPECT_LT(gcv.rms_rel_error_pct, 1.3 * oracle.rms_rel_error_pct) << "level " << level;
+  }
+  // At 1e-8 the paper's S = n leaves theta2 strongly biased; GCV does not.
+  const double theta2 = options.theta[1];
+  EXPECT_GT(std::abs(summary(r, 0, sid::StudyMethod::Css).mean[1] - theta2), 0.1 * theta2);
+  EXPECT_LT(std::abs(summary(r, 0, sid::StudyMethod::CssGcv).mean[1] - theta2), 0.03 * theta2);
 }
 
 TEST(MonteCarlo, RejectsImpossibleOptions) {

@@ -9,6 +9,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <utility>
 
 namespace {
 
@@ -235,6 +236,68 @@ TEST(SmoothingSpline, RejectsBadInputWithNamedArgument) {
   expect_invalid([&] { (void)s.fit_constrained(y, Vec::Constant(3, 0.1), 5.0); }, "dy has 3 entries");
   expect_invalid([&] { (void)s.fit_constrained(y, 0.1, -1.0); }, "S must be finite and >= 0");
   expect_invalid([&] { (void)s.fit_penalized(y, 0.1, -1.0); }, "p must be >= 0");
+}
+
+TEST(SmoothingSplineGcv, ScoreAndTraceMatchSciPyAtEveryLambda) {
+  const Case c = load("uniform_n101.csv");
+  const auto ref = sid_test::read_table("gcv_reference.csv");
+  const Spline spline(c.t);
+  const double n = static_cast<double>(c.t.size());
+  const Vec ones = Vec::Ones(c.t.size());
+  constexpr double kGcvTol = 1e-8;  // SciPy's hat matrix comes from n separate fits
+  for (Eigen::Index k = 0; k < ref.data.rows(); ++k) {
+    const double lam = ref.col("lam")[k], p = 1.0 / lam;
+    const auto fit = spline.fit_penalized(c.y, 1.0, p);
+    const double trace = spline.hat_diagonal(ones, p).sum();
+    const double gcv = n * fit.F / ((n - trace) * (n - trace));
+    EXPECT_NEAR(trace, ref.col("trace")[k], kGcvTol * n) << "lam=" << lam;
+    EXPECT_NEAR(gcv, ref.col("gcv")[k], kGcvTol * ref.col("gcv")[k]) << "lam=" << lam;
+  }
+}
+
+TEST(SmoothingSplineGcv, ChosenLambdaIsTheFineLogGridMinimum) {
+  const Case c = load("uniform_n101.csv");
+  const auto ref = sid_test::read_table("gcv_reference.csv");
+  const Vec lam = ref.col("lam");
+  for (const auto& [criterion, column] : {std::pair{sid::SmoothingCriterion::Gcv, "gcv"},
+                                          std::pair{sid::SmoothingCriterion::Cv, "cv"}}) {
+    const Vec score = ref.col(column);
+    Eigen::Index best;
+    const double best_score = score.minCoeff(&best);
+    ASSERT_TRUE(best > 0 && best + 1 < lam.size()) << "the reference grid must contain the minimum";
+    const auto fit = Spline(c.t).fit_cross_validated(c.y, 1.0, criterion);
+    EXPECT_GE(fit.lambda, lam[best - 1]) << column;
+    EXPECT_LE(fit.lambda, lam[best + 1]) << column;
+    EXPECT_LE(fit.criterion, best_score * (1.0 + 1e-9)) << column;  // at least as good as the grid
+    EXPECT_NEAR(fit.F, (fit.spline.derivatives_at_knots(0) - c.y).squaredNorm(), 1e-12);
+  }
+}
+
+TEST(SmoothingSplineGcv, LeveragesMatchTheDenseHatMatrix) {
+  const Noisy s = noisy_signal(40, 0.1, 11);
+  const Vec dy = Vec::LinSpaced(40, 0.05, 0.2);
+  const Spline spline(s.t);
+  for (double p : {1e-2, 1.0, 1e3}) {
+    const Vec leverages = spline.hat_diagonal(dy, p);
+    for (Eigen::Index i = 0; i < 40; ++i) {  // column i of the hat matrix = fit of the unit vector
+      const Vec unit = Vec::Unit(40, i);
+      const double a_ii = spline.fit_penalized(unit, dy, p).spline.derivatives_at_knots(0)[i];
+      EXPECT_NEAR(leverages[i], a_ii, 1e-10) << "p=" << p << " i=" << i;
+    }
+  }
+}
+
+TEST(SmoothingSplineGcv, EstimatesTheNoiseLevelWithoutBeingTold) {
+  constexpr double kSigma = 0.05;
+  const Noisy s = noisy_signal(20000, kSigma, 12);
+  const auto fit = Spline(s.t).fit_cross_validated(s.y);
+  EXPECT_NEAR(fit.sigma, kSigma, 0.1 * kSigma);
+  EXPECT_GT(fit.trace, 2.0);
+  EXPECT_LT(fit.trace, 200.0);
+  const Vec truth = (2.0 * s.t.array()).sin() + 0.3 * (5.0 * s.t.array()).cos();
+  // The fit is far closer to the truth than the data are (RMS error << sigma).
+  const double rms = std::sqrt((fit.spline.derivatives_at_knots(0) - truth).squaredNorm() / 20000.0);
+  EXPECT_LT(rms, 0.1 * kSigma);
 }
 
 template class sid::SmoothingSpline<float>;

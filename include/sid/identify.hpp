@@ -48,6 +48,40 @@ inline DerivativeMethod parse_derivative_method(const std::string& name) {
                               "' (expected raw, filtered or css)");
 }
 
+/// @brief How CSS chooses its smoothing (the paper: the S constraint with δq = σq).
+enum class SmoothingMode {
+  SConstraint,  ///< F = Σ((g − q)/δq)² = S (default S = n): needs the noise level δq
+  Gcv,          ///< λ minimising generalized cross-validation: needs no noise level
+  Cv,           ///< λ minimising leave-one-out cross-validation
+  Lambda,       ///< a given λ (penalty form, weights 1/δq²)
+};
+
+inline const char* smoothing_mode_name(SmoothingMode mode) {
+  switch (mode) {
+    case SmoothingMode::SConstraint: return "s-constraint";
+    case SmoothingMode::Gcv: return "gcv";
+    case SmoothingMode::Cv: return "cv";
+    case SmoothingMode::Lambda: return "lambda";
+  }
+  return "unknown";
+}
+
+/// @throws std::invalid_argument for a name other than s-constraint, gcv, cv, lambda.
+inline SmoothingMode parse_smoothing_mode(const std::string& name) {
+  for (SmoothingMode m : {SmoothingMode::SConstraint, SmoothingMode::Gcv, SmoothingMode::Cv, SmoothingMode::Lambda})
+    if (name == smoothing_mode_name(m)) return m;
+  throw std::invalid_argument("sid::parse_smoothing_mode: unknown smoothing '" + name +
+                              "' (expected s-constraint, gcv, cv or lambda)");
+}
+
+/// @brief What the CSS smoothing chose, per joint (NaN where a mode does not compute it).
+struct SmoothingReport {
+  Vector2<double> p = Vector2<double>::Constant(std::nan(""));       ///< Reinsch's p = 1/λ
+  Vector2<double> lambda = Vector2<double>::Constant(std::nan(""));  ///< λ
+  Vector2<double> trace = Vector2<double>::Constant(std::nan(""));   ///< tr A: degrees of freedom
+  Vector2<double> sigma = Vector2<double>::Constant(std::nan(""));   ///< σ̂ [rad] (GCV/CV)
+};
+
 /// @brief Butterworth low-pass settings of the filtered method (order, cutoff relative to
 /// Nyquist). Defaults are the paper's: 10 Hz, 3 Hz and 2 Hz at 400 Hz sampling.
 struct DifferenceFilters {
@@ -66,6 +100,15 @@ struct IdentifyOptions {
   Vector2<double> sigma_q = Vector2<double>::Constant(1e-3);
   /// S of the CSS constraint; empty = number of samples (the paper's choice).
   std::optional<double> S;
+  /// How CSS smooths; GCV and CV ignore sigma_q (all samples weigh the same).
+  SmoothingMode smoothing = SmoothingMode::SConstraint;
+  /// GCV and CV choose one λ for the whole record, so a sharp start transient (which the
+  /// window drops anyway) would pull λ toward interpolation everywhere. They therefore smooth
+  /// only the samples with t >= t₀ + cross_validation_skip [s] (keep it below `skip`: the
+  /// natural end condition distorts q̈ over the first few samples of the fit).
+  double cross_validation_skip = 0.125;
+  /// λ for SmoothingMode::Lambda (SciPy's `lam` with w = 1/δq²) [rad⁻² s³ units of ∫g''²].
+  double lambda = std::nan("");
   /// Samples with t < t₀ + skip are dropped (the start transient) [s].
   double skip = 0.25;
   /// The filtered method drops t < t₀ + filtered_skip instead (filter start-up) [s].
@@ -86,6 +129,8 @@ struct Identification {
   LeastSquaresResult<double> fit;
   /// Reinsch's p per joint (CSS only; NaN otherwise).
   Vector2<double> smoothing_p = Vector2<double>::Constant(std::nan(""));
+  /// Everything the CSS smoothing chose (CSS only).
+  SmoothingReport smoothing;
 
   Eigen::Index samples_used() const { return kinematics.size(); }
 };
@@ -122,27 +167,58 @@ inline Kinematics<double> rows_of(const Trajectory<double>& data, Eigen::Index b
 /// @throws std::invalid_argument on an invalid trajectory, too few samples, non-uniform sampling
 /// for the difference methods, or δq <= 0.
 inline Kinematics<double> estimate_kinematics(const Trajectory<double>& data, const IdentifyOptions& options,
-                                              Vector2<double>* p_out = nullptr) {
+                                              SmoothingReport* report = nullptr) {
   const char* who = "sid::estimate_kinematics";
   data.validate(who);
   const Eigen::Index n = data.size();
   switch (options.method) {
     case DerivativeMethod::SmoothingSpline: {
       if (n < 3) throw std::invalid_argument(std::string(who) + ": CSS needs at least 3 samples, got " + std::to_string(n));
-      const SmoothingSpline<double> spline(data.t);
-      Kinematics<double> k = detail::rows_of(data, 0, n);
-      k.qd.resize(n, 2);
-      k.qdd.resize(n, 2);
+      const bool cross_validated =
+          options.smoothing == SmoothingMode::Gcv || options.smoothing == SmoothingMode::Cv;
+      Eigen::Index first = 0;
+      if (cross_validated) {
+        if (!(options.cross_validation_skip >= 0.0) || !std::isfinite(options.cross_validation_skip))
+          throw std::invalid_argument(std::string(who) + ": cross_validation_skip must be finite and >= 0");
+        while (first < n && data.t[first] < data.t[0] + options.cross_validation_skip - 1e-9) ++first;
+        if (n - first < 4)
+          throw std::invalid_argument(std::string(who) + ": fewer than 4 samples after cross_validation_skip");
+      }
+      const Eigen::Index used = n - first;
+      const SmoothingSpline<double> spline(data.t.tail(used));
+      Kinematics<double> k = detail::rows_of(data, first, used);
+      k.qd.resize(used, 2);
+      k.qdd.resize(used, 2);
+      if (options.smoothing == SmoothingMode::Lambda && (!(options.lambda > 0.0) || !std::isfinite(options.lambda)))
+        throw std::invalid_argument(std::string(who) + ": smoothing 'lambda' needs a finite lambda > 0");
       for (int j = 0; j < 2; ++j) {
-        if (!(options.sigma_q[j] > 0.0) || !std::isfinite(options.sigma_q[j]))
+        if (!cross_validated && (!(options.sigma_q[j] > 0.0) || !std::isfinite(options.sigma_q[j])))
           throw std::invalid_argument(std::string(who) + ": sigma_q of joint " + std::to_string(j + 1) +
                                       " must be finite and > 0");
-        const VectorX<double> qj = data.q.col(j);
-        const auto fit = spline.fit_constrained(qj, options.sigma_q[j], options.S.value_or(static_cast<double>(n)));
+        const VectorX<double> qj = data.q.col(j).tail(used);
+        SmoothingFit<double> fit;
+        switch (options.smoothing) {
+          case SmoothingMode::SConstraint:
+            fit = spline.fit_constrained(qj, options.sigma_q[j], options.S.value_or(static_cast<double>(used)));
+            break;
+          case SmoothingMode::Gcv:
+          case SmoothingMode::Cv:
+            fit = spline.fit_cross_validated(
+                qj, 1.0, options.smoothing == SmoothingMode::Gcv ? SmoothingCriterion::Gcv : SmoothingCriterion::Cv);
+            break;
+          case SmoothingMode::Lambda:
+            fit = spline.fit_penalized(qj, options.sigma_q[j], 1.0 / options.lambda);
+            break;
+        }
         fit.spline.derivatives_at_knots(0, k.q.col(j));
         fit.spline.derivatives_at_knots(1, k.qd.col(j));
         fit.spline.derivatives_at_knots(2, k.qdd.col(j));
-        if (p_out) (*p_out)[j] = fit.p;
+        if (report) {
+          report->p[j] = fit.p;
+          report->lambda[j] = fit.lambda;
+          report->trace[j] = fit.trace;
+          report->sigma[j] = fit.sigma;
+        }
       }
       return k;
     }
@@ -218,7 +294,8 @@ inline LeastSquaresResult<double> fit_two_link(const Kinematics<double>& k, doub
 inline Identification identify(const Trajectory<double>& data, const IdentifyOptions& options = {}) {
   Identification result;
   result.method = options.method;
-  const Kinematics<double> all = estimate_kinematics(data, options, &result.smoothing_p);
+  const Kinematics<double> all = estimate_kinematics(data, options, &result.smoothing);
+  result.smoothing_p = result.smoothing.p;
   const double skip = options.method == DerivativeMethod::FilteredDifference ? options.filtered_skip : options.skip;
   if (!(skip >= 0.0) || !std::isfinite(skip))
     throw std::invalid_argument("sid::identify: skip must be finite and >= 0");

@@ -49,7 +49,71 @@ struct SmoothingFit {
   int iterations = 0;
   /// Banded factorizations done, the unit of cost.
   int factorizations = 0;
+  /// tr A, the equivalent degrees of freedom of the fit (A: the hat matrix, g = A y). Computed
+  /// by the GCV/CV fits and by hat_diagonal(); NaN otherwise.
+  Scalar trace = std::numeric_limits<Scalar>::quiet_NaN();
+  /// The minimised criterion (GCV or ordinary leave-one-out CV score); NaN for other fits.
+  Scalar criterion = std::numeric_limits<Scalar>::quiet_NaN();
+  /// σ̂ = √(F / (n − tr A)), the noise level the fit implies, in units of δy (so in the data's
+  /// units when δy = 1). NaN when tr A is not computed.
+  Scalar sigma = std::numeric_limits<Scalar>::quiet_NaN();
 };
+
+/// @brief The criterion a data-driven smoothing choice minimises over log λ.
+enum class SmoothingCriterion {
+  Gcv,  ///< generalized cross-validation, n F / (n − tr A)² (Craven & Wahba 1979)
+  Cv,   ///< ordinary leave-one-out cross-validation, (1/n) Σ wᵢ (rᵢ / (1 − Aᵢᵢ))²
+};
+
+namespace detail {
+
+/// Brent's minimisation of f on [a, b] from the inner point x (value fx): golden sections with
+/// parabolic steps (Brent 1973, ch. 5). Returns the best point found.
+template <typename Scalar, typename F>
+Scalar brent_minimize(F&& f, Scalar a, Scalar b, Scalar x, Scalar fx, Scalar tolerance) {
+  using std::abs;
+  using std::sqrt;
+  const Scalar golden = Scalar(0.5) * (Scalar(3) - sqrt(Scalar(5)));
+  Scalar w = x, v = x, fw = fx, fv = fx, d = Scalar(0), e = Scalar(0);
+  for (int it = 0; it < 100; ++it) {
+    const Scalar mid = Scalar(0.5) * (a + b), tol1 = tolerance, tol2 = Scalar(2) * tol1;
+    if (abs(x - mid) <= tol2 - Scalar(0.5) * (b - a)) break;
+    bool golden_step = true;
+    if (abs(e) > tol1) {  // try a parabola through x, w, v
+      Scalar r = (x - w) * (fx - fv), q = (x - v) * (fx - fw), p = (x - v) * q - (x - w) * r;
+      q = Scalar(2) * (q - r);
+      if (q > Scalar(0)) p = -p;
+      q = abs(q);
+      if (abs(p) < abs(Scalar(0.5) * q * e) && p > q * (a - x) && p < q * (b - x)) {
+        e = d;
+        d = p / q;
+        const Scalar u = x + d;
+        if (u - a < tol2 || b - u < tol2) d = x < mid ? tol1 : -tol1;
+        golden_step = false;
+      }
+    }
+    if (golden_step) {
+      e = (x < mid ? b : a) - x;
+      d = golden * e;
+    }
+    const Scalar u = abs(d) >= tol1 ? x + d : x + (d > Scalar(0) ? tol1 : -tol1);
+    const Scalar fu = f(u);
+    if (fu <= fx) {
+      (u < x ? b : a) = x;
+      v = w, fv = fw, w = x, fw = fx, x = u, fx = fu;
+    } else {
+      (u < x ? a : b) = u;
+      if (fu <= fw || w == x) {
+        v = w, fv = fw, w = u, fw = fu;
+      } else if (fu <= fv || v == x || v == w) {
+        v = u, fv = fu;
+      }
+    }
+  }
+  return x;
+}
+
+}  // namespace detail
 
 /// @brief Reinsch smoothing on one time grid; the grid set-up is shared by every signal fitted.
 ///
@@ -114,6 +178,43 @@ class SmoothingSpline {
     return penalized(y, Weights{nullptr, dy * dy}, p);
   }
 
+  /// @brief Penalty form with λ chosen from the data by minimising GCV (default) or leave-one-out
+  /// CV over log λ (a bracket by decades, then Brent's minimisation), so no noise level is
+  /// needed: δy only sets relative weights (1 when all points are alike). Reports λ, tr A and
+  /// σ̂ = √(RSS_w / (n − tr A)). Needs n >= 4. Each criterion evaluation is one O(n)
+  /// factorization plus the central band of the inverse (Hutchinson & de Hoog 1985).
+  /// @throws std::invalid_argument on bad input.
+  Fit fit_cross_validated(const Eigen::Ref<const Vector>& y, Scalar dy = Scalar(1),
+                          SmoothingCriterion criterion = SmoothingCriterion::Gcv) const {
+    check_signal(y, "fit_cross_validated");
+    check_scalar_weight(dy, "fit_cross_validated");
+    return cross_validated(y, Weights{nullptr, dy * dy}, criterion);
+  }
+  Fit fit_cross_validated(const Eigen::Ref<const Vector>& y, const Eigen::Ref<const Vector>& dy,
+                          SmoothingCriterion criterion = SmoothingCriterion::Gcv) const {
+    check_signal(y, "fit_cross_validated");
+    check_weights(dy, "fit_cross_validated");
+    return cross_validated(y, Weights{dy.data(), Scalar(0)}, criterion);
+  }
+
+  /// @brief The leverages Aᵢᵢ (diagonal of the hat matrix) of the penalty form at p, in O(n).
+  /// @pre 0 < p < ∞.
+  Vector hat_diagonal(const Eigen::Ref<const Vector>& dy, Scalar p) const {
+    check_weights(dy, "hat_diagonal");
+    using std::isfinite;
+    if (!(p > Scalar(0)) || !isfinite(p))
+      throw std::invalid_argument("sid::SmoothingSpline::hat_diagonal: p must be finite and > 0");
+    if (size() < 3) throw std::invalid_argument("sid::SmoothingSpline::hat_diagonal: needs n >= 3");
+    const Weights w{dy.data(), Scalar(0)};
+    Workspace& ws = thread_workspace();
+    prepare(ws, Vector::Zero(size()), w, false);
+    if (!solve_at(ws, w, p))
+      throw SmoothingError("sid::SmoothingSpline::hat_diagonal: system not numerically positive definite");
+    Vector leverages(size());
+    hat(ws, w, &leverages);
+    return leverages;
+  }
+
  private:
   /// δyᵢ² per point, or one value for all.
   struct Weights {
@@ -134,6 +235,8 @@ class SmoothingSpline {
     Scalar F = Scalar(0), dF = Scalar(0);
     int factorizations = 0;
     bool has_m = false;
+    Band sigma_band;    // central band of B⁻¹ (GCV)
+    Vector leverages;   // CV
   };
 
   /// One workspace per thread, reused by every fit on that thread: fresh buffers per fit cost
@@ -374,6 +477,127 @@ class SmoothingSpline {
                            std::to_string(static_cast<double>(p)) +
                            " is not numerically positive definite (p too small for this data's scale)");
     return fit_from(ws, y, w, p);
+  }
+
+  /// tr A (and the leverages when asked) at the factorization in ws, in O(n): the central band of
+  /// B⁻¹ (B = QᵀD²Q + pR = L D Lᵀ) by the Hutchinson–de Hoog recurrence
+  /// Σᵢⱼ = δᵢⱼ/Dᵢ − Σₗ Lₗᵢ Σₗⱼ (j >= i, from the last row up), then Aᵢᵢ = 1 − δyᵢ² (Q Σ Qᵀ)ᵢᵢ.
+  Scalar hat(Workspace& ws, const Weights& w, Vector* leverages) const {
+    const Eigen::Index m = interior(), n = size();
+    const auto& f = ws.ldlt.band();  // f(0, j) = D(j), f(k, j) = L(j + k, j)
+    ws.sigma_band.resize(3, m);
+    auto& sb = ws.sigma_band;  // sb(k, i) = Σ(i, i + k)
+    for (Eigen::Index i = m - 1; i >= 0; --i) {
+      const Scalar l1 = i + 1 < m ? f(1, i) : Scalar(0), l2 = i + 2 < m ? f(2, i) : Scalar(0);
+      const Scalar s11 = i + 1 < m ? sb(0, i + 1) : Scalar(0), s22 = i + 2 < m ? sb(0, i + 2) : Scalar(0);
+      const Scalar s12 = i + 2 < m ? sb(1, i + 1) : Scalar(0);
+      sb(1, i) = -l1 * s11 - l2 * s12;  // Σ(i, i+1)
+      sb(2, i) = -l1 * s12 - l2 * s22;  // Σ(i, i+2)
+      sb(0, i) = Scalar(1) / f(0, i) - l1 * sb(1, i) - l2 * sb(2, i);
+    }
+    // Row i of Q: Q(i, i−2) = 1/h(i−1), Q(i, i−1) = −(1/h(i−1) + 1/h(i)), Q(i, i) = 1/h(i), for
+    // the interior columns that exist.
+    auto S = [&](Eigen::Index a, Eigen::Index b) {  // Σ(a, b), |a − b| <= 2, zero outside
+      if (a < 0 || b < 0 || a >= m || b >= m) return Scalar(0);
+      return a <= b ? sb(b - a, a) : sb(a - b, b);
+    };
+    Scalar trace(0);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Scalar c0 = (i >= 2 && i - 2 < m) ? inv_h_[i - 1] : Scalar(0);
+      const Scalar c1 = (i >= 1 && i - 1 < m) ? -(inv_h_[i - 1] + inv_h_[i]) : Scalar(0);
+      const Scalar c2 = i < m ? inv_h_[i] : Scalar(0);
+      const Scalar q = c0 * c0 * S(i - 2, i - 2) + c1 * c1 * S(i - 1, i - 1) + c2 * c2 * S(i, i) +
+                       Scalar(2) * (c0 * c1 * S(i - 2, i - 1) + c1 * c2 * S(i - 1, i) + c0 * c2 * S(i - 2, i));
+      const Scalar a_ii = Scalar(1) - w.dy2(i) * q;
+      trace += a_ii;
+      if (leverages) (*leverages)[i] = a_ii;
+    }
+    return trace;
+  }
+
+  /// The criterion at ws's current fit (solve_at done). Leverages go to ws.leverages for CV.
+  Scalar criterion_value(Workspace& ws, const Weights& w, SmoothingCriterion criterion, Scalar& trace) const {
+    const Scalar n = static_cast<Scalar>(size());
+    if (criterion == SmoothingCriterion::Gcv) {
+      trace = hat(ws, w, nullptr);
+      const Scalar dof = n - trace;
+      return n * ws.F / (dof * dof);
+    }
+    ws.leverages.resize(size());
+    trace = hat(ws, w, &ws.leverages);
+    Scalar cv(0);
+    for (Eigen::Index i = 0; i < size(); ++i) {
+      const Scalar r = w.dy2(i) * ws.qu[i] / (Scalar(1) - ws.leverages[i]);  // y − g = δy² Q u
+      cv += r * r / w.dy2(i);
+    }
+    return cv / n;
+  }
+
+  Fit cross_validated(const Eigen::Ref<const Vector>& y, const Weights& w, SmoothingCriterion criterion) const {
+    using std::log;
+    using std::exp;
+    using std::isfinite;
+    using std::sqrt;
+    if (size() < 4)
+      throw std::invalid_argument("sid::SmoothingSpline::fit_cross_validated: needs at least 4 samples, got " +
+                                  std::to_string(size()));
+    Workspace& ws = thread_workspace();
+    prepare(ws, y, w, true);
+    Scalar tr_m(0), tr_r(0);
+    for (Eigen::Index j = 0; j < interior(); ++j) {
+      tr_m += ws.m_band(0, j);
+      tr_r += (h_[j] + h_[j + 1]) / Scalar(3);
+    }
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    int evaluations = 0;
+    Scalar last_x = std::numeric_limits<Scalar>::quiet_NaN(), last_trace(0), last_v = inf;
+    auto value_at = [&](Scalar x) {  // criterion at p = eˣ; +∞ where not numerically SPD
+      ++evaluations;
+      last_x = x;
+      last_v = solve_at(ws, w, exp(x)) ? criterion_value(ws, w, criterion, last_trace) : inf;
+      if (!isfinite(last_v)) last_v = inf;
+      return last_v;
+    };
+    // Bracket by decades (unit-free, unlike a grid in λ): start a thousand times below the
+    // trace-balanced p (noisy data put the minimum far below it), walk downhill, and stop once
+    // the criterion has risen twice in a row past the best point, so a shallow dip is not
+    // taken for the minimum.
+    const Scalar decade = log(Scalar(10));
+    Scalar best_x = log(tr_m / tr_r) - Scalar(3) * decade, best_v = value_at(best_x);
+    const Scalar down_v = value_at(best_x - decade);
+    const Scalar step = down_v < best_v ? -decade : decade;
+    if (down_v < best_v) {
+      best_x -= decade;
+      best_v = down_v;
+    }
+    Scalar x = best_x;
+    int rises = 0;
+    constexpr int kMaxDecades = 40;
+    for (int k = 0; k < kMaxDecades && rises < 2; ++k) {
+      x += step;
+      const Scalar v = value_at(x);
+      if (v < best_v) {
+        best_v = v;
+        best_x = x;
+        rises = 0;
+      } else {
+        ++rises;
+      }
+    }
+    // Brent's minimisation on [best − 1 decade, best + 1 decade]; the criterion is smooth and
+    // flat near its minimum, so a tolerance of 1e-3 in log p is plenty.
+    Scalar chosen = detail::brent_minimize(value_at, best_x - decade, best_x + decade, best_x, best_v, Scalar(1e-3));
+    if (!(chosen == last_x)) value_at(chosen);  // the workspace must hold the chosen fit
+    if (!(last_v < inf))
+      throw SmoothingError("sid::SmoothingSpline::fit_cross_validated: no smoothing parameter gives a "
+                           "numerically stable fit");
+    Fit fit = fit_from(ws, y, w, exp(chosen));
+    fit.iterations = evaluations;
+    fit.factorizations = evaluations;
+    fit.criterion = last_v;
+    fit.trace = last_trace;
+    fit.sigma = sqrt(ws.F / (static_cast<Scalar>(size()) - last_trace));
+    return fit;
   }
 
   /// A point of the search: x = log p, u = 1/p, r = F/S − 1 and dr/du.
