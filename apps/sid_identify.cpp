@@ -2,6 +2,7 @@
 // angles and torques (derivatives by raw differences, filtered differences or the smoothing
 // spline, then least squares) and print the estimate with its statistics.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -38,13 +39,29 @@ Methods (--method):
   filtered  the same differences, then q, qd, qdd each filtered forward-backward by Butterworth
             low-pass filters (orders 3, 3, 4; cut-offs 0.05, 0.015, 0.01 of Nyquist, the paper's
             10, 3, 2 Hz at 400 Hz sampling)
-  css       (default) cubic smoothing spline per joint (Reinsch): the smoothest curve g with
-            sum(((g(t_i) - q_i) / dq)^2) <= S; derivatives analytic. dq = --sigma-q is the
-            standard deviation of the angle noise [rad] (one value for both joints, or two
-            comma-separated); S = --S, default the number of samples n. --sigma-q is required
-            unless --S is given, in which case dq = 1 (unit weights) unless --sigma-q is also
-            given; S is then a sum of squared residuals [rad^2]: --S n*sigma^2 is the same
-            constraint as --sigma-q sigma (n = number of samples in the file).
+  css       (default) cubic smoothing spline per joint (Reinsch); derivatives analytic. How
+            much it smooths is chosen by --smoothing (below).
+
+Smoothing of css (--smoothing):
+  gcv           (default without --sigma-q and --S) the penalty form
+                sum((g(t_i) - q_i)^2) + lambda * integral(g''^2) with lambda chosen from the
+                data by minimising generalized cross-validation, so no noise level is needed;
+                the residuals then estimate the angle noise: sigma_hat = sqrt(F / (n - tr A))
+                [rad], with tr A the equivalent degrees of freedom of the fit. One lambda per
+                joint for the whole record, chosen on the samples with t >= t_0 + 0.125 s (or
+                t_0 + skip/2 if that is smaller) so the start transient does not pull it down.
+  cv            the same with ordinary leave-one-out cross-validation.
+  s-constraint  (default with --sigma-q or --S; the paper's choice) the smoothest g with
+                sum(((g(t_i) - q_i) / dq)^2) <= S. dq = --sigma-q is the standard deviation of
+                the angle noise [rad] (one value for both joints, or two comma-separated);
+                S = --S, default the number of samples n. With --S alone dq = 1 (unit
+                weights) and S is a sum of squared residuals [rad^2]: --S n*sigma^2 is the
+                same constraint as --sigma-q sigma (n = number of samples in the file).
+  lambda        the penalty form with a given --lambda V > 0 and weights 1/dq^2 (needs
+                --sigma-q): SciPy's make_smoothing_spline(t, q, w=1/dq^2, lam=V). lambda = 1/p.
+                --lambda alone implies --smoothing lambda.
+--S goes only with s-constraint and --lambda only with lambda; gcv and cv take neither, nor
+--sigma-q (they estimate the noise level themselves).
 
 Window: samples with t < t_0 + --skip are not used (the start transient). Default 0.25 s,
 for the filtered method 1.7475 s (filter start-up).
@@ -53,21 +70,27 @@ Output (standard output): per parameter the estimate, its standard deviation (fr
 variance and (X^T X)^-1), the relative standard deviation in %, the unit and, with --true, the
 true value and the error 100 (estimate - true)/|true| in %; then the residual RMS per joint
 [N m], the samples used, the 2-norm condition number of the column-scaled regressor, for css the
-smoothing parameter p per joint (p in Reinsch's S-form: lambda = 1/p), and any warning.
+smoothing per joint (Reinsch's p, lambda = 1/p, tr A = the equivalent degrees of freedom, and
+for gcv/cv the estimated angle noise sigma_hat [rad]), and any warning.
 Units: theta1..theta3 [kg m^2], theta4, theta5 [kg m], theta6, theta7 [N m s/rad].
 
 --json FILE also writes the result as JSON: names, units, theta, std, rel_std_pct,
 residual_rms, condition_number, ill_conditioned, warning, method, samples_used, samples_total,
-skip, smoothing_p (null unless css), sigma_q, S, and with --true also true and error_pct.
+skip, smoothing_p (null unless css), sigma_q (null unless s-constraint or lambda), S (null
+unless s-constraint), smoothing (null unless css): {mode, lambda, trace, sigma_hat, p,
+cross_validation_skip}, each but mode a [joint 1, joint 2] array (null where not computed:
+sigma_hat outside gcv/cv), and with --true also true and error_pct.
 
 Exit codes: 0 success, 2 bad input or options, or a regressor whose columns are linearly
 dependent (the data do not excite every parameter; the message names the columns), 1 internal
 error.
 
 Examples:
+  sid_identify log.csv
   sid_identify --sigma-q 1e-3 log.csv
+  sid_identify --smoothing cv --json result.json log.csv
   sid_identify --method filtered --json result.json log.csv
-  sid_simulate | sid_identify --sigma-q 1e-3 -
+  sid_simulate | sid_identify -
 )";
 
 const char* const kUnits[7] = {"kg m^2", "kg m^2", "kg m^2", "kg m", "kg m", "N m s/rad",
@@ -78,6 +101,8 @@ struct Options {
   std::string method = "css";
   std::string sigma_q;
   std::optional<double> S;
+  std::string smoothing;
+  std::optional<double> lambda;
   std::optional<double> skip;
   std::string truth;
   std::string json;
@@ -91,9 +116,16 @@ void define_options(CLI::App& cli, Options& o) {
       ->capture_default_str();
   cli.add_option("--sigma-q", o.sigma_q,
                  "css: standard deviation dq of the angle noise [rad], one value or two "
-                 "(joint 1,joint 2); required for css unless --S is given");
+                 "(joint 1,joint 2); selects --smoothing s-constraint unless a mode is given");
   cli.add_option("--S", o.S,
-                 "css: constraint sum(((g - q)/dq)^2) <= S, S >= 0 (default: number of samples)");
+                 "css s-constraint: sum(((g - q)/dq)^2) <= S, S >= 0 (default: number of "
+                 "samples)");
+  cli.add_option("--smoothing", o.smoothing,
+                 "css: s-constraint, gcv, cv or lambda (default: s-constraint with --sigma-q or "
+                 "--S, lambda with --lambda, otherwise gcv)");
+  cli.add_option("--lambda", o.lambda,
+                 "css lambda mode: penalty weight lambda > 0 with weights 1/dq^2 (needs "
+                 "--sigma-q)");
   cli.add_option("--skip", o.skip,
                  "drop samples with t < t_0 + SKIP [s] (default 0.25; filtered: 1.7475)");
   cli.add_option("--true", o.truth,
@@ -115,6 +147,8 @@ std::string fixed(const char* format, double v) {
   return buffer;
 }
 
+sid::IdentifyOptions finish_window(const Options& o, sid::IdentifyOptions options);
+
 sid::IdentifyOptions make_options(const Options& o) {
   using sid::app::require;
   sid::IdentifyOptions options;
@@ -130,6 +164,9 @@ sid::IdentifyOptions make_options(const Options& o) {
             "--S must be a finite number >= 0, got " + short_number(*o.S));
     options.S = *o.S;
   }
+  if (o.lambda)
+    require(std::isfinite(*o.lambda) && *o.lambda > 0.0,
+            "--lambda must be a finite number > 0, got " + short_number(*o.lambda));
   if (!o.sigma_q.empty()) {
     const std::vector<double> s = sid::app::parse_doubles(o.sigma_q, "--sigma-q");
     require(s.size() == 1 || s.size() == 2,
@@ -138,22 +175,113 @@ sid::IdentifyOptions make_options(const Options& o) {
       require(s[j] > 0.0, "--sigma-q must be > 0 [rad], got " + short_number(s[j]) +
                               (s.size() == 2 ? " (joint " + std::to_string(j + 1) + ")" : ""));
     options.sigma_q = sid::Vector2<double>(s.front(), s.back());
-  } else if (css) {
-    require(o.S.has_value(),
-            "--method css needs --sigma-q V: the standard deviation of the angle noise [rad] "
-            "(or --S V to give the smoothing constraint directly, with unit weights)");
-    options.sigma_q = sid::Vector2<double>::Ones();
   }
-  if (!css && (o.S || !o.sigma_q.empty()))
-    std::cerr << kName << ": note: --sigma-q and --S only apply to --method css; ignored for "
-              << o.method << "\n";
+  // The smoothing mode: given, or implied by the other options.
+  sid::SmoothingMode mode = sid::SmoothingMode::Gcv;
+  if (!o.smoothing.empty()) {
+    try {
+      mode = sid::parse_smoothing_mode(o.smoothing);
+    } catch (const std::invalid_argument&) {
+      throw sid::app::InputError("--smoothing: unknown mode '" + o.smoothing +
+                                 "' (expected s-constraint, gcv, cv or lambda)");
+    }
+  } else if (o.lambda) {
+    mode = sid::SmoothingMode::Lambda;
+  } else if (o.S || !o.sigma_q.empty()) {
+    mode = sid::SmoothingMode::SConstraint;
+  }
+  options.smoothing = mode;
+  if (!css) {
+    if (o.S || !o.sigma_q.empty() || !o.smoothing.empty() || o.lambda)
+      std::cerr << kName
+                << ": note: --sigma-q, --S, --smoothing and --lambda only apply to --method "
+                   "css; ignored for "
+                << o.method << "\n";
+    return finish_window(o, options);
+  }
+  const std::string name = sid::smoothing_mode_name(mode);
+  switch (mode) {
+    case sid::SmoothingMode::SConstraint:
+      require(!o.lambda, "--lambda does not apply to --smoothing s-constraint (use --S, or "
+                         "--smoothing lambda)");
+      require(o.S || !o.sigma_q.empty(),
+              "--smoothing s-constraint needs --sigma-q V: the standard deviation of the angle "
+              "noise [rad] (or --S V to give the constraint directly, with unit weights); "
+              "without either use --smoothing gcv");
+      if (o.sigma_q.empty()) options.sigma_q = sid::Vector2<double>::Ones();
+      break;
+    case sid::SmoothingMode::Gcv:
+    case sid::SmoothingMode::Cv:
+      require(!o.S, "--S does not apply to --smoothing " + name +
+                        " (it chooses lambda from the data); use --smoothing s-constraint");
+      require(!o.lambda, "--lambda does not apply to --smoothing " + name +
+                             " (it chooses lambda from the data); use --smoothing lambda");
+      require(o.sigma_q.empty(),
+              "--sigma-q does not apply to --smoothing " + name +
+                  " (it estimates the noise level from the data); use --smoothing "
+                  "s-constraint or lambda");
+      break;
+    case sid::SmoothingMode::Lambda:
+      require(o.lambda.has_value(),
+              "--smoothing lambda needs --lambda V (the penalty weight, > 0)");
+      require(!o.S, "--S does not apply to --smoothing lambda (use --smoothing s-constraint)");
+      require(!o.sigma_q.empty(),
+              "--smoothing lambda needs --sigma-q V: the weights are 1/sigma_q^2 [rad^-2]");
+      options.lambda = *o.lambda;
+      break;
+  }
+  return finish_window(o, options);
+}
+
+// The window options (--skip), last step of make_options.
+sid::IdentifyOptions finish_window(const Options& o, sid::IdentifyOptions options) {
+  using sid::app::require;
   if (o.skip) {
     require(std::isfinite(*o.skip) && *o.skip >= 0.0,
             "--skip must be a finite number >= 0 [s], got " + short_number(*o.skip));
     options.skip = *o.skip;
     options.filtered_skip = *o.skip;
+    // GCV/CV fit from t_0 + cross_validation_skip: keep that inside the window, with room for
+    // the end effect of the natural spline.
+    options.cross_validation_skip = std::min(options.cross_validation_skip, 0.5 * *o.skip);
   }
   return options;
+}
+
+// [joint 1, joint 2] with null for NaN (and for infinity: JSON has neither).
+nlohmann::json json_pair(const sid::Vector2<double>& v) {
+  nlohmann::json out = nlohmann::json::array();
+  for (int k = 0; k < 2; ++k)
+    out.push_back(std::isfinite(v[k]) ? nlohmann::json(v[k]) : nlohmann::json(nullptr));
+  return out;
+}
+
+// tr A of the s-constraint and lambda fits, which the pipeline does not compute: the sum of
+// the leverages of the penalty form at the p found, on the same grid and weights (O(n)).
+void fill_trace(const sid::Trajectory<double>& data, const sid::IdentifyOptions& options,
+                sid::SmoothingReport& report) {
+  if (options.method != sid::DerivativeMethod::SmoothingSpline) return;
+  if (options.smoothing != sid::SmoothingMode::SConstraint &&
+      options.smoothing != sid::SmoothingMode::Lambda)
+    return;
+  const sid::SmoothingSpline<double> spline(data.t);
+  const auto n = static_cast<double>(data.size());
+  for (int j = 0; j < 2; ++j) {
+    if (!std::isnan(report.trace[j])) continue;
+    const double p = report.p[j];
+    if (p == 0.0) {
+      report.trace[j] = 2.0;  // the straight line
+    } else if (std::isinf(p)) {
+      report.trace[j] = n;  // interpolation
+    } else if (p > 0.0) {
+      try {
+        const Eigen::VectorXd dq = Eigen::VectorXd::Constant(data.size(), options.sigma_q[j]);
+        report.trace[j] = spline.hat_diagonal(dq, p).sum();
+      } catch (const std::exception&) {
+        // leave NaN ("n/a"): the report is still useful without it
+      }
+    }
+  }
 }
 
 // The least-squares warning without its "sid::least_squares: warning: " prefix.
@@ -218,11 +346,46 @@ Report make_report(const sid::IdentifyOptions& options,
       << " equations; skip " << short_number(skip) << " s)\n";
   out << "condition number (column-scaled regressor): " << short_number(fit.condition_number)
       << "\n";
-  if (css)
-    out << "smoothing p (css): joint 1 " << short_number(id.smoothing_p[0]) << ", joint 2 "
-        << short_number(id.smoothing_p[1]) << " (sigma_q = " << short_number(options.sigma_q[0])
-        << ", " << short_number(options.sigma_q[1]) << " rad; S = "
-        << short_number(options.S.value_or(static_cast<double>(table.rows()))) << ")\n";
+  const sid::SmoothingReport& sm = id.smoothing;
+  const bool cross_validated = options.smoothing == sid::SmoothingMode::Gcv ||
+                               options.smoothing == sid::SmoothingMode::Cv;
+  if (css) {
+    out << "smoothing (css): " << sid::smoothing_mode_name(options.smoothing);
+    switch (options.smoothing) {
+      case sid::SmoothingMode::SConstraint:
+        out << " (sigma_q = " << short_number(options.sigma_q[0]) << ", "
+            << short_number(options.sigma_q[1]) << " rad; S = "
+            << short_number(options.S.value_or(static_cast<double>(table.rows()))) << ")";
+        break;
+      case sid::SmoothingMode::Gcv:
+      case sid::SmoothingMode::Cv:
+        out << " (lambda chosen by "
+            << (options.smoothing == sid::SmoothingMode::Gcv ? "generalized" : "leave-one-out")
+            << " cross-validation on t >= "
+            << short_number(table.column("t")[0] + options.cross_validation_skip) << " s)";
+        break;
+      case sid::SmoothingMode::Lambda:
+        out << " (lambda = " << short_number(options.lambda) << ", sigma_q = "
+            << short_number(options.sigma_q[0]) << ", " << short_number(options.sigma_q[1])
+            << " rad)";
+        break;
+    }
+    out << "\n";
+    std::snprintf(line, sizeof line, "  %-7s %13s %13s %13s", "joint", "p", "lambda",
+                  "tr A (dof)");
+    out << line << (cross_validated ? "  sigma_hat [rad]" : "") << "\n";
+    for (int jt = 0; jt < 2; ++jt) {
+      std::snprintf(line, sizeof line, "  %-7d %13s %13s %13s", jt + 1,
+                    fixed("%.6g", sm.p[jt]).c_str(), fixed("%.6g", sm.lambda[jt]).c_str(),
+                    fixed("%.2f", sm.trace[jt]).c_str());
+      out << line;
+      if (cross_validated) {
+        std::snprintf(line, sizeof line, "  %15s", fixed("%.4g", sm.sigma[jt]).c_str());
+        out << line;
+      }
+      out << "\n";
+    }
+  }
   if (fit.ill_conditioned) out << "warning: " << warning_text(fit.message) << "\n";
 
   nlohmann::json j;
@@ -242,9 +405,24 @@ Report make_report(const sid::IdentifyOptions& options,
   j["skip"] = skip;
   j["t_first_used"] = id.kinematics.t[0];
   j["smoothing_p"] = css ? sid::app::to_json_array(id.smoothing_p) : nlohmann::json(nullptr);
-  j["sigma_q"] = css ? sid::app::to_json_array(options.sigma_q) : nlohmann::json(nullptr);
-  j["S"] = css ? nlohmann::json(options.S.value_or(static_cast<double>(table.rows())))
-               : nlohmann::json(nullptr);
+  const bool weighted = css && !cross_validated;
+  const bool constrained = css && options.smoothing == sid::SmoothingMode::SConstraint;
+  j["sigma_q"] = weighted ? sid::app::to_json_array(options.sigma_q) : nlohmann::json(nullptr);
+  j["S"] = constrained ? nlohmann::json(options.S.value_or(static_cast<double>(table.rows())))
+                       : nlohmann::json(nullptr);
+  if (css) {
+    nlohmann::json s;
+    s["mode"] = sid::smoothing_mode_name(options.smoothing);
+    s["lambda"] = json_pair(sm.lambda);
+    s["trace"] = json_pair(sm.trace);
+    s["sigma_hat"] = json_pair(sm.sigma);
+    s["p"] = json_pair(sm.p);
+    s["cross_validation_skip"] =
+        cross_validated ? nlohmann::json(options.cross_validation_skip) : nlohmann::json(nullptr);
+    j["smoothing"] = s;
+  } else {
+    j["smoothing"] = nullptr;
+  }
   if (truth) {
     j["true"] = sid::app::to_json_array(*truth);
     j["error_pct"] = sid::app::to_json_array(error_pct);
@@ -272,6 +450,7 @@ int identify(const Options& o) {
   } catch (const std::invalid_argument& e) {
     throw sid::app::InputError(table.source + ": " + e.what());
   }
+  fill_trace(data, options, id.smoothing);
   if (!id.fit.ok())
     throw sid::app::InputError(table.source + ": the parameters cannot be identified from these "
                                               "data: " +

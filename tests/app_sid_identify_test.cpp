@@ -132,7 +132,9 @@ TEST_F(SidIdentify, HelpExplainsEveryOptionAndExitsZero) {
   EXPECT_EQ(r.exit_code, 0) << r.err;
   for (const char* word : {"--method", "raw", "filtered", "css", "--sigma-q", "--S", "--skip",
                            "--true", "--json", "--force", "0.25", "1.7475", "[rad]", "kg m^2",
-                           "N m s/rad", "rel_std_pct", "Exit codes"})
+                           "N m s/rad", "rel_std_pct", "Exit codes", "--smoothing",
+                           "s-constraint", "gcv", "cv", "--lambda", "sigma_hat", "tr A",
+                           "degrees of freedom"})
     EXPECT_NE(r.out.find(word), std::string::npos) << "help does not mention " << word;
 }
 
@@ -172,7 +174,7 @@ TEST_F(SidIdentify, JsonHasEveryDocumentedKey) {
   for (const char* key : {"theta", "std", "rel_std_pct", "names", "units", "residual_rms",
                           "condition_number", "method", "samples_used", "samples_total",
                           "smoothing_p", "sigma_q", "S", "skip", "ill_conditioned", "warning",
-                          "true", "error_pct"})
+                          "true", "error_pct", "smoothing"})
     EXPECT_TRUE(j.contains(key)) << "no key " << key;
   EXPECT_EQ(j["names"], (std::vector<std::string>{"theta1", "theta2", "theta3", "theta4",
                                                   "theta5", "theta6", "theta7"}));
@@ -203,7 +205,7 @@ TEST_F(SidIdentify, TablePrintsEstimatesTruthErrorsAndFitStatistics) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   for (const char* word : {"theta1", "theta7", "estimate", "std", "rel.std %", "true", "error %",
                            "residual RMS", "samples used: 3901", "condition number",
-                           "smoothing p", "kg m^2", "0.6189"})
+                           "smoothing (css)", "kg m^2", "0.6189"})
     EXPECT_NE(r.out.find(word), std::string::npos) << "report lacks " << word << "\n" << r.out;
   EXPECT_EQ(r.out.find("warning"), std::string::npos) << r.out;
   const AppRun plain = identify("--sigma-q 1e-5 run.csv");
@@ -242,14 +244,15 @@ TEST_F(SidIdentify, ColumnOrderExtraColumnsAndCommentsDoNotChangeTheResult) {
   EXPECT_EQ(numbers(a["sigma_q"]), (std::vector<double>{1e-4, 2e-4}));
 }
 
-TEST_F(SidIdentify, CssNeedsSigmaQUnlessSIsGiven) {
+TEST_F(SidIdentify, SConstraintNeedsSigmaQUnlessSIsGiven) {
   simulate("run.csv", "--T 2");  // 801 samples, sigma_q^2 = 1e-6
-  expect_input_error("run.csv", "--sigma-q");
+  expect_input_error("--smoothing s-constraint run.csv", "--sigma-q");
   // With --S alone the weights are 1, so S is a sum of squared residuals [rad^2]:
   // S = n sigma_q^2 is the same constraint as --sigma-q sigma_q with the default S = n.
   const nlohmann::json by_s = identify_json("--S 8.01e-4 run.csv");
   EXPECT_EQ(numbers(by_s["sigma_q"]), (std::vector<double>{1.0, 1.0}));
   EXPECT_EQ(by_s["S"].get<double>(), 8.01e-4);
+  EXPECT_EQ(by_s["smoothing"]["mode"], "s-constraint");
   const nlohmann::json by_sigma = identify_json("--sigma-q 1e-3 run.csv");
   EXPECT_EQ(by_sigma["S"].get<double>(), 801.0);
   const auto a = numbers(by_s["theta"]), b = numbers(by_sigma["theta"]);
@@ -302,6 +305,18 @@ TEST_F(SidIdentify, BadInputExitsTwoWithAClearMessage) {
       {"--sigma-q 1e-3 --true 1,2,3 run.csv", "--true needs 7 values, got 3"},
       {"--sigma-q 1e-3 --json no_dir/r.json run.csv", "no_dir"},
       {"--sigma-q 1e-3", "INPUT"},
+      {"--smoothing fancy run.csv", "--smoothing: unknown mode 'fancy'"},
+      {"--smoothing gcv --S 100 run.csv", "--S does not apply to --smoothing gcv"},
+      {"--smoothing cv --S 100 run.csv", "--S does not apply to --smoothing cv"},
+      {"--smoothing gcv --sigma-q 1e-3 run.csv", "--sigma-q does not apply to --smoothing gcv"},
+      {"--smoothing gcv --lambda 1 run.csv", "--lambda does not apply to --smoothing gcv"},
+      {"--smoothing lambda --sigma-q 1e-3 run.csv", "--smoothing lambda needs --lambda"},
+      {"--lambda 1e-4 run.csv", "--smoothing lambda needs --sigma-q"},
+      {"--lambda 0 --sigma-q 1e-3 run.csv", "--lambda must be a finite number > 0, got 0"},
+      {"--lambda -2 --sigma-q 1e-3 run.csv", "--lambda must be a finite number > 0, got -2"},
+      {"--lambda 1 --S 10 --sigma-q 1e-3 run.csv", "--S does not apply to --smoothing lambda"},
+      {"--smoothing s-constraint --lambda 1 --sigma-q 1e-3 run.csv",
+       "--lambda does not apply to --smoothing s-constraint"},
   };
   for (const auto& [args, what] : cases) expect_input_error(args, what);
 }
@@ -344,4 +359,106 @@ TEST_F(SidIdentify, RefusesToOverwriteTheJsonWithoutForce) {
   const AppRun forced = identify("--sigma-q 1e-3 --json r.json --force run.csv");
   EXPECT_EQ(forced.exit_code, 0) << forced.err;
   EXPECT_EQ(nlohmann::json::parse(read(file("r.json")))["samples_used"], 301);
+}
+
+TEST_F(SidIdentify, GcvByDefaultRecoversThetaAndEstimatesTheAngleNoise) {
+  // No --sigma-q: GCV chooses lambda per joint and the residuals estimate sigma_q = 1e-3 rad.
+  simulate("run.csv", "--sigma-q2 1e-6");
+  const nlohmann::json j = identify_json("run.csv");
+  ASSERT_TRUE(j.contains("smoothing")) << j.dump();
+  const nlohmann::json& s = j["smoothing"];
+  EXPECT_EQ(s["mode"], "gcv");
+  EXPECT_TRUE(j["sigma_q"].is_null());
+  EXPECT_TRUE(j["S"].is_null());
+  const auto sigma_hat = numbers(s["sigma_hat"]), lambda = numbers(s["lambda"]);
+  const auto trace = numbers(s["trace"]), p = numbers(s["p"]);
+  ASSERT_EQ(sigma_hat.size(), 2u);
+  ASSERT_EQ(lambda.size(), 2u);
+  ASSERT_EQ(trace.size(), 2u);
+  ASSERT_EQ(p.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_NEAR(sigma_hat[k] / 1e-3, 1.0, 0.2) << "joint " << k + 1;
+    EXPECT_GT(lambda[k], 0.0) << "joint " << k + 1;
+    EXPECT_NEAR(p[k] * lambda[k], 1.0, 1e-12) << "joint " << k + 1;
+    EXPECT_GT(trace[k], 2.0) << "joint " << k + 1;  // more than the straight line
+    EXPECT_LT(trace[k], 0.5 * j["samples_total"].get<double>()) << "joint " << k + 1;
+  }
+  EXPECT_EQ(numbers(j["smoothing_p"]), p);
+  const auto theta = numbers(j["theta"]);
+  const sid::TwoLinkParameters<double> truth = sid::paper_arm_parameters();
+  ASSERT_EQ(theta.size(), 7u);
+  for (int k = 0; k < 7; ++k)
+    EXPECT_NEAR(theta[static_cast<std::size_t>(k)] / truth[k], 1.0, 0.05) << "theta" << k + 1;
+}
+
+TEST_F(SidIdentify, CrossValidationModeAgreesWithGcv) {
+  simulate("run.csv", "--sigma-q2 1e-6");
+  const nlohmann::json cv = identify_json("--smoothing cv run.csv");
+  const nlohmann::json gcv = identify_json("--smoothing gcv run.csv");
+  ASSERT_TRUE(cv.contains("smoothing")) << cv.dump();
+  ASSERT_TRUE(gcv.contains("smoothing")) << gcv.dump();
+  EXPECT_EQ(cv["smoothing"]["mode"], "cv");
+  const auto sigma_cv = numbers(cv["smoothing"]["sigma_hat"]);
+  const auto lambda_cv = numbers(cv["smoothing"]["lambda"]);
+  const auto lambda_gcv = numbers(gcv["smoothing"]["lambda"]);
+  ASSERT_EQ(sigma_cv.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_NEAR(sigma_cv[k] / 1e-3, 1.0, 0.2) << "joint " << k + 1;
+    EXPECT_NE(lambda_cv[k], lambda_gcv[k]) << "joint " << k + 1;  // a different criterion
+    EXPECT_NEAR(std::log10(lambda_cv[k] / lambda_gcv[k]), 0.0, 0.5) << "joint " << k + 1;
+  }
+  const auto a = numbers(cv["theta"]), b = numbers(gcv["theta"]);
+  ASSERT_EQ(a.size(), 7u);
+  for (std::size_t k = 0; k < 7; ++k) EXPECT_NEAR(a[k] / b[k], 1.0, 0.02) << "theta" << k + 1;
+}
+
+TEST_F(SidIdentify, TableReportsLambdaDegreesOfFreedomAndNoiseEstimate) {
+  simulate("run.csv", "--T 2");
+  const AppRun gcv = identify("run.csv");
+  ASSERT_EQ(gcv.exit_code, 0) << gcv.err;
+  for (const char* word : {"smoothing (css): gcv", "generalized cross-validation", "lambda",
+                           "tr A (dof)", "sigma_hat [rad]"})
+    EXPECT_NE(gcv.out.find(word), std::string::npos) << "report lacks " << word << "\n" << gcv.out;
+  const AppRun constrained = identify("--sigma-q 1e-3 run.csv");
+  ASSERT_EQ(constrained.exit_code, 0) << constrained.err;
+  EXPECT_NE(constrained.out.find("smoothing (css): s-constraint"), std::string::npos)
+      << constrained.out;
+  EXPECT_NE(constrained.out.find("tr A (dof)"), std::string::npos) << constrained.out;
+  EXPECT_EQ(constrained.out.find("sigma_hat"), std::string::npos) << constrained.out;
+}
+
+TEST_F(SidIdentify, SConstraintAndLambdaModesReportDegreesOfFreedomButNoNoiseEstimate) {
+  simulate("run.csv", "--T 2");
+  const nlohmann::json by_sigma = identify_json("--sigma-q 1e-3 run.csv");
+  ASSERT_TRUE(by_sigma.contains("smoothing")) << by_sigma.dump();
+  const nlohmann::json& s = by_sigma["smoothing"];
+  EXPECT_EQ(s["mode"], "s-constraint");
+  EXPECT_TRUE(s["sigma_hat"][0].is_null());
+  EXPECT_TRUE(s["sigma_hat"][1].is_null());
+  EXPECT_TRUE(s["cross_validation_skip"].is_null());
+  const auto trace = numbers(s["trace"]), lambda = numbers(s["lambda"]);
+  ASSERT_EQ(trace.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_GT(trace[k], 2.0) << k;
+    EXPECT_LT(trace[k], 801.0) << k;
+  }
+  // The penalty form at the lambda the constraint found is the same fit.
+  const nlohmann::json by_lambda = identify_json("--sigma-q 1e-3 --smoothing lambda --lambda " +
+                                                 sid::app::format_double(lambda[0]) + " run.csv");
+  ASSERT_TRUE(by_lambda.contains("smoothing")) << by_lambda.dump();
+  EXPECT_EQ(by_lambda["smoothing"]["mode"], "lambda");
+  EXPECT_TRUE(by_lambda["S"].is_null());
+  EXPECT_NEAR(by_lambda["smoothing"]["trace"][0].get<double>() / trace[0], 1.0, 1e-6);
+  EXPECT_NEAR(by_lambda["smoothing"]["lambda"][1].get<double>(), lambda[0], 1e-12 * lambda[0]);
+  // --lambda alone (with --sigma-q) selects the lambda mode.
+  const nlohmann::json implied = identify_json("--sigma-q 1e-3 --lambda 1e-3 run.csv");
+  ASSERT_TRUE(implied.contains("smoothing")) << implied.dump();
+  EXPECT_EQ(implied["smoothing"]["mode"], "lambda");
+}
+
+TEST_F(SidIdentify, NonSplineMethodsHaveNoSmoothingReport) {
+  simulate("run.csv", "--T 1");
+  const nlohmann::json raw = identify_json("--method raw run.csv");
+  EXPECT_TRUE(raw.contains("smoothing"));
+  EXPECT_TRUE(raw["smoothing"].is_null());
 }

@@ -12,6 +12,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include "csv.hpp"
 
@@ -110,13 +111,48 @@ void expect_line(const sid::app::CsvTable& table, const std::string& name, doubl
   }
 }
 
+// n samples of sin(t) + N(0, sigma^2) on t = 0, 0.005, ... (fixed seed).
+std::string noisy_sine_csv(int n, double sigma, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma);
+  std::string text = "t,q\n";
+  for (int i = 0; i < n; ++i) {
+    const double t = 0.005 * i;
+    text +=
+        sid::app::format_double(t) + "," + sid::app::format_double(std::sin(t) + noise(rng)) + "\n";
+  }
+  return text;
+}
+
+// The number after "key = " in text (NaN if absent).
+double reported(const std::string& text, const std::string& key) {
+  const auto at = text.find(key + " = ");
+  if (at == std::string::npos) return std::nan("");
+  return std::strtod(text.c_str() + at + key.size() + 3, nullptr);
+}
+
+// RMS errors of q_d against cos t and q_dd against -sin t, away from the ends.
+std::pair<double, double> sine_derivative_rms(const sid::app::CsvTable& table,
+                                              Eigen::Index margin) {
+  const Eigen::VectorXd t = table.column("t");
+  const Eigen::Index len = t.size() - 2 * margin;
+  const Eigen::ArrayXd ts = t.segment(margin, len).array();
+  const double d_rms =
+      std::sqrt((table.column("q_d").segment(margin, len).array() - ts.cos()).square().mean());
+  const double dd_rms =
+      std::sqrt((table.column("q_dd").segment(margin, len).array() + ts.sin()).square().mean());
+  return {d_rms, dd_rms};
+}
+
 }  // namespace
 
 TEST_F(SidSmooth, HelpExplainsEveryOptionAndExitsZero) {
   const AppRun r = run("--help");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   for (const char* word : {"--time", "--signal", "--sigma", "--weights", "--S", "--lambda",
-                           "--output", "--force", "--quiet", "S = n", "lambda = 1/p", "_dd"})
+                           "--output", "--force", "--quiet", "S = n", "lambda = 1/p", "_dd",
+                           "--smoothing", "s-constraint", "gcv", "cv", "tr A", "sigma_hat",
+                           "degrees of freedom"})
     EXPECT_NE(r.out.find(word), std::string::npos) << "help does not mention " << word;
 }
 
@@ -240,7 +276,7 @@ TEST_F(SidSmooth, ReportsMissingColumns) {
 
 TEST_F(SidSmooth, ReportsBadOptionValues) {
   write("line.csv", line_csv());
-  expect_input_error("line.csv", "no noise level: give --sigma");
+  expect_input_error("--smoothing s-constraint line.csv", "needs a noise level: give --sigma");
   expect_input_error("--sigma 0 line.csv", "--sigma must be > 0, got 0");
   expect_input_error("--sigma -1 line.csv", "--sigma must be > 0, got -1");
   expect_input_error("--sigma 1,-2 line.csv", "--sigma must be > 0, got -2 (for z)");
@@ -272,4 +308,93 @@ TEST_F(SidSmooth, SZeroInterpolatesTheData) {
   const auto table = parse_output(r.out);
   const Eigen::VectorXd expected = (Eigen::VectorXd(5) << 0, 1, 0, 1, 0).finished();
   EXPECT_LT((table.column("y") - expected).cwiseAbs().maxCoeff(), kExactTol);
+}
+
+TEST_F(SidSmooth, GcvByDefaultEstimatesTheNoiseAndRecoversDerivativesOfNoisySine) {
+  write("sine.csv", noisy_sine_csv(2000, 0.01, 11));
+  const AppRun r = run("-o out.csv sine.csv");  // no --sigma: gcv
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("(gcv)"), std::string::npos) << r.err;
+  const double sigma_hat = reported(r.err, "sigma_hat");
+  EXPECT_NEAR(sigma_hat / 0.01, 1.0, 0.1) << r.err;
+  const double trace = reported(r.err, "tr A");
+  EXPECT_GT(trace, 2.0) << r.err;
+  EXPECT_LT(trace, 200.0) << r.err;
+  EXPECT_NEAR(reported(r.err, "p") * reported(r.err, "lambda"), 1.0, 1e-5) << r.err;
+  const auto table = sid::app::read_csv(file("out.csv"));
+  ASSERT_EQ(table.rows(), 2000);
+  const auto [d_rms, dd_rms] = sine_derivative_rms(table, 200);
+  EXPECT_LT(d_rms, 0.012);
+  EXPECT_LT(dd_rms, 0.1);
+}
+
+TEST_F(SidSmooth, CrossValidationModeMatchesGcvOnNoisySine) {
+  write("sine.csv", noisy_sine_csv(2000, 0.01, 11));
+  const AppRun r = run("--smoothing cv -o out.csv sine.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("(cv)"), std::string::npos) << r.err;
+  EXPECT_NEAR(reported(r.err, "sigma_hat") / 0.01, 1.0, 0.1) << r.err;
+  const auto [d_rms, dd_rms] = sine_derivative_rms(sid::app::read_csv(file("out.csv")), 200);
+  EXPECT_LT(d_rms, 0.012);
+  EXPECT_LT(dd_rms, 0.1);
+}
+
+TEST_F(SidSmooth, SigmaOnlySetsRelativeWeightsUnderGcv) {
+  write("sine.csv", noisy_sine_csv(500, 0.01, 5));
+  const AppRun plain = run("--smoothing gcv sine.csv");
+  const AppRun scaled = run("--smoothing gcv --sigma 0.5 sine.csv");
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  ASSERT_EQ(scaled.exit_code, 0) << scaled.err;
+  // sigma_hat stays in the signal's units; lambda is in the weighted convention (w = 1/dy^2).
+  EXPECT_NEAR(reported(scaled.err, "sigma_hat") / reported(plain.err, "sigma_hat"), 1.0, 1e-4)
+      << plain.err << scaled.err;
+  EXPECT_NEAR(reported(scaled.err, "lambda") * 0.25 / reported(plain.err, "lambda"), 1.0, 1e-3)
+      << plain.err << scaled.err;
+  const auto a = parse_output(plain.out), b = parse_output(scaled.out);
+  EXPECT_LT((a.column("q_d") - b.column("q_d")).cwiseAbs().maxCoeff(), 1e-4);
+}
+
+TEST_F(SidSmooth, StraightLineComesOutExactlyUnderGcv) {
+  write("line.csv", line_csv());
+  for (const char* args : {"line.csv", "--smoothing cv line.csv"}) {
+    const AppRun r = run(args);
+    ASSERT_EQ(r.exit_code, 0) << args << "\n" << r.err;
+    const auto table = parse_output(r.out);
+    ASSERT_EQ(table.rows(), 40) << args;
+    expect_line(table, "y", 2.0, 3.0);
+    expect_line(table, "z", -1.0, -0.5);
+    EXPECT_NE(r.err.find("tr A = "), std::string::npos) << args << "\n" << r.err;
+  }
+}
+
+TEST_F(SidSmooth, ModeIsImpliedByTheOtherOptions) {
+  write("line.csv", line_csv());
+  EXPECT_NE(run("line.csv").err.find("(gcv)"), std::string::npos);
+  const AppRun by_sigma = run("--sigma 0.01 line.csv");
+  EXPECT_NE(by_sigma.err.find("(S = 40)"), std::string::npos) << by_sigma.err;
+  EXPECT_EQ(by_sigma.err.find("sigma_hat"), std::string::npos) << by_sigma.err;
+  const AppRun by_s = run("--S 1 line.csv");  // unit weights
+  ASSERT_EQ(by_s.exit_code, 0) << by_s.err;
+  EXPECT_NE(by_s.err.find("(S = 1)"), std::string::npos) << by_s.err;
+  const AppRun by_lambda = run("--lambda 1e-3 line.csv");  // unit weights
+  ASSERT_EQ(by_lambda.exit_code, 0) << by_lambda.err;
+  EXPECT_NEAR(reported(by_lambda.err, "lambda"), 1e-3, 1e-15) << by_lambda.err;
+  EXPECT_EQ(by_lambda.err.find("(S = "), std::string::npos) << by_lambda.err;
+  expect_line(parse_output(by_lambda.out), "y", 2.0, 3.0);
+}
+
+TEST_F(SidSmooth, BadSmoothingCombinationsExitTwo) {
+  write("line.csv", line_csv());
+  write("three.csv", "t,y\n0,1\n1,2\n2,4\n");
+  expect_input_error("--smoothing fancy line.csv", "--smoothing: unknown mode 'fancy'");
+  expect_input_error("--smoothing gcv --S 10 line.csv", "--S does not apply to --smoothing gcv");
+  expect_input_error("--smoothing cv --lambda 1 line.csv",
+                     "--lambda does not apply to --smoothing cv");
+  expect_input_error("--smoothing s-constraint --sigma 1 --lambda 1 line.csv",
+                     "--lambda does not apply to --smoothing s-constraint");
+  expect_input_error("--smoothing lambda --sigma 1 line.csv", "--smoothing lambda needs --lambda");
+  expect_input_error("--smoothing lambda --S 3 line.csv",
+                     "--S does not apply to --smoothing lambda");
+  expect_input_error("--smoothing s-constraint line.csv", "needs a noise level");
+  expect_input_error("three.csv", "--smoothing gcv needs at least 4 data rows, got 3");
 }

@@ -502,16 +502,25 @@ class SmoothingSpline {
       return a <= b ? sb(b - a, a) : sb(a - b, b);
     };
     Scalar trace(0);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const Scalar c0 = (i >= 2 && i - 2 < m) ? inv_h_[i - 1] : Scalar(0);
-      const Scalar c1 = (i >= 1 && i - 1 < m) ? -(inv_h_[i - 1] + inv_h_[i]) : Scalar(0);
-      const Scalar c2 = i < m ? inv_h_[i] : Scalar(0);
-      const Scalar q = c0 * c0 * S(i - 2, i - 2) + c1 * c1 * S(i - 1, i - 1) + c2 * c2 * S(i, i) +
-                       Scalar(2) * (c0 * c1 * S(i - 2, i - 1) + c1 * c2 * S(i - 1, i) + c0 * c2 * S(i - 2, i));
+    auto leverage = [&](Eigen::Index i, Scalar c0, Scalar c1, Scalar c2, Scalar s00, Scalar s11, Scalar s22,
+                        Scalar s01, Scalar s12, Scalar s02) {
+      const Scalar q = c0 * c0 * s00 + c1 * c1 * s11 + c2 * c2 * s22 +
+                       Scalar(2) * (c0 * c1 * s01 + c1 * c2 * s12 + c0 * c2 * s02);
       const Scalar a_ii = Scalar(1) - w.dy2(i) * q;
       trace += a_ii;
       if (leverages) (*leverages)[i] = a_ii;
-    }
+    };
+    auto edge = [&](Eigen::Index i) {  // rows whose Q entries fall partly outside the interior
+      const Scalar c0 = (i >= 2 && i - 2 < m) ? inv_h_[i - 1] : Scalar(0);
+      const Scalar c1 = (i >= 1 && i - 1 < m) ? -(inv_h_[i - 1] + inv_h_[i]) : Scalar(0);
+      const Scalar c2 = i < m ? inv_h_[i] : Scalar(0);
+      leverage(i, c0, c1, c2, S(i - 2, i - 2), S(i - 1, i - 1), S(i, i), S(i - 2, i - 1), S(i - 1, i), S(i - 2, i));
+    };
+    for (Eigen::Index i = 0; i < std::min<Eigen::Index>(2, n); ++i) edge(i);
+    for (Eigen::Index i = 2; i < m; ++i)  // the hot loop: all of Σ(i−2..i, i−2..i) exists
+      leverage(i, inv_h_[i - 1], -(inv_h_[i - 1] + inv_h_[i]), inv_h_[i], sb(0, i - 2), sb(0, i - 1), sb(0, i),
+               sb(1, i - 2), sb(1, i - 1), sb(2, i - 2));
+    for (Eigen::Index i = std::max<Eigen::Index>(2, m); i < n; ++i) edge(i);
     return trace;
   }
 
@@ -585,8 +594,8 @@ class SmoothingSpline {
       }
     }
     // Brent's minimisation on [best − 1 decade, best + 1 decade]; the criterion is smooth and
-    // flat near its minimum, so a tolerance of 1e-3 in log p is plenty.
-    Scalar chosen = detail::brent_minimize(value_at, best_x - decade, best_x + decade, best_x, best_v, Scalar(1e-3));
+    // flat near its minimum, so a tolerance of 0.5 % in p is plenty.
+    Scalar chosen = detail::brent_minimize(value_at, best_x - decade, best_x + decade, best_x, best_v, Scalar(5e-3));
     if (!(chosen == last_x)) value_at(chosen);  // the workspace must hold the chosen fit
     if (!(last_v < inf))
       throw SmoothingError("sid::SmoothingSpline::fit_cross_validated: no smoothing parameter gives a "
