@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "app_test_support.hpp"
 #include "csv.hpp"
 
 namespace fs = std::filesystem;
@@ -26,50 +27,10 @@ namespace {
 constexpr const char* kPaperTheta =
     "0.034015193438,0.003064135808,0.0045320492,0.13291456,0.01694224,0.6189,0.6189";
 
-struct AppRun {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
+using sid_test::AppRun;
 
-class SidIdentify : public ::testing::Test {
+class SidIdentify : public sid_test::AppTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("sid_identify_test_" + std::to_string(::getpid()) + "_" + info->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-
-  std::string file(const std::string& name) const { return (dir_ / name).string(); }
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream(file(name), std::ios::binary) << text;
-    return file(name);
-  }
-  static std::string read(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  }
-
-  // Runs a shell command line (naming the binaries through sim() and id()) in the temp dir.
-  AppRun shell(const std::string& command_line) const {
-    const std::string out = file("stdout.txt"), err = file("stderr.txt");
-    const std::string command = "cd '" + dir_.string() + "' && { " + command_line + " ; } >'" +
-                                out + "' 2>'" + err + "'";
-    const int status = std::system(command.c_str());
-    AppRun r;
-    if (status != -1 && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-    r.out = read(out);
-    r.err = read(err);
-    return r;
-  }
   static std::string sim() { return "'" SID_APP_DIR "/sid_simulate'"; }
   static std::string id() { return "'" SID_APP_DIR "/sid_identify'"; }
   AppRun identify(const std::string& args) const { return shell(id() + " " + args); }
@@ -100,7 +61,6 @@ class SidIdentify : public ::testing::Test {
     EXPECT_TRUE(r.out.empty()) << args << "\n" << r.out;
   }
 
-  fs::path dir_;
 };
 
 std::vector<double> numbers(const nlohmann::json& array) {

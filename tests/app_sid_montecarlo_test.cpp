@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "app_test_support.hpp"
 #include "csv.hpp"
 #include "plot.hpp"
 
@@ -22,46 +23,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct AppRun {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
+using sid_test::AppRun;
 
-class SidMonteCarlo : public ::testing::Test {
+class SidMonteCarlo : public sid_test::AppTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("sid_montecarlo_test_" + std::to_string(::getpid()) + "_" + info->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-
-  std::string file(const std::string& name) const { return (dir_ / name).string(); }
-  static std::string read(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  }
-
-  // Runs sid_montecarlo with args from inside the temp dir; env is prepended (e.g. "X=1 ").
+  // env is prepended to the command (e.g. "X=1 ").
   AppRun run(const std::string& args, const std::string& env = "") const {
-    const std::string out = file("stdout.txt"), err = file("stderr.txt");
-    const std::string command = "cd '" + dir_.string() + "' && " + env + "'" SID_APP_DIR
-                                "/sid_montecarlo' " + args + " >'" + out + "' 2>'" + err + "'";
-    const int status = std::system(command.c_str());
-    AppRun r;
-    // A crash (signal) leaves exit_code at -1, which every test rejects.
-    if (status != -1 && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-    r.out = read(out);
-    r.err = read(err);
-    return r;
+    return shell(env + app("sid_montecarlo") + " " + args);
   }
 
   // Expects exit code 2, nothing on stdout and an error message containing what.
@@ -78,7 +46,6 @@ class SidMonteCarlo : public ::testing::Test {
     return nlohmann::json::parse(read(file(name)));
   }
 
-  fs::path dir_;
 };
 
 // stdout without the wall-time line (the only one that may differ between runs).

@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "app_test_support.hpp"
 #include "csv.hpp"
 
 namespace fs = std::filesystem;
@@ -27,46 +28,11 @@ constexpr double kAngleTol = 1e-8;       // rad
 constexpr double kVelocityTol = 1e-6;    // rad/s
 constexpr double kTorqueTol = 1e-14;     // N m: the same sin/cos at the same t
 
-struct AppRun {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
+using sid_test::AppRun;
 
-class SidSimulate : public ::testing::Test {
+class SidSimulate : public sid_test::AppTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("sid_simulate_test_" + std::to_string(::getpid()) + "_" + info->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-
-  std::string file(const std::string& name) const { return (dir_ / name).string(); }
-  static std::string read(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  }
-
-  // Runs sid_simulate with args (already shell-quoted where needed) from inside the temp dir.
-  AppRun run(const std::string& args) const {
-    const std::string out = file("stdout.txt"), err = file("stderr.txt");
-    const std::string command = "cd '" + dir_.string() + "' && '" SID_APP_DIR "/sid_simulate' " +
-                                args + " >'" + out + "' 2>'" + err + "'";
-    const int status = std::system(command.c_str());
-    AppRun r;
-    if (status != -1 && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-    r.out = read(out);
-    r.err = read(err);
-    return r;
-  }
+  AppRun run(const std::string& args) const { return shell(app("sid_simulate") + " " + args); }
 
   // Runs args writing to file name; expects success and returns the parsed table.
   sid::app::CsvTable simulate_to(const std::string& name, const std::string& args) const {
@@ -86,7 +52,6 @@ class SidSimulate : public ::testing::Test {
     EXPECT_FALSE(fs::exists(file("out.csv"))) << args << ": wrote an output despite the error";
   }
 
-  fs::path dir_;
 };
 
 double max_abs_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {

@@ -14,6 +14,7 @@
 #include <string>
 #include <utility>
 
+#include "app_test_support.hpp"
 #include "csv.hpp"
 
 namespace fs = std::filesystem;
@@ -23,51 +24,11 @@ namespace {
 constexpr double kExactTol = 1e-12;      // a line is in the penalty's null space: rounding only
 constexpr double kDerivativeTol = 1e-9;  // derivatives divide by knot spacings
 
-struct AppRun {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
+using sid_test::AppRun;
 
-class SidSmooth : public ::testing::Test {
+class SidSmooth : public sid_test::AppTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("sid_smooth_test_" + std::to_string(::getpid()) + "_" + info->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir_, ec);
-  }
-
-  std::string file(const std::string& name) const { return (dir_ / name).string(); }
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream(file(name), std::ios::binary) << text;
-    return file(name);
-  }
-  static std::string read(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-  }
-
-  // Runs sid_smooth with args (already shell-quoted where needed) from inside the temp dir.
-  AppRun run(const std::string& args) const {
-    const std::string out = file("stdout.txt"), err = file("stderr.txt");
-    const std::string command = "cd '" + dir_.string() + "' && '" SID_APP_DIR "/sid_smooth' " +
-                                args + " >'" + out + "' 2>'" + err + "'";
-    const int status = std::system(command.c_str());
-    AppRun r;
-    // A crash (signal) leaves exit_code at -1, which every test rejects.
-    if (status != -1 && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-    r.out = read(out);
-    r.err = read(err);
-    return r;
-  }
+  AppRun run(const std::string& args) const { return shell(app("sid_smooth") + " " + args); }
 
   // Expects exit code 2, nothing on stdout and an error message containing what.
   void expect_input_error(const std::string& args, const std::string& what) const {
@@ -84,7 +45,6 @@ class SidSmooth : public ::testing::Test {
     return sid::app::parse_csv(in, "sid_smooth output");
   }
 
-  fs::path dir_;
 };
 
 // Uneven sampling so the derivatives are not helped by symmetric spacing.
