@@ -151,3 +151,40 @@ TEST(Identify, GcvSmoothingFindsTheNoiseLevelByItself) {
   EXPECT_THROW(sid::parse_smoothing_mode("spline"), std::invalid_argument);
   EXPECT_EQ(sid::parse_smoothing_mode("cv"), sid::SmoothingMode::Cv);
 }
+
+TEST(Identify, WeightedLeastSquaresDownWeightsTheNoisierJointAndHelps) {
+  // Joint 2's torque sensor is 10x noisier than joint 1's. Plain least squares lets those rows
+  // dominate; IDIM-WLS weights each joint by its estimated noise, which must shrink the spread
+  // of the estimates over repeated experiments (same kinematics, exact derivatives).
+  const auto table = sid_test::read_table("trajectory_noise_free.csv");
+  sid::Kinematics<double> exact;
+  exact.t = table.col("t");
+  const Eigen::Index n = exact.t.size();
+  exact.q.resize(n, 2), exact.qd.resize(n, 2), exact.qdd.resize(n, 2), exact.tau.resize(n, 2);
+  exact.q << table.col("q1"), table.col("q2");
+  exact.qd << table.col("qd1"), table.col("qd2");
+  exact.qdd << table.col("qdd1"), table.col("qdd2");
+  exact.tau << table.col("tau1"), table.col("tau2");
+  const auto k = sid::window(exact, 0.25);
+  const Eigen::VectorXd theta = sid::paper_arm_parameters<double>();
+  constexpr int kRuns = 40;
+  Eigen::VectorXd sq_ols = Eigen::VectorXd::Zero(7), sq_wls = Eigen::VectorXd::Zero(7);
+  std::mt19937_64 rng(17);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (int run = 0; run < kRuns; ++run) {
+    auto noisy = k;
+    for (Eigen::Index i = 0; i < k.size(); ++i) noisy.tau(i, 0) += 0.01 * noise(rng), noisy.tau(i, 1) += 0.1 * noise(rng);
+    const auto ols = sid::fit_two_link(noisy, sid::kPaperGravity);
+    const auto wls = sid::fit_two_link_weighted(noisy, sid::kPaperGravity);
+    ASSERT_TRUE(ols.ok() && wls.ok());
+    sq_ols += (ols.theta - theta).cwiseAbs2();
+    sq_wls += (wls.theta - theta).cwiseAbs2();
+    if (run == 0) {
+      EXPECT_NEAR(wls.sigma2, 1.0, 0.1);  // the weights whiten the residuals
+      EXPECT_TRUE(wls.relative_std_dev.allFinite());
+    }
+  }
+  // theta6 (joint 1 friction) lives on joint 1's rows: WLS must estimate it much better.
+  EXPECT_LT(sq_wls[5], 0.5 * sq_ols[5]);
+  EXPECT_LT(sq_wls.sum(), sq_ols.sum());
+}

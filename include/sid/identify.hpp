@@ -118,6 +118,8 @@ struct IdentifyOptions {
   /// samples unless the motion happens to stop there.
   double skip_end = 0.0;
   DifferenceFilters filters;
+  /// Gautier's weighted least squares (per-joint noise from a first fit) instead of plain LS.
+  bool weighted = false;
   double gravity = kPaperGravity;  ///< [m/s²]
   LeastSquaresOptions least_squares;
 };
@@ -287,6 +289,23 @@ inline LeastSquaresResult<double> fit_two_link(const Kinematics<double>& k, doub
   return least_squares(regression.X, regression.y, 2, options);
 }
 
+/// @brief Gautier's IDIM-WLS: an ordinary fit first, then each joint's rows weighted by
+/// 1/σ̂ⱼ² from that fit's per-joint residual variance, so a joint with noisier torques counts
+/// less. The result's covariance is then σ̂²(XᵀWX)⁻¹ with σ̂² ≈ 1, and its relative standard
+/// deviations are the ones Gautier reports. A rank-deficient first fit is returned as it is.
+inline LeastSquaresResult<double> fit_two_link_weighted(const Kinematics<double>& k, double gravity,
+                                                        LeastSquaresOptions options = {}) {
+  const LeastSquaresResult<double> first = fit_two_link(k, gravity, options);
+  if (!first.ok() || !(first.sigma2_per_joint.array() > 0.0).all()) return first;
+  if (options.column_names.empty()) options.column_names = two_link_parameter_names();
+  const auto regression = stack_two_link_regression(k, gravity);
+  const Eigen::Index n = k.size();
+  VectorX<double> weights(2 * n);
+  weights.head(n).setConstant(1.0 / first.sigma2_per_joint[0]);
+  weights.tail(n).setConstant(1.0 / first.sigma2_per_joint[1]);
+  return weighted_least_squares(regression.X, regression.y, weights, 2, options);
+}
+
 /// @brief The whole pipeline: derivatives by options.method, window, least squares.
 /// A rank-deficient regressor is reported in result.fit.status (not thrown).
 /// @throws std::invalid_argument on bad input (see estimate_kinematics) or when the window
@@ -306,7 +325,8 @@ inline Identification identify(const Trajectory<double>& data, const IdentifyOpt
     throw std::invalid_argument("sid::identify: only " + std::to_string(result.kinematics.size()) +
                                 " samples are left after skipping " + std::to_string(skip) +
                                 " s; 7 parameters need at least 4");
-  result.fit = fit_two_link(result.kinematics, options.gravity, options.least_squares);
+  result.fit = options.weighted ? fit_two_link_weighted(result.kinematics, options.gravity, options.least_squares)
+                                : fit_two_link(result.kinematics, options.gravity, options.least_squares);
   return result;
 }
 
