@@ -20,17 +20,6 @@ constexpr double kExactRecoveryRelTol = 1e-9;  // theta from exact q, qd, qdd, t
 constexpr double kRoundoffTol = 1e-13;
 constexpr double kDropBefore = 0.25;  // s, as every method of the paper
 
-template <typename F>
-void expect_invalid_argument(F f, const std::string& prefix, const std::string& word) {
-  try {
-    f();
-    ADD_FAILURE() << "no exception, expected " << prefix;
-  } catch (const std::invalid_argument& e) {
-    const std::string what = e.what();
-    EXPECT_EQ(what.rfind(prefix, 0), 0u) << what;
-    EXPECT_NE(what.find(word), std::string::npos) << what;
-  }
-}
 
 sid::Kinematics<double> random_kinematics(Eigen::Index n, unsigned seed) {
   std::srand(seed);
@@ -134,24 +123,24 @@ TEST(StackRegressor, ThrowsOnMismatchedSizes) {
   const auto model = sid::two_link_arm_model<double>();
   Eigen::MatrixXd x(20, 7), x_bad(20, 6);
   const sid::MatrixX2<double> short_qd = k.qd.topRows(9);
-  expect_invalid_argument(
+  sid_test::expect_invalid_argument(
       [&] { sid::stack_two_link_regressor<double>(k.q, short_qd, k.qdd, 9.81, x); },
       "sid::stack_two_link_regressor", "q has 10 rows but qd has 9");
-  expect_invalid_argument([&] { sid::stack_regressor<double>(model, k.q, k.qd, short_qd, x); },
+  sid_test::expect_invalid_argument([&] { sid::stack_regressor<double>(model, k.q, k.qd, short_qd, x); },
                           "sid::stack_regressor", "qdd has 9");
-  expect_invalid_argument([&] { sid::stack_regressor<double>(model, k.q, k.qd, k.qdd, x_bad); },
+  sid_test::expect_invalid_argument([&] { sid::stack_regressor<double>(model, k.q, k.qd, k.qdd, x_bad); },
                           "sid::stack_regressor", "X is 20 x 6");
-  expect_invalid_argument(
+  sid_test::expect_invalid_argument(
       [&] { sid::stack_two_link_regressor<double>(k.q, k.qd, k.qdd, 9.81, x_bad); },
       "sid::stack_two_link_regressor", "X");
   Eigen::VectorXd y_bad(19);
-  expect_invalid_argument([&] { sid::stack_torque<double>(k.tau, y_bad); }, "sid::stack_torque",
+  sid_test::expect_invalid_argument([&] { sid::stack_torque<double>(k.tau, y_bad); }, "sid::stack_torque",
                           "y has 19");
   auto k_bad = k;
   k_bad.tau.conservativeResize(8, 2);
-  expect_invalid_argument([&] { (void)sid::stack_two_link_regression(k_bad); },
+  sid_test::expect_invalid_argument([&] { (void)sid::stack_two_link_regression(k_bad); },
                           "sid::stack_two_link_regression", "tau has 8");
-  expect_invalid_argument([&] { (void)sid::stack_regression(model, k_bad); },
+  sid_test::expect_invalid_argument([&] { (void)sid::stack_regression(model, k_bad); },
                           "sid::stack_regression", "tau");
 }
 

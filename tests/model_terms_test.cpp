@@ -5,6 +5,7 @@
 #include <sid/model/terms.hpp>
 #include <sid/model/two_link_arm.hpp>
 
+#include "allocation_counter.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -24,18 +25,6 @@ template class sid::Model<double>;
 template struct sid::Term<float>;
 template struct sid::Term<double>;
 
-namespace {
-int g_allocations = 0;
-}
-// GCC 12 pairs the inlined malloc/free below with library news and warns falsely.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void* operator new(std::size_t size) {
-  ++g_allocations;
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace {
 
@@ -59,18 +48,6 @@ sid::Term<double> coulomb_term(double eps) {
           }};
 }
 
-/// Expects the message of an invalid_argument thrown by f to start with prefix and mention word.
-template <typename F>
-void expect_invalid_argument(F f, const std::string& prefix, const std::string& word) {
-  try {
-    f();
-    ADD_FAILURE() << "no exception, expected " << prefix;
-  } catch (const std::invalid_argument& e) {
-    const std::string what = e.what();
-    EXPECT_EQ(what.rfind(prefix, 0), 0u) << what;
-    EXPECT_NE(what.find(word), std::string::npos) << what;
-  }
-}
 
 TEST(Model, ArmModelHasPaperParametersInOrder) {
   const auto model = sid::two_link_arm_model<double>();
@@ -180,7 +157,7 @@ TEST(Model, EvaluationDoesNotAllocate) {
   const auto model = sid::two_link_arm_model<double>();
   const sid::TwoLinkParameters<double> theta = sid::paper_arm_parameters<double>();
   const V2 q(0.3, -1.1), qd(0.7, 2.0), qdd(-4.0, 9.0);
-  const int before = g_allocations;
+  const int before = sid_test::g_allocations;
   double sink = 0.0;
   for (int k = 0; k < 10; ++k) {
     sink += model.regressor(q, qd, qdd).sum();
@@ -188,7 +165,7 @@ TEST(Model, EvaluationDoesNotAllocate) {
     sink += model.forward_dynamics(theta, q, qd, qdd).sum();
     sink += model.state_derivative(theta, sid::ArmState<double>::Zero(), qdd).sum();
   }
-  EXPECT_EQ(g_allocations, before);
+  EXPECT_EQ(sid_test::g_allocations, before);
   EXPECT_TRUE(std::isfinite(sink));
 }
 
@@ -208,15 +185,15 @@ TEST(Model, ThrowsOnWrongThetaLength) {
   const auto model = sid::two_link_arm_model<double>();
   const Eigen::VectorXd theta = Eigen::VectorXd::Ones(6);
   const V2 z = V2::Zero();
-  expect_invalid_argument([&] { (void)model.inverse_dynamics(theta, z, z, z); },
+  sid_test::expect_invalid_argument([&] { (void)model.inverse_dynamics(theta, z, z, z); },
                           "sid::Model::inverse_dynamics", "theta has 6");
-  expect_invalid_argument([&] { (void)model.mass_matrix(theta, z); }, "sid::Model::mass_matrix",
+  sid_test::expect_invalid_argument([&] { (void)model.mass_matrix(theta, z); }, "sid::Model::mass_matrix",
                           "theta");
-  expect_invalid_argument([&] { (void)model.bias_torque(theta, z, z); }, "sid::Model::bias_torque",
+  sid_test::expect_invalid_argument([&] { (void)model.bias_torque(theta, z, z); }, "sid::Model::bias_torque",
                           "theta");
-  expect_invalid_argument([&] { (void)model.forward_dynamics(theta, z, z, z); },
+  sid_test::expect_invalid_argument([&] { (void)model.forward_dynamics(theta, z, z, z); },
                           "sid::Model::forward_dynamics", "theta");
-  expect_invalid_argument(
+  sid_test::expect_invalid_argument(
       [&] { (void)model.state_derivative(theta, sid::ArmState<double>::Zero(), z); },
       "sid::Model::state_derivative", "theta");
 }
@@ -225,28 +202,28 @@ TEST(Model, ThrowsOnWrongRegressorStorage) {
   const auto model = sid::two_link_arm_model<double>();
   Eigen::Matrix<double, 2, 6> z;
   const V2 v = V2::Zero();
-  expect_invalid_argument([&] { model.regressor(v, v, v, z); }, "sid::Model::regressor",
+  sid_test::expect_invalid_argument([&] { model.regressor(v, v, v, z); }, "sid::Model::regressor",
                           "out has 6 columns");
 }
 
 TEST(Model, RejectsInvalidTerms) {
   auto model = sid::two_link_arm_model<double>();
-  expect_invalid_argument([&] { model.add(sid::viscous_friction_term<double>()); },
+  sid_test::expect_invalid_argument([&] { model.add(sid::viscous_friction_term<double>()); },
                           "sid::Model::add", "viscous_friction");
   auto nameless = coulomb_term(0.1);
   nameless.name.clear();
-  expect_invalid_argument([&] { model.add(nameless); }, "sid::Model::add", "name");
+  sid_test::expect_invalid_argument([&] { model.add(nameless); }, "sid::Model::add", "name");
   auto no_columns = coulomb_term(0.1);
   no_columns.columns = nullptr;
-  expect_invalid_argument([&] { model.add(no_columns); }, "sid::Model::add", "column function");
+  sid_test::expect_invalid_argument([&] { model.add(no_columns); }, "sid::Model::add", "column function");
   auto no_parameters = coulomb_term(0.1);
   no_parameters.parameter_names.clear();
-  expect_invalid_argument([&] { model.add(no_parameters); }, "sid::Model::add", "no parameters");
+  sid_test::expect_invalid_argument([&] { model.add(no_parameters); }, "sid::Model::add", "no parameters");
   auto huge = coulomb_term(0.1);
   huge.parameter_names.assign(sid::kMaxModelParameters, "p");
-  expect_invalid_argument([&] { model.add(huge); }, "sid::Model::add", "at most");
+  sid_test::expect_invalid_argument([&] { model.add(huge); }, "sid::Model::add", "at most");
   EXPECT_EQ(model.num_parameters(), 7);  // failed adds leave the model unchanged
-  expect_invalid_argument([&] { (void)model.parameter_offset("spring"); },
+  sid_test::expect_invalid_argument([&] { (void)model.parameter_offset("spring"); },
                           "sid::Model::parameter_offset", "spring");
 }
 

@@ -2,6 +2,7 @@
 // Test-only helpers: reading the reference CSV files in tests/data/.
 
 #include <Eigen/Dense>
+#include <gtest/gtest.h>
 
 #include <fstream>
 #include <sstream>
@@ -63,6 +64,19 @@ inline double comment_value(const Table& table, const std::string& key) {
     if (pos != std::string::npos) return std::stod(c.substr(pos + key.size() + 2));
   }
   throw std::runtime_error("test data has no comment value " + key);
+}
+
+/// Expects f to throw std::invalid_argument whose message starts with prefix and mentions word.
+template <typename F>
+void expect_invalid_argument(F f, const std::string& prefix, const std::string& word) {
+  try {
+    f();
+    ADD_FAILURE() << "no exception, expected " << prefix;
+  } catch (const std::invalid_argument& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind(prefix, 0), 0u) << what;
+    EXPECT_NE(what.find(word), std::string::npos) << what;
+  }
 }
 
 }  // namespace sid_test

@@ -4,6 +4,7 @@
 #include <sid/detail/sincos.hpp>
 #include <sid/model/two_link_arm.hpp>
 
+#include "allocation_counter.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -39,19 +40,6 @@ template sid::Vector2<double> sid::two_link_forward_dynamics<double>(
     const sid::Vector2<double>&, const sid::Vector2<double>&, double) noexcept;
 template sid::Model<double> sid::two_link_arm_model<double>(double);
 
-// Counts heap allocations so that the fast paths can be shown to make none.
-namespace {
-int g_allocations = 0;
-}
-// GCC 12 pairs the inlined malloc/free below with library news and warns falsely.
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-void* operator new(std::size_t size) {
-  ++g_allocations;
-  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace {
 
@@ -183,7 +171,7 @@ TEST(TwoLinkArm, FastPathsAreNoexceptAndDoNotAllocate) {
   static_assert(noexcept(sid::two_link_inverse_dynamics(theta, q, qd, qdd)));
   static_assert(noexcept(sid::two_link_forward_dynamics(theta, q, qd, qdd)));
   static_assert(noexcept(sid::two_link_mass_matrix(theta, q)));
-  const int before = g_allocations;
+  const int before = sid_test::g_allocations;
   double sink = 0.0;
   for (int k = 0; k < 10; ++k) {
     sink += sid::two_link_regressor(q, qd, qdd).sum();
@@ -191,11 +179,11 @@ TEST(TwoLinkArm, FastPathsAreNoexceptAndDoNotAllocate) {
     sink += sid::two_link_forward_dynamics(theta, q, qd, qdd).sum();
     sink += sid::two_link_state_derivative(theta, sid::ArmState<double>::Zero(), qdd).sum();
   }
-  EXPECT_EQ(g_allocations, before);
+  EXPECT_EQ(sid_test::g_allocations, before);
   EXPECT_TRUE(std::isfinite(sink));
   // The counter works: an allocation is seen.
   auto* probe = new Eigen::VectorXd(3);
-  EXPECT_GT(g_allocations, before);
+  EXPECT_GT(sid_test::g_allocations, before);
   delete probe;
 }
 
