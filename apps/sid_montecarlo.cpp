@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <iostream>
 #include <sid/cvode/experiment.hpp>
+#include <sid/cvode/instrumental_variables.hpp>
 #include <sid/model/two_link_arm.hpp>
 #include <sid/study/montecarlo.hpp>
 #include <stdexcept>
@@ -50,6 +51,12 @@ Methods (how q-dot and q-double-dot are estimated from the noisy angles; then le
   css       Reinsch cubic smoothing spline with dq = sigma_q and S = n, derivatives analytic
   css_gcv   the same spline with lambda chosen by generalized cross-validation: it is not told
             sigma_q (not in the paper)
+  css_wls   css_gcv's kinematics, then weighted least squares with per-joint torque noise
+            variances estimated from a first fit (Gautier's IDIM-WLS; not in the paper)
+  css_iv    css_gcv's first estimate, then instrumental variables (IDIM-IV): instruments from
+            CVODE simulations of the current estimate driven by the GCV-smoothed measured
+            torque, restarted every 0.5 s from the smoothed state, iterated until theta changes
+            by < 1e-4 relative (at most 10 times; not in the paper)
   oracle    the exact q, qd, qdd with the noisy torques: the floor no estimator beats on average
             (not in the paper)
 Every method drops t < 0.25 s (the start transient).
@@ -117,7 +124,7 @@ void define_options(CLI::App& cli, Options& o) {
       ->capture_default_str();
   cli.add_option("--methods", o.methods,
                  "methods to compare, comma-separated, any subset and order of raw, filtered, "
-                 "css, css_gcv, oracle")
+                 "css, css_gcv, css_wls, css_iv, oracle")
       ->capture_default_str();
   cli.add_option("--seed", o.seed, "seed of the noise, an integer 0 .. 2^64 - 1")
       ->capture_default_str();
@@ -156,7 +163,7 @@ std::string trim(const std::string& s) {
 std::vector<sid::StudyMethod> parse_methods(const std::string& text) {
   using sid::app::require;
   std::vector<sid::StudyMethod> methods;
-  require(!trim(text).empty(), "--methods: no methods given (expected raw, filtered, css, css_gcv, oracle)");
+  require(!trim(text).empty(), "--methods: no methods given (expected raw, filtered, css, css_gcv, css_wls, css_iv, oracle)");
   std::string::size_type start = 0;
   while (true) {
     const auto comma = text.find(',', start);
@@ -167,7 +174,7 @@ std::vector<sid::StudyMethod> parse_methods(const std::string& text) {
       m = sid::parse_study_method(name);
     } catch (const std::invalid_argument&) {
       throw sid::app::InputError("--methods: unknown method '" + name +
-                                 "' (expected raw, filtered, css, css_gcv or oracle)");
+                                 "' (expected raw, filtered, css, css_gcv, css_wls, css_iv or oracle)");
     }
     require(std::find(methods.begin(), methods.end(), m) == methods.end(),
             "--methods: '" + name + "' is given twice");
@@ -199,6 +206,7 @@ sid::MonteCarloOptions study_options(const Options& o) {
           "--sigma-tau2 must be a finite variance >= 0 [(N m)^2], got " + short_number(o.sigma_tau2));
   study.sigma_tau2 = o.sigma_tau2;
   study.methods = parse_methods(o.methods);
+  study.refine = sid::instrumental_variable_step();
   study.seed = parse_seed(o.seed);
   require(o.threads >= 0, "--threads must be >= 0 (0 = all cores), got " + std::to_string(o.threads));
   study.threads = o.threads;

@@ -78,7 +78,9 @@ int paper_column(sid::StudyMethod m) {
     case sid::StudyMethod::Raw: return 0;
     case sid::StudyMethod::Filtered: return 1;
     case sid::StudyMethod::Css: return 2;
-    case sid::StudyMethod::CssGcv: return -1;
+    case sid::StudyMethod::CssGcv:
+    case sid::StudyMethod::CssWls:
+    case sid::StudyMethod::CssIv: return -1;
     case sid::StudyMethod::Oracle: return -1;
   }
   return -1;

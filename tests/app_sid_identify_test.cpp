@@ -422,3 +422,34 @@ TEST_F(SidIdentify, NonSplineMethodsHaveNoSmoothingReport) {
   EXPECT_TRUE(raw.contains("smoothing"));
   EXPECT_TRUE(raw["smoothing"].is_null());
 }
+
+TEST_F(SidIdentify, EstimatorsWlsAndIvRunAndReportThemselves) {
+  simulate("run.csv", "--sigma-q2 1e-6");
+  const sid::TwoLinkParameters<double> truth = sid::paper_arm_parameters();
+  const nlohmann::json ls = identify_json("run.csv");
+  EXPECT_EQ(ls["estimator"], "ls");
+  EXPECT_TRUE(ls["iv_iterations"].is_null());
+  const nlohmann::json wls = identify_json("--estimator wls run.csv");
+  EXPECT_EQ(wls["estimator"], "wls");
+  const nlohmann::json iv = identify_json("--estimator iv run.csv");
+  EXPECT_EQ(iv["estimator"], "iv");
+  ASSERT_TRUE(iv["iv_iterations"].is_number_integer()) << iv.dump();
+  EXPECT_GE(iv["iv_iterations"].get<int>(), 1);
+  EXPECT_TRUE(iv["iv_converged"].get<bool>());
+  for (const nlohmann::json* j : {&ls, &wls, &iv}) {
+    const auto theta = numbers((*j)["theta"]), sd = numbers((*j)["std"]);
+    ASSERT_EQ(theta.size(), 7u);
+    for (int k = 0; k < 7; ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      EXPECT_NEAR(theta[i] / truth[k], 1.0, 0.05) << (*j)["estimator"] << " theta" << k + 1;
+      // Each estimate lies within 5 of its own reported standard deviations of the truth.
+      EXPECT_LT(std::abs(theta[i] - truth[k]), 5.0 * sd[i]) << (*j)["estimator"] << " theta" << k + 1;
+    }
+  }
+  // The estimators differ, so each really ran.
+  EXPECT_NE(numbers(iv["theta"]), numbers(ls["theta"]));
+  EXPECT_NE(numbers(wls["theta"]), numbers(ls["theta"]));
+  const AppRun table = identify("--estimator iv run.csv");
+  EXPECT_NE(table.out.find("estimator iv ("), std::string::npos) << table.out;
+  expect_input_error("--estimator ml run.csv", "--estimator: unknown estimator 'ml' (expected ls, wls or iv)");
+}

@@ -248,3 +248,20 @@ TEST_F(SidMonteCarlo, BadOptionsExitTwoNamingTheOption) {
   std::ofstream(file("plain_file")) << "x";
   expect_input_error("--plots plain_file", "--plots");
 }
+
+TEST_F(SidMonteCarlo, EstimatorMethodsCssWlsAndCssIvRunInTheStudy) {
+  const AppRun r = run("--runs 3 --levels 1e-6 --methods css_gcv,css_wls,css_iv -q --json s.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = read_json("s.json");
+  const auto& methods = j["levels"][0]["methods"];
+  for (const char* m : {"css_gcv", "css_wls", "css_iv"}) {
+    ASSERT_TRUE(methods.contains(m)) << m;
+    EXPECT_EQ(methods[m]["failed_runs"], 0) << m;
+    // Within a few percent of the truth at this noise level (the oracle's floor is about 2 %).
+    EXPECT_LT(methods[m]["rms_rel_error_pct"].get<double>(), 5.0) << m;
+  }
+  EXPECT_NE(methods["css_iv"]["mean"], methods["css_gcv"]["mean"]);
+  const AppRun bad = run("--methods css_iv,oracle,css_iv");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("'css_iv' is given twice"), std::string::npos) << bad.err;
+}

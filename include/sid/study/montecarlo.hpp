@@ -38,6 +38,8 @@ enum class StudyMethod {
   Filtered,  ///< forward differences + Butterworth filtfilt (paper's filters)
   Css,       ///< Reinsch smoothing spline, δq = σq, S = n
   CssGcv,    ///< Reinsch smoothing spline with λ chosen by GCV: no noise level needed
+  CssWls,    ///< css_gcv kinematics, Gautier's IDIM-WLS (per-joint noise from a first fit)
+  CssIv,     ///< css_gcv kinematics, then the IDIM-IV step (needs MonteCarloOptions::refine)
   Oracle,    ///< exact q, q̇, q̈ with the noisy τ: the floor no estimator beats on average
 };
 
@@ -47,19 +49,28 @@ inline const char* study_method_name(StudyMethod method) {
     case StudyMethod::Filtered: return "filtered";
     case StudyMethod::Css: return "css";
     case StudyMethod::CssGcv: return "css_gcv";
+    case StudyMethod::CssWls: return "css_wls";
+    case StudyMethod::CssIv: return "css_iv";
     case StudyMethod::Oracle: return "oracle";
   }
   return "unknown";
 }
 
-/// @throws std::invalid_argument for a name other than raw, filtered, css, css_gcv, oracle.
+/// @throws std::invalid_argument for a name other than raw, filtered, css, css_gcv, css_wls,
+/// css_iv, oracle.
 inline StudyMethod parse_study_method(const std::string& name) {
   for (StudyMethod m : {StudyMethod::Raw, StudyMethod::Filtered, StudyMethod::Css, StudyMethod::CssGcv,
-                        StudyMethod::Oracle})
+                        StudyMethod::CssWls, StudyMethod::CssIv, StudyMethod::Oracle})
     if (name == study_method_name(m)) return m;
   throw std::invalid_argument("sid::parse_study_method: unknown method '" + name +
-                              "' (expected raw, filtered, css, css_gcv or oracle)");
+                              "' (expected raw, filtered, css, css_gcv, css_wls, css_iv or oracle)");
 }
+
+/// @brief A refinement of a first least-squares fit on the windowed kinematics, such as the
+/// IDIM-IV step of sid/cvode/instrumental_variables.hpp (sid::instrumental_variable_step()).
+/// The study stays free of SUNDIALS by taking it as a function. It may throw to fail a run.
+using EstimateRefinement =
+    std::function<LeastSquaresResult<double>(const Kinematics<double>&, const LeastSquaresResult<double>&)>;
 
 /// @brief Settings of the study; the defaults are the paper's.
 struct MonteCarloOptions {
@@ -74,6 +85,8 @@ struct MonteCarloOptions {
   TwoLinkParameters<double> theta = paper_arm_parameters<double>();
   /// Windows, filters and gravity; method and sigma_q are set per run by the study.
   IdentifyOptions identify;
+  /// The IV step of method css_iv (e.g. sid::instrumental_variable_step()); required by css_iv.
+  EstimateRefinement refine;
   /// Called as runs complete (done, total), from worker threads but never concurrently.
   std::function<void(int, int)> progress;
 };
@@ -129,17 +142,29 @@ inline Kinematics<double> study_kinematics(StudyMethod method, const Kinematics<
                    : method == StudyMethod::Filtered ? DerivativeMethod::FilteredDifference
                                                      : DerivativeMethod::SmoothingSpline;
   options.sigma_q = Vector2<double>::Constant(std::sqrt(sigma_q2));
-  options.smoothing = method == StudyMethod::CssGcv ? SmoothingMode::Gcv : SmoothingMode::SConstraint;
+  const bool gcv = method == StudyMethod::CssGcv || method == StudyMethod::CssWls || method == StudyMethod::CssIv;
+  options.smoothing = gcv ? SmoothingMode::Gcv : SmoothingMode::SConstraint;
   return estimate_kinematics(measured, options);
 }
 
 /// @brief θ̂ of one method on one noisy data set (the paper's windows); NaN-free on success.
+/// @param refine the IV step for StudyMethod::CssIv (ignored by the other methods).
+/// @throws std::invalid_argument for css_iv without refine.
 inline LeastSquaresResult<double> fit_study_method(StudyMethod method, const Kinematics<double>& truth,
                                                    const Trajectory<double>& measured, double sigma_q2,
-                                                   const IdentifyOptions& base) {
+                                                   const IdentifyOptions& base,
+                                                   const EstimateRefinement& refine = {}) {
+  if (method == StudyMethod::CssIv && !refine)
+    throw std::invalid_argument(
+        "sid::fit_study_method: css_iv needs the IV step (sid::instrumental_variable_step() from "
+        "sid/cvode/instrumental_variables.hpp)");
   const Kinematics<double> k = study_kinematics(method, truth, measured, sigma_q2, base);
   const double skip = method == StudyMethod::Filtered ? base.filtered_skip : base.skip;
-  return fit_two_link(window(k, truth.t[0] + skip), base.gravity, base.least_squares);
+  const Kinematics<double> kept = window(k, truth.t[0] + skip);
+  if (method == StudyMethod::CssWls) return fit_two_link_weighted(kept, base.gravity, base.least_squares);
+  LeastSquaresResult<double> fit = fit_two_link(kept, base.gravity, base.least_squares);
+  if (method == StudyMethod::CssIv && fit.ok()) return refine(kept, fit);
+  return fit;
 }
 
 namespace detail {
@@ -192,6 +217,10 @@ inline MonteCarloResult run_monte_carlo(const Kinematics<double>& truth, const M
   if (!(options.sigma_tau2 >= 0.0) || !std::isfinite(options.sigma_tau2))
     throw std::invalid_argument(std::string(who) + ": sigma_tau2 must be finite and >= 0");
   if (options.methods.empty()) throw std::invalid_argument(std::string(who) + ": no methods");
+  for (StudyMethod m : options.methods)
+    if (m == StudyMethod::CssIv && !options.refine)
+      throw std::invalid_argument(std::string(who) + ": method css_iv needs options.refine (the IV step, "
+                                  "sid::instrumental_variable_step() from sid/cvode/instrumental_variables.hpp)");
   const Eigen::Index n = truth.size();
   if (truth.q.rows() != n || truth.qd.rows() != n || truth.qdd.rows() != n || truth.tau.rows() != n)
     throw std::invalid_argument(std::string(who) + ": truth has columns of different lengths");
@@ -229,7 +258,7 @@ inline MonteCarloResult run_monte_carlo(const Kinematics<double>& truth, const M
         MethodSummary& summary = result.levels[l].methods[m];
         std::string failure;
         try {
-          const auto fit = fit_study_method(options.methods[m], truth, measured, sigma_q2, options.identify);
+          const auto fit = fit_study_method(options.methods[m], truth, measured, sigma_q2, options.identify, options.refine);
           if (fit.ok())
             summary.estimates.row(run) = fit.theta.transpose();
           else
