@@ -1,6 +1,9 @@
 // sid_simulate: simulate the paper's open-loop experiment on the two-link arm with CVODE and write
-// the measured (noisy) joint angles and torques as CSV, optionally with the true signals.
+// the measured (noisy) joint angles and torques as CSV, optionally with the true signals. Effects
+// the paper's model leaves out (friction, sensor offsets, ...) can be hidden in the data, so that
+// a diagnosis can be tested against a known answer.
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -10,7 +13,9 @@
 #include <random>
 #include <sid/cvode/experiment.hpp>
 #include <sid/measurement_noise.hpp>
+#include <sid/model/effects.hpp>
 #include <sid/model/two_link_arm.hpp>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -23,15 +28,18 @@ constexpr const char* kName = "sid_simulate";
 
 constexpr const char* kDescription =
     "Simulate the open-loop experiment of the paper (two-link arm, u1 = 6 sin t, u2 = 4 cos t)\n"
-    "and write the measured joint angles and torques (true values + Gaussian noise) as CSV.\n";
+    "and write the measured joint angles and torques (true values + Gaussian noise) as CSV.\n"
+    "--excitation multisine changes the input; --effect hides a physical effect in the data.\n";
 
 constexpr const char* kFooter = R"(
 The arm: D(q) qdd + C(q, qd) qd + G(q) + diag(theta6, theta7) qd = tau, with
   D = [[th1 + th2 + 2 th3 cos q2, th2 + th3 cos q2], [th2 + th3 cos q2, th2]],
   G = [th4 g sin q1 + th5 g sin(q1 + q2), th5 g sin(q1 + q2)], g = 9.81 m/s^2;
 q1 [rad] from the downward vertical, q2 [rad] relative to link 1. The input torque is
-tau1 = 6 sin t, tau2 = 4 cos t [N m]; the arm starts at rest at q = 0. Samples are taken at
-t_k = k Ts [s], k = 0 .. round(T / Ts) (T = 10, Ts = 0.0025 give 4001 samples).
+tau1 = 6 sin t, tau2 = 4 cos t [N m] (--excitation paper, the default) or
+tau1 = 5 sin 1.3t + 2 sin 3.1t, tau2 = 3 cos 0.7t + 1.5 sin 2.3t [N m] (--excitation multisine);
+the arm starts at rest at q = 0. Samples are taken at t_k = k Ts [s], k = 0 .. round(T / Ts)
+(T = 10, Ts = 0.0025 give 4001 samples).
 
 Parameters (default: the paper's, corrected as in PAPER_NOTES):
   --theta t1,...,t7   theta1..theta3 [kg m^2], theta4, theta5 [kg m], theta6, theta7 [N m s/rad]
@@ -66,6 +74,8 @@ Exit codes: 0 success, 2 bad options or a failed simulation (message on standard
 Examples:
   sid_simulate -o run.csv
   sid_simulate --sigma-q2 1e-8 --seed 7 --truth -o run7.csv
+  sid_simulate --effect coulomb_j2:0.1 --effect angle_offset_q1:0.05 --excitation multisine
+  sid_simulate --effect stribeck_j1:0.1,0.3,0.2 --truth -o stribeck.csv
   sid_simulate --sigma-q2 0 --sigma-tau2 0 --physical 0.2675,0.0398,0.0392,0.4347,0.4322,0.0024,0.0024,0.6189,0.6189
 )";
 
@@ -81,12 +91,49 @@ struct Options {
   bool force = false;
   bool truth = false;
   bool quiet = false;
+  std::vector<std::string> effects;
+  std::string excitation = "paper";
+  double coulomb_epsilon = 0.01;
   double rtol = 1e-10;
   double atol = 1e-10;
 };
 
+// The effect list of --help, written from the library so that it cannot fall out of step.
+std::string effects_help() {
+  std::string text = R"(
+Effects (--effect ID:VALUES, repeatable, each ID at most once). Each is a torque added to the left
+side of the equation above, or a fault of a sensor:
+  coulomb_jX        Fc tanh(qd_j / eps): Coulomb friction; Fc > 0 [N m]; eps = --coulomb-epsilon
+                    (default 0.01 rad/s: 99.5 % of Fc at |qd| = 3 eps)
+  stribeck_jX       (Fc + (Fs - Fc) exp(-(qd_j / vs)^2)) tanh(qd_j / eps): VALUES Fc,Fs,vs with
+                    0 < Fc < Fs [N m] and vs > 0 [rad/s], e.g. stribeck_j1:0.1,0.3,0.2
+  torque_offset_jX  sensor bias b [N m], any sign: measured tau_j = applied tau_j + b
+                    (looks exactly like a constant load torque)
+  angle_offset_qX   sensor offset delta [rad], |delta| < pi/2: true q_j = measured q_j + delta,
+                    i.e. measured q_j = true q_j - delta (on q1 it looks exactly like a base tilt)
+  armature_jX       rotor inertia Ia > 0 [kg m^2] added to D_jj (on joint 1 it is theta1's own
+                    term, so it cannot be told apart from a larger theta1)
+  spring_jX         k q_j, joint stiffness k > 0 [N m/rad]
+X is 1 or 2. Every id with its values:
+)";
+  for (const auto& id : sid::effect_ids()) {
+    const auto names = sid::effect_value_names(id);
+    const auto units = sid::effect_value_units(id);
+    std::string values;
+    for (std::size_t i = 0; i < names.size(); ++i)
+      values += (i ? "," : "") + names[i] + " [" + units[i] + "]";
+    std::string line = "  " + id + ":" + values;
+    line.resize(std::max<std::size_t>(line.size() + 2, 44), ' ');
+    const std::string name = sid::effect_name(id);
+    text += line.size() + name.size() <= 100 ? line + name + "\n"
+                                             : line + "\n      " + name + "\n";
+  }
+  text += "--truth writes the true angles and the applied torques, without the sensor offsets.\n";
+  return text;
+}
+
 void define_options(CLI::App& cli, Options& o) {
-  cli.footer(kFooter);
+  cli.footer(std::string(kFooter) + effects_help());
   cli.add_option("--T", o.T, "duration of the experiment T [s], > Ts")->capture_default_str();
   cli.add_option("--Ts", o.Ts, "sampling period Ts [s], > 0")->capture_default_str();
   cli.add_option("--sigma-q2", o.sigma_q2, "variance of the angle noise [rad^2], >= 0")
@@ -103,6 +150,14 @@ void define_options(CLI::App& cli, Options& o) {
                                   "physical parameters l1,lc1,lc2,m1,m2,I1,I2,mu1,mu2 "
                                   "(instead of --theta)");
   theta->excludes(physical);
+  cli.add_option("--effect", o.effects,
+                 "hide an effect, ID:VALUES e.g. coulomb_j2:0.1 (repeatable; ids below)");
+  cli.add_option("--excitation", o.excitation,
+                 "input torque: paper (6 sin t, 4 cos t) or multisine [N m]")
+      ->capture_default_str();
+  cli.add_option("--coulomb-epsilon", o.coulomb_epsilon,
+                 "eps of tanh(qd / eps) in Coulomb and Stribeck friction [rad/s], > 0")
+      ->capture_default_str();
   cli.add_flag("--truth", o.truth,
                "also write the true q, qd, qdd and tau (columns q1_true, ..., tau2_true)");
   cli.add_option("-o,--output", o.output, "output CSV file ('-' is standard output)")
@@ -194,12 +249,54 @@ void check_options(const Options& o) {
           "--rtol must be a finite number > 0, got " + short_number(o.rtol));
   require(std::isfinite(o.atol) && o.atol > 0.0,
           "--atol must be a finite number > 0, got " + short_number(o.atol));
+  require(o.excitation == "paper" || o.excitation == "multisine",
+          "--excitation must be paper or multisine, got '" + o.excitation + "'");
+  require(std::isfinite(o.coulomb_epsilon) && o.coulomb_epsilon > 0.0,
+          "--coulomb-epsilon must be a finite number > 0 [rad/s], got " +
+              short_number(o.coulomb_epsilon));
+}
+
+// The library's message without its "sid::parse_effect: " prefix, after the option's name.
+std::vector<sid::EffectSpec> parse_effects(const std::vector<std::string>& texts) {
+  std::vector<sid::EffectSpec> specs;
+  for (const auto& text : texts) {
+    try {
+      specs.push_back(sid::parse_effect(text));
+    } catch (const std::invalid_argument& e) {
+      std::string message = e.what();
+      const std::string prefix = "sid::parse_effect: ";
+      if (message.rfind(prefix, 0) == 0) message.erase(0, prefix.size());
+      throw sid::app::InputError("--effect '" + text + "': " + message);
+    }
+    for (std::size_t k = 0; k + 1 < specs.size(); ++k)
+      sid::app::require(specs[k].id != specs.back().id,
+                        "--effect " + specs.back().id + " is given more than once");
+  }
+  return specs;
+}
+
+// "coulomb_j2:0.1", exact enough to be read back by --effect.
+std::string spec_text(const sid::EffectSpec& spec) {
+  std::string text = spec.id + ":";
+  for (std::size_t i = 0; i < spec.values.size(); ++i)
+    text += (i ? "," : "") + shortest(spec.values[i]);
+  return text;
+}
+
+std::string spec_description(const sid::EffectSpec& spec) {
+  const auto names = sid::effect_value_names(spec.id);
+  const auto units = sid::effect_value_units(spec.id);
+  std::string text = "effect " + spec.id + ": " + sid::effect_name(spec.id);
+  for (std::size_t i = 0; i < names.size(); ++i)
+    text += (i ? ", " : "; ") + names[i] + " = " + shortest(spec.values[i]) + " " + units[i];
+  return text;
 }
 
 int simulate(const Options& o) {
   using sid::app::require;
   check_options(o);
   const std::uint64_t seed = parse_seed(o.seed);
+  const std::vector<sid::EffectSpec> effects = parse_effects(o.effects);
   const sid::TwoLinkParameters<double> theta = choose_theta(o);
   const std::string source = !o.physical.empty() ? "--physical" : "--theta";
   // D(q) is positive definite for every q iff theta2 > 0 and det = theta1 theta2 -
@@ -215,11 +312,27 @@ int simulate(const Options& o) {
   experiment.sample_time = o.Ts;
   experiment.simulator.rtol = o.rtol;
   experiment.simulator.atol = o.atol;
-  auto fd = [&theta](const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
-                     const sid::Vector2<double>& tau) {
+  sid::EffectSettings settings;
+  settings.coulomb_epsilon = o.coulomb_epsilon;
+  const sid::EffectfulArm arm = sid::effectful_arm(theta, effects, settings);
+  // Without dynamic effects the closed form is both faster and the reference the existing files
+  // were made with, so their bytes do not change; effects go through the generic model.
+  const bool closed_form = arm.model.num_parameters() == 7;
+  auto closed_fd = [&theta](const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
+                            const sid::Vector2<double>& tau) {
     return sid::two_link_forward_dynamics(theta, q, qd, tau, sid::kPaperGravity);
   };
-  const sid::ExperimentResult run = sid::simulate_arm_experiment(fd, sid::PaperInput(), experiment);
+  auto model_fd = [&arm](const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
+                         const sid::Vector2<double>& tau) {
+    return arm.model.forward_dynamics(arm.theta, q, qd, tau);
+  };
+  auto with_input = [&](const auto& input) {
+    return closed_form ? sid::simulate_arm_experiment(closed_fd, input, experiment)
+                       : sid::simulate_arm_experiment(model_fd, input, experiment);
+  };
+  const sid::ExperimentResult run = o.excitation == "multisine"
+                                        ? with_input(sid::MultisineInput())
+                                        : with_input(sid::PaperInput());
   if (!run.ok()) {
     const Eigen::Index done = run.truth.size();
     const std::string where =
@@ -237,9 +350,17 @@ int simulate(const Options& o) {
             "the simulation produced a non-finite state at t = " +
                 short_number(run.truth.t[i]) + " s; check the parameters");
 
+  // The sensors' faults come before their noise: measured q = true q - delta, measured tau =
+  // applied tau + b (the noise draws do not depend on the effects, so a seed's noise is the same
+  // with and without them).
+  sid::Trajectory<double> sensed = run.trajectory();
+  for (Eigen::Index j = 0; j < 2; ++j) {
+    if (arm.angle_offset[j] != 0.0) sensed.q.col(j).array() -= arm.angle_offset[j];
+    if (arm.torque_offset[j] != 0.0) sensed.tau.col(j).array() += arm.torque_offset[j];
+  }
   std::mt19937_64 rng(seed);
   const sid::Trajectory<double> measured = sid::add_measurement_noise(
-      run.truth, sid::MeasurementNoise<double>{o.sigma_q2, o.sigma_tau2}, rng);
+      sensed, sid::MeasurementNoise<double>{o.sigma_q2, o.sigma_tau2}, rng);
 
   std::vector<std::string> names{"t", "q1", "q2", "tau1", "tau2"};
   std::vector<Eigen::VectorXd> columns{measured.t, measured.q.col(0), measured.q.col(1),
@@ -252,9 +373,12 @@ int simulate(const Options& o) {
     for (const auto* m : {&k.q, &k.qd, &k.qdd, &k.tau})
       for (Eigen::Index j = 0; j < 2; ++j) columns.emplace_back(m->col(j));
   }
-  const std::vector<std::string> comments{
-      "sid_simulate: the paper's open-loop experiment, u1 = 6 sin t, u2 = 4 cos t [N m], "
-      "q(0) = qd(0) = 0, g = 9.81 m/s^2",
+  const bool paper = o.excitation == "paper";
+  std::vector<std::string> comments{
+      paper ? "sid_simulate: the paper's open-loop experiment, u1 = 6 sin t, u2 = 4 cos t [N m], "
+              "q(0) = qd(0) = 0, g = 9.81 m/s^2"
+            : "sid_simulate: open-loop experiment with the multisine input, u1 = 5 sin 1.3t + "
+              "2 sin 3.1t, u2 = 3 cos 0.7t + 1.5 sin 2.3t [N m], q(0) = qd(0) = 0, g = 9.81 m/s^2",
       "T = " + shortest(o.T) + " s, Ts = " + shortest(o.Ts) +
           " s, samples = " + std::to_string(measured.size()),
       "seed = " + std::to_string(seed) + " (std::mt19937_64), sigma_q2 = " +
@@ -262,7 +386,15 @@ int simulate(const Options& o) {
           shortest(o.sigma_tau2) + " (N m)^2",
       "theta = " + join_numbers(theta, true),
       "CVODE rtol = " + shortest(o.rtol) +
-          ", atol = " + shortest(o.atol)};
+          ", atol = " + shortest(o.atol),
+      "excitation = " + o.excitation};
+  std::string effect_list;
+  for (const auto& spec : effects) effect_list += (effect_list.empty() ? "" : " ") + spec_text(spec);
+  comments.push_back("effects = " + (effects.empty() ? std::string("none") : effect_list) +
+                     (effects.empty() ? std::string()
+                                      : " (coulomb_epsilon = " + shortest(o.coulomb_epsilon) +
+                                            " rad/s)"));
+  for (const auto& spec : effects) comments.push_back(spec_description(spec));
   sid::app::write_csv(o.output, names, columns, comments);
   if (!o.quiet)
     std::cerr << kName << ": seed " << seed << ", sigma_q2 = " << short_number(o.sigma_q2)

@@ -16,6 +16,8 @@
 #include <utility>
 #include <vector>
 
+#include <sid/model/two_link_arm.hpp>
+
 #include "app_test_support.hpp"
 #include "csv.hpp"
 
@@ -27,6 +29,12 @@ namespace {
 constexpr double kAngleTol = 1e-8;       // rad
 constexpr double kVelocityTol = 1e-6;    // rad/s
 constexpr double kTorqueTol = 1e-14;     // N m: the same sin/cos at the same t
+// N m: a torque rebuilt from the written accelerations (17 digits of values up to ~2000 rad/s^2)
+// against the applied one.
+constexpr double kEquationOfMotionTol = 1e-9;
+// rad or N m: up to three roundings of numbers below 10 (half an ulp each, ulp(8) = 1.8e-15) in
+// ((x + b) + noise) - (x + noise).
+constexpr double kOffsetTol = 4e-15;
 
 using sid_test::AppRun;
 
@@ -248,4 +256,194 @@ TEST_F(SidSimulate, RefusesToOverwriteWithoutForce) {
   const AppRun forced = run("--T 0.1 -o out.csv --force");
   EXPECT_EQ(forced.exit_code, 0) << forced.err;
   EXPECT_EQ(sid::app::read_csv(file("out.csv")).rows(), 41);
+}
+
+// ---- Hidden effects and the multisine excitation (issue #6) --------------------------------
+
+namespace {
+
+Eigen::VectorXd difference(const sid::app::CsvTable& t, const std::string& a,
+                           const std::string& b) {
+  return t.column(a) - t.column(b);
+}
+
+// Torque of the paper's arm (no effects) at the written true state, per joint.
+Eigen::MatrixX2d paper_arm_torque(const sid::app::CsvTable& t) {
+  const sid::TwoLinkParameters<double> theta = sid::paper_arm_parameters();
+  Eigen::MatrixX2d tau(t.rows(), 2);
+  for (Eigen::Index i = 0; i < t.rows(); ++i) {
+    const sid::Vector2<double> q(t.column("q1_true")[i], t.column("q2_true")[i]);
+    const sid::Vector2<double> qd(t.column("qd1")[i], t.column("qd2")[i]);
+    const sid::Vector2<double> qdd(t.column("qdd1")[i], t.column("qdd2")[i]);
+    tau.row(i) = sid::two_link_inverse_dynamics(theta, q, qd, qdd, sid::kPaperGravity).transpose();
+  }
+  return tau;
+}
+
+}  // namespace
+
+TEST(SidSimulateHelp, DocumentsEveryEffectWithItsValuesAndUnits) {
+  const std::string command = "'" SID_APP_DIR "/sid_simulate' --help";
+  FILE* pipe = ::popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string out;
+  char buffer[4096];
+  while (std::size_t got = std::fread(buffer, 1, sizeof buffer, pipe)) out.append(buffer, got);
+  ASSERT_EQ(::pclose(pipe), 0);
+  for (const char* word :
+       {"--effect", "--excitation", "--coulomb-epsilon", "multisine", "5 sin 1.3t + 2 sin 3.1t",
+        "3 cos 0.7t + 1.5 sin 2.3t", "tanh(qd_j / eps)", "0.01 rad/s", "exp(-(qd_j / vs)^2)",
+        "coulomb_j1:Fc [N m]", "coulomb_j2:Fc [N m]",
+        "stribeck_j1:Fc [N m],Fs [N m],vs [rad/s]", "stribeck_j2:", "torque_offset_j1:b [N m]",
+        "torque_offset_j2:", "angle_offset_q1:delta [rad]", "angle_offset_q2:",
+        "armature_j1:Ia [kg m^2]", "armature_j2:", "spring_j1:k [N m/rad]", "spring_j2:",
+        "constant load", "base tilt"})
+    EXPECT_NE(out.find(word), std::string::npos) << "help does not mention " << word;
+}
+
+TEST_F(SidSimulate, TorqueOffsetIsMeasuredMinusAppliedTorqueAndLeavesTheMotion) {
+  const sid::app::CsvTable plain = simulate_to("a.csv", "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth");
+  const sid::app::CsvTable t = simulate_to(
+      "b.csv",
+      "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth --effect torque_offset_j1:0.07 "
+      "--effect torque_offset_j2:-0.05");
+  const Eigen::VectorXd d1 = difference(t, "tau1", "tau1_true");
+  const Eigen::VectorXd d2 = difference(t, "tau2", "tau2_true");
+  EXPECT_LT((d1.array() - 0.07).abs().maxCoeff(), kOffsetTol);
+  EXPECT_LT((d2.array() + 0.05).abs().maxCoeff(), kOffsetTol);
+  // A sensor fault does not move the arm: angles and applied torques as without it.
+  for (const char* c : {"q1", "q2", "q1_true", "qd2", "tau1_true", "tau2_true"})
+    EXPECT_EQ(t.column(c), plain.column(c)) << c;
+}
+
+TEST_F(SidSimulate, AngleOffsetIsMinusDeltaOnTheMeasuredAngle) {
+  const sid::app::CsvTable plain = simulate_to("a.csv", "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth");
+  const sid::app::CsvTable t = simulate_to(
+      "b.csv",
+      "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth --effect angle_offset_q1:0.05 "
+      "--effect angle_offset_q2:-0.02");
+  EXPECT_LT((difference(t, "q1", "q1_true").array() + 0.05).abs().maxCoeff(), kOffsetTol);
+  EXPECT_LT((difference(t, "q2", "q2_true").array() - 0.02).abs().maxCoeff(), kOffsetTol);
+  for (const char* c : {"q1_true", "q2_true", "tau1", "tau2"})
+    EXPECT_EQ(t.column(c), plain.column(c)) << c;
+}
+
+TEST_F(SidSimulate, SensorOffsetsDoNotChangeTheNoiseOfASeed) {
+  const std::string noisy = "--sigma-q2 1e-4 --sigma-tau2 0.04 --seed 3 --T 1 ";
+  const sid::app::CsvTable plain = simulate_to("a.csv", noisy);
+  const sid::app::CsvTable t = simulate_to(
+      "b.csv", noisy + "--effect torque_offset_j2:0.3 --effect angle_offset_q1:-0.1");
+  EXPECT_LT(((t.column("tau2") - plain.column("tau2")).array() - 0.3).abs().maxCoeff(), kOffsetTol);
+  // measured q = true q - delta, delta = -0.1.
+  EXPECT_LT(((t.column("q1") - plain.column("q1")).array() - 0.1).abs().maxCoeff(), kOffsetTol);
+  EXPECT_EQ(t.column("tau1"), plain.column("tau1"));
+  EXPECT_EQ(t.column("q2"), plain.column("q2"));
+}
+
+TEST_F(SidSimulate, MultisineExcitationAppliesItsFormula) {
+  const sid::app::CsvTable t =
+      simulate_to("m.csv", "--sigma-q2 0 --sigma-tau2 0 --excitation multisine --truth");
+  const sid::app::CsvTable paper = simulate_to("p.csv", "--sigma-q2 0 --sigma-tau2 0");
+  const Eigen::VectorXd time = t.column("t");
+  Eigen::VectorXd u1(time.size()), u2(time.size());
+  for (Eigen::Index i = 0; i < time.size(); ++i) {
+    u1[i] = 5.0 * std::sin(1.3 * time[i]) + 2.0 * std::sin(3.1 * time[i]);
+    u2[i] = 3.0 * std::cos(0.7 * time[i]) + 1.5 * std::sin(2.3 * time[i]);
+  }
+  EXPECT_LT(max_abs_difference(t.column("tau1"), u1), kTorqueTol);
+  EXPECT_LT(max_abs_difference(t.column("tau2"), u2), kTorqueTol);
+  // The arm obeys the paper's equation of motion under it.
+  const Eigen::MatrixX2d tau = paper_arm_torque(t);
+  EXPECT_LT(max_abs_difference(tau.col(0), u1), kEquationOfMotionTol);
+  EXPECT_LT(max_abs_difference(tau.col(1), u2), kEquationOfMotionTol);
+  EXPECT_GT(max_abs_difference(t.column("q1"), paper.column("q1")), 0.1);
+}
+
+TEST_F(SidSimulate, CoulombFrictionIsTheTorqueTheRigidArmDoesNotExplain) {
+  const double fc1 = 0.3, fc2 = 0.1, eps = 0.02;
+  const sid::app::CsvTable t = simulate_to(
+      "c.csv", "--sigma-q2 0 --sigma-tau2 0 --truth --effect coulomb_j1:0.3 "
+               "--effect coulomb_j2:0.1 --coulomb-epsilon 0.02");
+  const Eigen::MatrixX2d rigid = paper_arm_torque(t);
+  const Eigen::VectorXd qd1 = t.column("qd1"), qd2 = t.column("qd2");
+  const Eigen::VectorXd f1 = fc1 * (qd1 / eps).array().tanh();
+  const Eigen::VectorXd f2 = fc2 * (qd2 / eps).array().tanh();
+  EXPECT_LT(max_abs_difference(t.column("tau1") - rigid.col(0), f1), kEquationOfMotionTol);
+  EXPECT_LT(max_abs_difference(t.column("tau2") - rigid.col(1), f2), kEquationOfMotionTol);
+  // Both signs of both velocities occur, so the test sees the whole tanh.
+  EXPECT_LT(qd1.minCoeff(), -0.1);
+  EXPECT_GT(qd1.maxCoeff(), 0.1);
+  EXPECT_LT(qd2.minCoeff(), -0.1);
+  EXPECT_GT(qd2.maxCoeff(), 0.1);
+}
+
+TEST_F(SidSimulate, StribeckArmatureAndSpringEnterTheEquationOfMotion) {
+  const double fc = 0.1, fs = 0.3, vs = 0.2, eps = 0.01, ia = 0.006, k = 0.5;
+  const sid::app::CsvTable t = simulate_to(
+      "s.csv", "--sigma-q2 0 --sigma-tau2 0 --truth --excitation multisine "
+               "--effect stribeck_j1:0.1,0.3,0.2 --effect armature_j2:0.006 "
+               "--effect spring_j2:0.5");
+  const Eigen::MatrixX2d rigid = paper_arm_torque(t);
+  const Eigen::ArrayXd v = t.column("qd1").array();
+  const Eigen::VectorXd stribeck =
+      (fc + (fs - fc) * (-(v / vs).square()).exp()) * (v / eps).tanh();
+  const Eigen::VectorXd joint2 = ia * t.column("qdd2") + k * t.column("q2_true");
+  EXPECT_LT(max_abs_difference(t.column("tau1") - rigid.col(0), stribeck), kEquationOfMotionTol);
+  EXPECT_LT(max_abs_difference(t.column("tau2") - rigid.col(1), joint2), kEquationOfMotionTol);
+}
+
+TEST_F(SidSimulate, CommentsRecordTheEffectsAndTheExcitation) {
+  const AppRun none = run("--T 0.1 -q");
+  ASSERT_EQ(none.exit_code, 0) << none.err;
+  EXPECT_NE(none.out.find("# excitation = paper\n"), std::string::npos) << none.out.substr(0, 800);
+  EXPECT_NE(none.out.find("# effects = none\n"), std::string::npos) << none.out.substr(0, 800);
+  const AppRun r = run("--T 0.1 -q --excitation multisine --effect coulomb_j2:0.1 "
+                       "--effect stribeck_j1:0.1,0.3,0.2 --effect angle_offset_q1:0.05");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string header = r.out.substr(0, r.out.find("\nt,"));
+  for (const char* word :
+       {"# excitation = multisine\n",
+        "# effects = coulomb_j2:0.1 stribeck_j1:0.1,0.3,0.2 angle_offset_q1:0.05 "
+        "(coulomb_epsilon = 0.01 rad/s)",
+        "u1 = 5 sin 1.3t + 2 sin 3.1t", "Coulomb friction on joint 2; Fc = 0.1 N m",
+        "Fc = 0.1 N m, Fs = 0.3 N m, vs = 0.2 rad/s", "delta = 0.05 rad"})
+    EXPECT_NE(header.find(word), std::string::npos) << "comments lack " << word << ":\n" << header;
+}
+
+TEST_F(SidSimulate, SameSeedAndEffectsGiveIdenticalBytes) {
+  const std::string args = "--seed 9 -q --T 3 --excitation multisine --effect coulomb_j1:0.2 "
+                           "--effect torque_offset_j2:0.05 ";
+  ASSERT_EQ(run(args + "-o a.csv").exit_code, 0);
+  ASSERT_EQ(run(args + "-o b.csv").exit_code, 0);
+  const std::string a = read(file("a.csv"));
+  ASSERT_FALSE(a.empty());
+  EXPECT_EQ(a, read(file("b.csv")));
+  // The default is the paper's excitation without effects, spelled out or not.
+  ASSERT_EQ(run("--seed 9 -q --T 3 -o c.csv").exit_code, 0);
+  ASSERT_EQ(run("--seed 9 -q --T 3 --excitation paper -o d.csv").exit_code, 0);
+  EXPECT_EQ(read(file("c.csv")), read(file("d.csv")));
+  EXPECT_NE(read(file("c.csv")), a);
+}
+
+TEST_F(SidSimulate, BadEffectsAndExcitationsExitTwoWithAMessage) {
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {"--effect coulomb_j3:0.1", "unknown effect id 'coulomb_j3'"},
+      {"--effect coulomb_j3:0.1", "spring_j2"},  // the message lists the valid ids
+      {"--effect coulomb_j1", "has no ':'"},
+      {"--effect coulomb_j1:abc", "'abc' is not a number"},
+      {"--effect coulomb_j1:-0.1", "Fc must be > 0"},
+      {"--effect coulomb_j1:nan", "Fc must be finite"},
+      {"--effect stribeck_j1:0.1,0.3", "needs 3 values"},
+      {"--effect stribeck_j1:0.3,0.2,0.2", "Fs must be > Fc"},
+      {"--effect stribeck_j1:0.1,0.3,0", "vs must be > 0"},
+      {"--effect armature_j2:0", "Ia must be > 0"},
+      {"--effect spring_j1:-1", "k must be > 0"},
+      {"--effect angle_offset_q1:2", "|delta| must be < pi/2"},
+      {"--effect coulomb_j1:0.1 --effect coulomb_j1:0.2", "coulomb_j1 is given more than once"},
+      {"--excitation chirp", "--excitation must be paper or multisine, got 'chirp'"},
+      {"--excitation ''", "--excitation must be paper or multisine"},
+      {"--coulomb-epsilon 0", "--coulomb-epsilon"},
+      {"--coulomb-epsilon nan", "--coulomb-epsilon"},
+  };
+  for (const auto& [args, what] : cases) expect_input_error(args, what);
 }

@@ -24,6 +24,17 @@ struct PaperInput {
   }
 };
 
+/// @brief A second excitation with four frequencies instead of the paper's one, so that a
+/// conclusion drawn from data (an effect named, a parameter estimated) can be checked on a
+/// different trajectory: u1 = 5 sin 1.3t + 2 sin 3.1t, u2 = 3 cos 0.7t + 1.5 sin 2.3t [N m],
+/// t in [s].
+struct MultisineInput {
+  Vector2<double> operator()(double t) const {
+    return Vector2<double>(5.0 * std::sin(1.3 * t) + 2.0 * std::sin(3.1 * t),
+                           3.0 * std::cos(0.7 * t) + 1.5 * std::sin(2.3 * t));
+  }
+};
+
 /// @brief Settings of the experiment; the defaults are the paper's (x(0) = 0, T = 10 s,
 /// Ts = 0.0025 s, so 4001 samples from t = 0 inclusive).
 struct ArmExperiment {
