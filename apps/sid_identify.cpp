@@ -75,8 +75,9 @@ Estimator (--estimator):
        the instruments) and restarted every 0.5 s from the estimated state; iterated until
        theta changes by < 1e-4 relative (at most 10 iterations; the count is reported). It
        removes the bias that noise in the estimated accelerations causes (theta2 about -3 %
-       at sigma_q^2 = 1e-4 with --smoothing gcv). Standard deviations from
-       sigma^2 (W^T X)^-1 W^T W (X^T W)^-1.
+       at sigma_q^2 = 1e-4 with --smoothing gcv). Because it does, gcv and cv then smooth
+       with 0.25 x the lambda they choose: less smoothing bias, more noise, which IV removes.
+       Standard deviations from sigma^2 (W^T X)^-1 W^T W (X^T W)^-1.
 
 Window: samples with t < t_0 + --skip are not used (the start transient). Default 0.25 s,
 for the filtered method 1.7475 s (filter start-up).
@@ -469,6 +470,7 @@ int identify(const Options& o) {
   require(o.estimator == "ls" || o.estimator == "wls" || o.estimator == "iv",
           "--estimator: unknown estimator '" + o.estimator + "' (expected ls, wls or iv)");
   options.weighted = o.estimator == "wls";
+  if (o.estimator == "iv") options.cross_validation_lambda_scale = sid::kInstrumentalVariableLambdaScale;
   std::optional<sid::TwoLinkParameters<double>> truth;
   if (!o.truth.empty()) {
     const std::vector<double> v = sid::app::parse_doubles(o.truth, "--true", 7);

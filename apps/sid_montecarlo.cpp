@@ -53,10 +53,11 @@ Methods (how q-dot and q-double-dot are estimated from the noisy angles; then le
             sigma_q (not in the paper)
   css_wls   css_gcv's kinematics, then weighted least squares with per-joint torque noise
             variances estimated from a first fit (Gautier's IDIM-WLS; not in the paper)
-  css_iv    css_gcv's first estimate, then instrumental variables (IDIM-IV): instruments from
-            CVODE simulations of the current estimate driven by the GCV-smoothed measured
-            torque, restarted every 0.5 s from the smoothed state, iterated until theta changes
-            by < 1e-4 relative (at most 10 times; not in the paper)
+  css_iv    the spline with 0.25 x the GCV lambda (less smoothing bias, more noise), least
+            squares, then instrumental variables (IDIM-IV): instruments from CVODE simulations
+            of the current estimate driven by the GCV-smoothed measured torque, restarted every
+            0.5 s from the smoothed state, iterated until theta changes by < 1e-4 relative (at
+            most 10 times; not in the paper)
   oracle    the exact q, qd, qdd with the noisy torques: the floor no estimator beats on average
             (not in the paper)
 Every method drops t < 0.25 s (the start transient).

@@ -188,3 +188,34 @@ TEST(Identify, WeightedLeastSquaresDownWeightsTheNoisierJointAndHelps) {
   EXPECT_LT(sq_wls[5], 0.5 * sq_ols[5]);
   EXPECT_LT(sq_wls.sum(), sq_ols.sum());
 }
+
+// The scaled GCV fit is the penalty-form fit at scale x the chosen lambda (checked against an
+// independent fit_penalized call), while sigma_hat stays the estimate at the chosen lambda.
+TEST(Identify, CrossValidationLambdaScaleSmoothsLessAtTheScaledLambda) {
+  auto data = reference_trajectory();
+  std::mt19937_64 rng(6);
+  std::normal_distribution<double> noise(0.0, 1e-2);
+  for (Eigen::Index i = 0; i < data.size(); ++i) data.q(i, 0) += noise(rng), data.q(i, 1) += noise(rng);
+  sid::IdentifyOptions options;
+  options.smoothing = sid::SmoothingMode::Gcv;
+  sid::SmoothingReport chosen, scaled;
+  (void)sid::estimate_kinematics(data, options, &chosen);
+  options.cross_validation_lambda_scale = 0.25;
+  const auto k = sid::estimate_kinematics(data, options, &scaled);
+  Eigen::Index first = 0;
+  while (data.t[first] < data.t[0] + options.cross_validation_skip - 1e-9) ++first;
+  const Eigen::Index used = data.size() - first;
+  const sid::SmoothingSpline<double> spline(data.t.tail(used));
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_NEAR(scaled.lambda[j] / chosen.lambda[j], 0.25, 1e-12) << "joint " << j + 1;
+    EXPECT_EQ(scaled.sigma[j], chosen.sigma[j]) << "joint " << j + 1;
+    EXPECT_GT(scaled.trace[j], chosen.trace[j]) << "joint " << j + 1;  // less smoothing
+    const Eigen::VectorXd qj = data.q.col(j).tail(used);
+    const auto fit = spline.fit_penalized(qj, 1.0, 1.0 / (0.25 * chosen.lambda[j]));
+    Eigen::VectorXd qdd(used);
+    fit.spline.derivatives_at_knots(2, qdd);
+    EXPECT_LT((k.qdd.col(j) - qdd).cwiseAbs().maxCoeff(), 1e-9 * qdd.cwiseAbs().maxCoeff()) << "joint " << j + 1;
+  }
+  options.cross_validation_lambda_scale = 0.0;
+  expect_invalid([&] { (void)sid::estimate_kinematics(data, options); }, "cross_validation_lambda_scale");
+}

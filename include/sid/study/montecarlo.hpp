@@ -39,7 +39,8 @@ enum class StudyMethod {
   Css,       ///< Reinsch smoothing spline, δq = σq, S = n
   CssGcv,    ///< Reinsch smoothing spline with λ chosen by GCV: no noise level needed
   CssWls,    ///< css_gcv kinematics, Gautier's IDIM-WLS (per-joint noise from a first fit)
-  CssIv,     ///< css_gcv kinematics, then the IDIM-IV step (needs MonteCarloOptions::refine)
+  CssIv,     ///< GCV's λ × kInstrumentalVariableLambdaScale, LS, then the IDIM-IV step (needs
+             ///< MonteCarloOptions::refine)
   Oracle,    ///< exact q, q̇, q̈ with the noisy τ: the floor no estimator beats on average
 };
 
@@ -144,6 +145,7 @@ inline Kinematics<double> study_kinematics(StudyMethod method, const Kinematics<
   options.sigma_q = Vector2<double>::Constant(std::sqrt(sigma_q2));
   const bool gcv = method == StudyMethod::CssGcv || method == StudyMethod::CssWls || method == StudyMethod::CssIv;
   options.smoothing = gcv ? SmoothingMode::Gcv : SmoothingMode::SConstraint;
+  if (method == StudyMethod::CssIv) options.cross_validation_lambda_scale = kInstrumentalVariableLambdaScale;
   return estimate_kinematics(measured, options);
 }
 
