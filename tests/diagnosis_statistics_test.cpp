@@ -1,0 +1,124 @@
+// Tests of the statistics behind sid::diagnose: chi-square tails, the Newey–West long-run
+// variance and the noise-floor estimators, against closed forms and known values.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <sid/diagnosis/hac.hpp>
+#include <sid/diagnosis/noise_floor.hpp>
+
+#include "test_support.hpp"
+
+namespace {
+
+TEST(ChiSquare, TailMatchesClosedForms) {
+  constexpr double kTol = 1e-12;
+  for (double x : {0.0, 0.1, 1.0, 3.84, 6.63, 10.0, 30.0, 80.0}) {
+    // df = 2: exp(−x/2); df = 1: erfc(sqrt(x/2)); df = 4: exp(−x/2)(1 + x/2).
+    EXPECT_NEAR(sid::chi_square_tail(x, 2.0), std::exp(-x / 2), kTol) << x;
+    EXPECT_NEAR(sid::chi_square_tail(x, 1.0), std::erfc(std::sqrt(x / 2)), kTol) << x;
+    EXPECT_NEAR(sid::chi_square_tail(x, 4.0), std::exp(-x / 2) * (1 + x / 2), kTol) << x;
+  }
+}
+
+TEST(ChiSquare, TailMatchesTabulatedCriticalValues) {
+  // Critical values of standard tables (e.g. NIST/SEMATECH e-Handbook 1.3.6.7.4).
+  constexpr double kTol = 2e-4;
+  EXPECT_NEAR(sid::chi_square_tail(3.841, 1.0), 0.05, kTol);
+  EXPECT_NEAR(sid::chi_square_tail(6.635, 1.0), 0.01, kTol);
+  EXPECT_NEAR(sid::chi_square_tail(9.210, 2.0), 0.01, kTol);
+  EXPECT_NEAR(sid::chi_square_tail(11.345, 3.0), 0.01, kTol);
+  EXPECT_NEAR(sid::chi_square_tail(18.307, 10.0), 0.05, kTol);
+  EXPECT_NEAR(sid::chi_square_tail(124.342, 100.0), 0.05, kTol);
+}
+
+TEST(ChiSquare, CriticalValueInvertsTheTail) {
+  for (double df : {1.0, 2.0, 3.0, 7.0, 200.0})
+    for (double alpha : {0.5, 0.05, 1e-3, 1e-8}) {
+      const double x = sid::chi_square_critical(alpha, df);
+      EXPECT_NEAR(sid::chi_square_tail(x, df), alpha, 1e-9 * alpha + 1e-14) << df << " " << alpha;
+    }
+  EXPECT_NEAR(sid::chi_square_critical(0.05, 1.0), 3.841459, 1e-5);
+}
+
+TEST(ChiSquare, ThrowsOnBadArguments) {
+  sid_test::expect_invalid_argument([] { (void)sid::chi_square_tail(-1.0, 1.0); },
+                                    "sid::chi_square_tail", "x");
+  sid_test::expect_invalid_argument([] { (void)sid::chi_square_tail(1.0, 0.0); },
+                                    "sid::chi_square_tail", "df");
+  sid_test::expect_invalid_argument([] { (void)sid::chi_square_critical(1.0, 1.0); },
+                                    "sid::chi_square_critical", "alpha");
+}
+
+/// AR(1) x_t = φ x_{t−1} + u_t, u ~ N(0, s²), started from its stationary distribution.
+Eigen::VectorXd ar1(Eigen::Index n, double phi, double s, std::mt19937_64& rng) {
+  std::normal_distribution<double> normal(0.0, s);
+  Eigen::VectorXd x(n);
+  x[0] = normal(rng) / std::sqrt(1 - phi * phi);
+  for (Eigen::Index t = 1; t < n; ++t) x[t] = phi * x[t - 1] + normal(rng);
+  return x;
+}
+
+TEST(NeweyWest, VarianceOfTheMeanOfAnAr1SeriesMatchesItsLongRunVariance) {
+  // The long-run variance of an AR(1) is s² / (1 − φ)², so var(mean) ≈ s² / (n (1 − φ)²). Averaged
+  // over replications, the HAC estimate must find it (the OLS variance s²/(1−φ²)/n is 1/9 of it
+  // for φ = 0.8). (Bartlett's kernel alone at Andrews' bandwidth comes out 11 % low for φ = 0.8:
+  // hence the prewhitening.)
+  constexpr Eigen::Index kN = 4000;
+  constexpr int kRuns = 40;
+  std::mt19937_64 rng(7);
+  for (double phi : {0.0, 0.5, 0.8}) {
+    const double s = 0.3;
+    const double truth = s * s / ((1 - phi) * (1 - phi)) / kN;
+    double mean_estimate = 0;
+    for (int run = 0; run < kRuns; ++run) {
+      const Eigen::VectorXd x = ar1(kN, phi, s, rng);
+      // The mean as an OLS fit on a constant: scores x_t − x̄, bread 1/n.
+      const Eigen::MatrixXd scores = (x.array() - x.mean()).matrix();
+      mean_estimate += sid::hac_long_run_sum(scores)(0, 0) / (double(kN) * kN) / kRuns;
+    }
+    EXPECT_NEAR(mean_estimate / truth, 1.0, 0.1) << "phi " << phi;
+  }
+}
+
+TEST(NeweyWest, SumAtLagZeroIsTheGramMatrixAndWeightsFollowBartlett) {
+  Eigen::MatrixXd g(4, 2);
+  g << 1, 2, -1, 0.5, 3, -2, 0.25, 1;
+  EXPECT_TRUE(sid::newey_west_sum(g, 0).isApprox(g.transpose() * g));
+  // Lag 1: weight 1/2 on Γ1 + Γ1ᵀ, Γ1 = Σ_t g_t g_{t−1}ᵀ.
+  Eigen::MatrixXd gamma1 = Eigen::MatrixXd::Zero(2, 2);
+  for (int t = 1; t < 4; ++t) gamma1 += g.row(t).transpose() * g.row(t - 1);
+  EXPECT_TRUE(
+      sid::newey_west_sum(g, 1).isApprox(g.transpose() * g + 0.5 * (gamma1 + gamma1.transpose())));
+}
+
+TEST(NeweyWest, WaldStatisticIsTheQuadraticForm) {
+  Eigen::Vector2d gamma(1.0, -2.0);
+  Eigen::Matrix2d v;
+  v << 2.0, 0.5, 0.5, 1.0;
+  EXPECT_NEAR(sid::wald_statistic(gamma, v), gamma.dot(v.inverse() * gamma), 1e-12);
+}
+
+TEST(NoiseFloor, FindsWhiteNoiseOnASmoothSignal) {
+  // The τ: a few N m of sinusoids at 400 Hz, σ = 0.1 N m.
+  constexpr Eigen::Index kN = 4001;
+  const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(kN, 0.0, 10.0);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (double sigma : {0.1, 0.01}) {
+    Eigen::VectorXd y(kN);
+    for (Eigen::Index i = 0; i < kN; ++i)
+      y[i] = 5 * std::sin(1.3 * t[i]) + 2 * std::sin(3.1 * t[i]) + sigma * normal(rng);
+    EXPECT_NEAR(sid::noise_sigma_gcv(t, y) / sigma, 1.0, 0.1) << sigma;
+    EXPECT_NEAR(sid::noise_sigma_second_differences(y) / sigma, 1.0, 0.1) << sigma;
+  }
+}
+
+TEST(NoiseFloor, ThrowsOnTooFewSamples) {
+  sid_test::expect_invalid_argument(
+      [] { (void)sid::noise_sigma_second_differences(Eigen::VectorXd::Zero(2)); },
+      "sid::noise_sigma_second_differences", "samples");
+}
+
+}  // namespace
