@@ -404,3 +404,39 @@ TEST(Diagnose, ThrowsOnBadInput) {
 }
 
 }  // namespace
+
+// --- The integral form (DiagnoseOptions::integration_window).
+
+TEST(Diagnose, IntegrateWindowsIsTheTrapezoidalIntegralPerJointAndWindow) {
+  const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(21, 0.0, 2.0);  // 20 intervals of 0.1 s
+  Eigen::MatrixXd rows(42, 2);
+  for (Eigen::Index i = 0; i < 21; ++i) {
+    rows.row(i) << 1.0, 3.0 * t[i];         // joint 1: 1 and 3t
+    rows.row(21 + i) << -2.0, t[i] * t[i];  // joint 2: -2 and t² (trapezoid: + h²/6 per window)
+  }
+  const Eigen::MatrixXd w = sid::detail::integrate_windows(rows, t, 6);  // 3 windows of 0.6 s
+  ASSERT_EQ(w.rows(), 6);
+  for (Eigen::Index k = 0; k < 3; ++k) {
+    const double a = 0.6 * static_cast<double>(k), b = a + 0.6;
+    EXPECT_NEAR(w(k, 0), b - a, 1e-12);
+    EXPECT_NEAR(w(k, 1), 1.5 * (b * b - a * a), 1e-12);
+    EXPECT_NEAR(w(3 + k, 0), -2.0 * (b - a), 1e-12);
+    EXPECT_NEAR(w(3 + k, 1), (b * b * b - a * a * a) / 3.0 + (b - a) * 0.01 / 6.0, 1e-12);
+  }
+  EXPECT_EQ(sid::detail::integrate_windows(rows, t, 1), rows);
+}
+
+TEST(Diagnose, IntegralFormEstimatesCoulombFrictionWithoutTheSmearingBias) {
+  sid::DiagnoseOptions options;
+  options.integration_window = 20;
+  for (Excitation excitation : {Excitation::Paper, Excitation::Multisine}) {
+    SCOPED_TRACE(excitation_name(excitation));
+    const sid::DiagnosisResult r =
+        sid::diagnose(simulate({sid::parse_effect("coulomb_j2:0.3")}, excitation, 51u), options);
+    ASSERT_EQ(named_ids(r), std::vector<std::string>{"coulomb_j2"});
+    EXPECT_NEAR(r.effects[0].estimate[0], 0.3, 0.05 * 0.3);
+  }
+  options.integration_window = 0;
+  EXPECT_THROW((void)sid::diagnose(simulate({}, Excitation::Paper, 51u), options),
+               std::invalid_argument);
+}
