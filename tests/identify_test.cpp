@@ -23,6 +23,15 @@ sid::Trajectory<double> reference_trajectory() {
   return data;
 }
 
+/// The reference trajectory with white Gaussian noise of standard deviation sigma [rad] on q.
+sid::Trajectory<double> reference_trajectory_with_angle_noise(unsigned seed, double sigma) {
+  auto data = reference_trajectory();
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma);
+  for (Eigen::Index i = 0; i < data.size(); ++i) data.q(i, 0) += noise(rng), data.q(i, 1) += noise(rng);
+  return data;
+}
+
 double max_relative_error(const Eigen::VectorXd& estimate, const Eigen::VectorXd& truth) {
   return (estimate - truth).cwiseQuotient(truth).cwiseAbs().maxCoeff();
 }
@@ -132,10 +141,7 @@ TEST(Identify, RejectsBadInputWithReasons) {
 }
 
 TEST(Identify, GcvSmoothingFindsTheNoiseLevelByItself) {
-  auto data = reference_trajectory();
-  std::mt19937_64 rng(5);
-  std::normal_distribution<double> noise(0.0, 1e-3);
-  for (Eigen::Index i = 0; i < data.size(); ++i) data.q(i, 0) += noise(rng), data.q(i, 1) += noise(rng);
+  const auto data = reference_trajectory_with_angle_noise(5, 1e-3);
   sid::IdentifyOptions options;
   options.smoothing = sid::SmoothingMode::Gcv;
   options.sigma_q.setConstant(std::nan(""));  // not needed, and must not be used
@@ -192,10 +198,7 @@ TEST(Identify, WeightedLeastSquaresDownWeightsTheNoisierJointAndHelps) {
 // The scaled GCV fit is the penalty-form fit at scale x the chosen lambda (checked against an
 // independent fit_penalized call), while sigma_hat stays the estimate at the chosen lambda.
 TEST(Identify, CrossValidationLambdaScaleSmoothsLessAtTheScaledLambda) {
-  auto data = reference_trajectory();
-  std::mt19937_64 rng(6);
-  std::normal_distribution<double> noise(0.0, 1e-2);
-  for (Eigen::Index i = 0; i < data.size(); ++i) data.q(i, 0) += noise(rng), data.q(i, 1) += noise(rng);
+  const auto data = reference_trajectory_with_angle_noise(6, 1e-2);
   sid::IdentifyOptions options;
   options.smoothing = sid::SmoothingMode::Gcv;
   sid::SmoothingReport chosen, scaled;

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "paper_truth.hpp"
+
 #include <cmath>
 #include <string>
 
@@ -11,16 +13,7 @@
 
 namespace {
 
-const sid::Kinematics<double>& truth() {
-  static const sid::Kinematics<double> k = [] {
-    const auto theta = sid::paper_arm_parameters<double>();
-    const auto run = sid::simulate_arm_experiment(
-        [&](const auto& q, const auto& qd, const auto& tau) { return sid::two_link_forward_dynamics(theta, q, qd, tau); });
-    if (!run.ok()) throw std::runtime_error("simulation failed: " + run.message);
-    return run.truth;
-  }();
-  return k;
-}
+const sid::Kinematics<double>& truth() { return sid_test::paper_truth(); }
 
 const sid::MethodSummary& summary(const sid::MonteCarloResult& r, sid::StudyMethod m) {
   for (const auto& s : r.levels.at(0).methods)
