@@ -1,0 +1,187 @@
+// Benchmarks of the diagnosis (sid/cvode/diagnose.hpp): the whole diagnose_with_simulation on one
+// 4001-sample data set (target <= 0.5 s), the free simulation alone, and, run once, the
+// confusion matrix of the naming over every effect id x 2 seeds x 2 excitations, printed as a
+// table for the README.
+
+#include <benchmark/benchmark.h>
+
+#include <sid/cvode/diagnose.hpp>
+#include <sid/cvode/experiment.hpp>
+#include <sid/measurement_noise.hpp>
+#include <sid/model/effects.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace {
+
+/// The multisine excitation of sid_simulate: u1 = 5 sin 1.3t + 2 sin 3.1t, u2 = 3 cos 0.7t +
+/// 1.5 sin 2.3t [N m].
+struct MultisineInput {
+  sid::Vector2<double> operator()(double t) const {
+    return {5.0 * std::sin(1.3 * t) + 2.0 * std::sin(3.1 * t), 3.0 * std::cos(0.7 * t) + 1.5 * std::sin(2.3 * t)};
+  }
+};
+
+constexpr double kSigmaQ2 = 1e-6;    // [rad^2], the brief's default
+constexpr double kSigmaTau2 = 1e-2;  // [(N m)^2]
+
+template <typename Input>
+sid::Trajectory<double> measured_data(const std::vector<sid::EffectSpec>& effects, const Input& input,
+                                      unsigned seed) {
+  const sid::EffectfulArm arm = sid::effectful_arm(sid::paper_arm_parameters(), effects);
+  auto fd = [&arm](const sid::Vector2<double>& q, const sid::Vector2<double>& qd, const sid::Vector2<double>& tau) {
+    return arm.model.forward_dynamics(arm.theta, q, qd, tau);
+  };
+  const sid::ExperimentResult run = sid::simulate_arm_experiment(fd, input);
+  if (!run.ok()) throw std::runtime_error("simulation failed: " + run.message);
+  sid::Trajectory<double> truth = run.trajectory();
+  for (int j = 0; j < 2; ++j) {
+    truth.tau.col(j).array() += arm.torque_offset[j];
+    truth.q.col(j).array() -= arm.angle_offset[j];
+  }
+  std::mt19937_64 rng(seed);
+  return sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{kSigmaQ2, kSigmaTau2}, rng);
+}
+
+sid::Trajectory<double> data_set(const std::string& effect, bool multisine, unsigned seed) {
+  std::vector<sid::EffectSpec> effects;
+  if (!effect.empty()) effects.push_back(sid::parse_effect(effect));
+  return multisine ? measured_data(effects, MultisineInput(), seed)
+                   : measured_data(effects, sid::PaperInput(), seed);
+}
+
+void BM_DiagnoseWithSimulation(benchmark::State& state) {
+  const sid::Trajectory<double> data = data_set("coulomb_j2:0.2", false, 1);
+  std::size_t named = 0;
+  for (auto _ : state) {
+    const sid::DiagnosisResult r = sid::diagnose_with_simulation(data);
+    named = r.effects.size();
+    benchmark::DoNotOptimize(r.final.sim_error_rms.data());
+  }
+  state.counters["named"] = static_cast<double>(named);
+  state.counters["samples"] = static_cast<double>(data.size());
+}
+BENCHMARK(BM_DiagnoseWithSimulation)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// diagnose() alone, so the cost of the simulation check is the difference.
+void BM_DiagnoseOnly(benchmark::State& state) {
+  const sid::Trajectory<double> data = data_set("coulomb_j2:0.2", false, 1);
+  for (auto _ : state) {
+    const sid::DiagnosisResult r = sid::diagnose(data);
+    benchmark::DoNotOptimize(r.final.residual_rms.data());
+  }
+}
+BENCHMARK(BM_DiagnoseOnly)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// One free simulation of the nominal model over the 3881 kept samples, 10 segments.
+void BM_FreeSimulation(benchmark::State& state) {
+  const sid::Trajectory<double> data = data_set("", false, 1);
+  const sid::Identification id = sid::identify(data, sid::detail::diagnose_identify_defaults());
+  const sid::Model<double> model = sid::two_link_arm_model<double>();
+  long steps = 0;
+  for (auto _ : state) {
+    const sid::FreeSimulation sim = sid::free_simulation(model, id.fit.theta, id.kinematics);
+    steps = sim.statistics.steps;
+    benchmark::DoNotOptimize(sim.error_rms.data());
+  }
+  state.counters["steps"] = static_cast<double>(steps);
+  state.counters["samples"] = static_cast<double>(id.kinematics.size());
+}
+BENCHMARK(BM_FreeSimulation)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The hidden effect of each row of the confusion matrix, at a clearly visible size.
+const std::vector<std::pair<std::string, std::string>>& hidden_effects() {
+  static const std::vector<std::pair<std::string, std::string>> effects = {
+      {"none", ""},
+      {"coulomb_j1", "coulomb_j1:0.1"},
+      {"coulomb_j2", "coulomb_j2:0.1"},
+      {"stribeck_j1", "stribeck_j1:0.1,0.3,0.2"},
+      {"stribeck_j2", "stribeck_j2:0.1,0.3,0.2"},
+      {"torque_offset_j1", "torque_offset_j1:0.05"},
+      {"torque_offset_j2", "torque_offset_j2:0.05"},
+      {"angle_offset_q1", "angle_offset_q1:0.05"},
+      {"angle_offset_q2", "angle_offset_q2:0.05"},
+      {"armature_j1", "armature_j1:0.02"},
+      {"armature_j2", "armature_j2:0.006"},
+      {"spring_j1", "spring_j1:0.1"},
+      {"spring_j2", "spring_j2:0.1"},
+  };
+  return effects;
+}
+
+// Runs once: every hidden effect x seeds {1, 2} x excitations {paper, multisine}; prints the
+// counts of each named id per hidden effect, how often exactly the hidden effect was named, and
+// the mean relative error of its first value when it was.
+void BM_ConfusionMatrix(benchmark::State& state) {
+  const std::vector<std::string>& ids = sid::effect_ids();
+  int correct = 0, total = 0;
+  double seconds = 0.0, worst = 0.0;
+  std::string table;
+  for (auto _ : state) {
+    table.clear();
+    correct = total = 0;
+    char line[512];
+    std::snprintf(line, sizeof line, "%-17s", "hidden \\ named");
+    table += line;
+    for (std::size_t c = 0; c < ids.size(); ++c) {
+      std::snprintf(line, sizeof line, " %4s", ("e" + std::to_string(c + 1)).c_str());
+      table += line;
+    }
+    table += "  exact  est.err%  not_separable\n";
+    for (const auto& [row, spec] : hidden_effects()) {
+      std::map<std::string, int> counts;
+      int exact = 0;
+      double error_sum = 0.0;
+      int error_count = 0;
+      int not_separable = 0;
+      const double hidden_value = spec.empty() ? 0.0 : sid::parse_effect(spec).values[0];
+      for (const bool multisine : {false, true})
+        for (const unsigned seed : {1u, 2u}) {
+          const sid::DiagnosisResult r = sid::diagnose(data_set(spec, multisine, seed));
+          seconds += r.seconds;
+          worst = std::max(worst, r.seconds);
+          ++total;
+          for (const auto& e : r.effects) ++counts[e.id];
+          for (const auto& s : r.not_separable) not_separable += s.id == row ? 1 : 0;
+          const bool is_exact = row == "none" ? r.effects.empty()
+                                              : (r.effects.size() == 1 && r.effects[0].id == row);
+          if (row == "armature_j1" && r.effects.empty()) ++exact;  // nothing can be named
+          if (is_exact) {
+            ++exact;
+            if (row != "none") {
+              error_sum += std::abs(r.effects[0].estimate[0] - hidden_value) / std::abs(hidden_value);
+              ++error_count;
+            }
+          }
+        }
+      correct += exact;
+      std::snprintf(line, sizeof line, "%-17s", row.c_str());
+      table += line;
+      for (const auto& id : ids) {
+        std::snprintf(line, sizeof line, " %4d", counts.count(id) ? counts[id] : 0);
+        table += line;
+      }
+      std::snprintf(line, sizeof line, "  %d/4   %8s  %d/4\n", exact,
+                    error_count ? std::to_string(100.0 * error_sum / error_count).substr(0, 5).c_str() : "-",
+                    not_separable);
+      table += line;
+    }
+  }
+  std::string legend = "columns:";
+  for (std::size_t c = 0; c < ids.size(); ++c) legend += " e" + std::to_string(c + 1) + "=" + ids[c];
+  std::printf("\nConfusion matrix (sigma_q2 = 1e-6, sigma_tau2 = 1e-2; seeds 1, 2; paper and multisine "
+              "excitation; armature_j1 counts as right when nothing is named)\n%s%s\n"
+              "right: %d/%d data sets; diagnose() wall time mean %.3f s, worst %.3f s\n\n",
+              table.c_str(), legend.c_str(), correct, total, seconds / std::max(total, 1), worst);
+  state.counters["right"] = correct;
+  state.counters["data_sets"] = total;
+}
+BENCHMARK(BM_ConfusionMatrix)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+}  // namespace

@@ -1,0 +1,315 @@
+#pragma once
+/// @file
+/// @brief Free (open-loop) simulation of an identified model driven by the measured torque,
+/// compared with the measured angles: where a model that fits the torques well still drifts
+/// away from the data, something physical is missing (issue #6, sid_diagnose).
+
+#include <sid/butterworth.hpp>
+#include <sid/cvode/simulator.hpp>
+#include <sid/model/model.hpp>
+#include <sid/trajectory.hpp>
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sid {
+
+namespace detail {
+
+/// Tolerances of the free simulation. The reference it is compared with is a smoothed angle
+/// (errors ~1e-4 rad) and the torque that drives it is noisy, so the simulator's default 1e-10
+/// buys nothing; 1e-9 keeps the error of the exact model on the exact experiment below 2e-7 rad
+/// (1e-8 gives 8e-7, too close to the 1e-6 of tests/free_simulation_test.cpp). BDF because a fitted Coulomb
+/// term Fc tanh(qd/eps) adds a damping Fc/eps (20 N m s/rad at Fc = 0.2, eps = 0.01) over the
+/// small link-2 inertia near every velocity reversal, and Adams methods would crawl there.
+inline SimulatorOptions free_simulation_simulator_defaults() {
+  SimulatorOptions options;
+  options.rtol = 1e-9;
+  options.atol = 1e-9;
+  options.method = IntegrationMethod::Bdf;
+  // Between two samples (2.5 ms in the paper's data) 20000 steps is a failure, not work:
+  // stop there instead of appearing to hang on a model that blows up.
+  options.max_steps = 20000;
+  return options;
+}
+
+}  // namespace detail
+
+/// @brief Settings of free_simulation().
+struct FreeSimulationOptions {
+  /// Length of a segment [s]: the simulation restarts from the smoothed state (k.q, k.qd) at the
+  /// first sample of every segment, because the arm is a double pendulum whose open-loop
+  /// trajectories diverge from each other however good the model is. <= 0 or infinite: one run
+  /// over the whole record.
+  double segment = 1.0;
+  /// A state with |q| [rad] or |qd| [rad/s] above this is a blow-up: the segment stops there
+  /// (reported in FreeSimulation::message) instead of integrating to overflow. > 0.
+  double blow_up = 1e4;
+  /// Cut-off [Hz] of a zero-phase low-pass (Butterworth order 2, forward-backward) applied to
+  /// the measured torque before it drives the simulation; <= 0, infinite or at/above the
+  /// Nyquist frequency: none. Applied only on a uniform grid. Why: white torque noise makes the
+  /// interpolated input rough at every sample, and CVODE then resolves every sample with ~35
+  /// steps (136000 steps, 0.2 s for the paper's record at sigma_tau = 0.1 N m); at 20 Hz it
+  /// needs 51000 steps, 0.075 s. The angles barely notice: the noise acts on q through its
+  /// low-frequency content (a random walk through the viscous friction), which the filter
+  /// keeps; the content it removes (joint 2's small inertia follows the noise up to ~30 Hz)
+  /// changes q by 8e-4 rad RMS against the 5.7e-3 rad RMS random walk of joint 2. The motion's torque (< 1 Hz in the paper's experiment) passes
+  /// unchanged (exact experiment: < 1e-6 rad, tests/free_simulation_test.cpp).
+  double torque_bandwidth = 20.0;
+  SimulatorOptions simulator = detail::free_simulation_simulator_defaults();
+};
+
+/// @brief A free simulation and its disagreement with the (smoothed) measured angles.
+/// Class invariant: t, q and error have the same number of rows; the rows of a failed segment
+/// after its failure time are NaN in q and error.
+struct [[nodiscard]] FreeSimulation {
+  Eigen::VectorXd t;             ///< the sample times of the kinematics [s]
+  MatrixX2<double> q;            ///< simulated angles [rad]
+  MatrixX2<double> error;        ///< k.q - simulated q [rad]
+  /// RMS of error per joint over the samples that were simulated [rad] (NaN if none).
+  Vector2<double> error_rms = Vector2<double>::Constant(std::numeric_limits<double>::quiet_NaN());
+  std::vector<Eigen::Index> segment_starts;  ///< row index of each restart (first is 0)
+  Eigen::Index failed_segments = 0;
+  SimulationStatistics statistics;           ///< summed over the segments
+  bool ok = true;
+  std::string message;  ///< empty when ok; otherwise what failed, segment by segment
+  bool torque_filtered = false;  ///< the torque was low-passed (FreeSimulationOptions::torque_bandwidth)
+};
+
+namespace detail {
+
+/// Cubic Hermite interpolation of tau on the sample grid t with slopes from the neighbouring
+/// samples (central differences: Catmull-Rom on a uniform grid), one-sided at the ends.
+/// Not linear interpolation: a chord of a smooth torque is biased by ~h^2 tau''/12 over every
+/// interval, which the integration accumulates (5e-6 rad on the exact paper experiment after
+/// 1 s, tests/free_simulation_test.cpp); the cubic's O(h^3) error does not show. On noisy torque
+/// both interpolants carry the same noise. The hint follows CVODE's mostly increasing times, so
+/// the interval of the last call is almost always the right one.
+class TorqueInterpolator {
+ public:
+  TorqueInterpolator(const Eigen::Ref<const Eigen::VectorXd>& t,
+                     const Eigen::Ref<const MatrixX2<double>>& tau)
+      : t_(t), tau_(tau), slope_(t.size(), 2) {
+    const Eigen::Index n = t.size();
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Eigen::Index a = i > 0 ? i - 1 : 0, b = i + 1 < n ? i + 1 : n - 1;
+      slope_.row(i) = (tau.row(b) - tau.row(a)) / (t[b] - t[a]);
+    }
+  }
+
+  Vector2<double> operator()(double time) const {
+    const Eigen::Index n = t_.size();
+    if (time <= t_[0]) return tau_.row(0).transpose();
+    if (time >= t_[n - 1]) return tau_.row(n - 1).transpose();
+    Eigen::Index i = std::min(hint_, n - 2);
+    if (!(t_[i] <= time && time <= t_[i + 1])) {
+      if (i + 2 < n && t_[i + 1] <= time && time <= t_[i + 2]) {
+        ++i;
+      } else {
+        const double* begin = t_.data();
+        i = static_cast<Eigen::Index>(std::upper_bound(begin, begin + n, time) - begin) - 1;
+        i = std::clamp<Eigen::Index>(i, 0, n - 2);
+      }
+    }
+    hint_ = i;
+    const double h = t_[i + 1] - t_[i];
+    const double s = (time - t_[i]) / h;
+    const double s2 = s * s, s3 = s2 * s;
+    const double h00 = 2.0 * s3 - 3.0 * s2 + 1.0, h10 = s3 - 2.0 * s2 + s;
+    const double h01 = -2.0 * s3 + 3.0 * s2, h11 = s3 - s2;
+    return (h00 * tau_.row(i) + h10 * h * slope_.row(i) + h01 * tau_.row(i + 1) +
+            h11 * h * slope_.row(i + 1))
+        .transpose();
+  }
+
+ private:
+  // Copies (cheap next to the simulation), so the interpolator never outlives its data.
+  Eigen::VectorXd t_;
+  MatrixX2<double> tau_;
+  MatrixX2<double> slope_;
+  mutable Eigen::Index hint_ = 0;
+};
+
+inline void validate_free_simulation(const Model<double>& model,
+                                     const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                     const Kinematics<double>& k,
+                                     const FreeSimulationOptions& options) {
+  const std::string who = "sid::free_simulation: ";
+  if (theta.size() != model.num_parameters())
+    throw std::invalid_argument(who + "theta has " + std::to_string(theta.size()) +
+                                " entries but the model has " +
+                                std::to_string(model.num_parameters()) + " parameters");
+  if (!theta.allFinite()) throw std::invalid_argument(who + "theta must be finite");
+  const Eigen::Index n = k.size();
+  if (n < 2)
+    throw std::invalid_argument(who + "the kinematics need at least 2 samples, got " +
+                                std::to_string(n));
+  if (k.q.rows() != n || k.qd.rows() != n || k.tau.rows() != n)
+    throw std::invalid_argument(who + "k.t, k.q, k.qd and k.tau must have the same number of rows (t: " +
+                                std::to_string(n) + ", q: " + std::to_string(k.q.rows()) +
+                                ", qd: " + std::to_string(k.qd.rows()) +
+                                ", tau: " + std::to_string(k.tau.rows()) + ")");
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!std::isfinite(k.t[i]))
+      throw std::invalid_argument(who + "k.t[" + std::to_string(i) + "] is not finite");
+    if (i > 0 && !(k.t[i] > k.t[i - 1]))
+      throw std::invalid_argument(who + "k.t must be strictly increasing (k.t[" +
+                                  std::to_string(i) + "] <= k.t[" + std::to_string(i - 1) + "])");
+  }
+  if (!k.q.allFinite()) throw std::invalid_argument(who + "k.q must be finite");
+  if (!k.qd.allFinite()) throw std::invalid_argument(who + "k.qd must be finite");
+  if (!k.tau.allFinite()) throw std::invalid_argument(who + "k.tau must be finite");
+  if (std::isnan(options.segment)) throw std::invalid_argument(who + "options.segment is NaN");
+  if (!(options.blow_up > 0.0))
+    throw std::invalid_argument(who + "options.blow_up must be > 0");
+  if (std::isnan(options.torque_bandwidth))
+    throw std::invalid_argument(who + "options.torque_bandwidth is NaN");
+}
+
+/// The torque that drives the simulation: k.tau low-passed when FreeSimulationOptions asks for
+/// it and the grid is uniform (a Butterworth filter needs one), else k.tau itself.
+inline MatrixX2<double> driving_torque(const Kinematics<double>& k, double bandwidth, bool& filtered) {
+  filtered = false;
+  constexpr int kOrder = 2;
+  const Eigen::Index n = k.size();
+  if (!(bandwidth > 0.0) || !std::isfinite(bandwidth) || n <= 3 * (kOrder + 1)) return k.tau;
+  const double ts = (k.t[n - 1] - k.t[0]) / static_cast<double>(n - 1);
+  constexpr double kUniformTolerance = 1e-6;  // relative jitter of logged time stamps
+  for (Eigen::Index i = 1; i < n; ++i)
+    if (std::abs((k.t[i] - k.t[i - 1]) - ts) > kUniformTolerance * ts) return k.tau;
+  const double cutoff = bandwidth * 2.0 * ts;  // relative to the Nyquist frequency 1 / (2 ts)
+  if (!(cutoff < 1.0)) return k.tau;
+  filtered = true;
+  // filtfilt's own odd extension (6 samples at order 2) is shorter than the filter's memory
+  // (~1 / bandwidth), and a point reflection flips the curvature at the end sample, so its
+  // transient would reach the data (3e-5 rad on the exact experiment). Extend further first by
+  // x(-i) = 3 x(0) - 3 x(i) + x(2i), exact for quadratics: value, slope and curvature continue.
+  const auto pad = std::min<Eigen::Index>((n - 1) / 2, static_cast<Eigen::Index>(std::ceil(10.0 / (bandwidth * ts))));
+  MatrixX2<double> extended(n + 2 * pad, 2);
+  for (Eigen::Index i = 1; i <= pad; ++i) {
+    extended.row(pad - i) = 3.0 * k.tau.row(0) - 3.0 * k.tau.row(i) + k.tau.row(2 * i);
+    extended.row(pad + n - 1 + i) = 3.0 * k.tau.row(n - 1) - 3.0 * k.tau.row(n - 1 - i) + k.tau.row(n - 1 - 2 * i);
+  }
+  extended.middleRows(pad, n) = k.tau;
+  return filtfilt(butterworth_lowpass(kOrder, cutoff), extended).middleRows(pad, n);
+}
+
+/// Row indices where the segments start: the first sample with t >= t0 + m * segment, but never
+/// the last sample (a one-sample segment simulates nothing).
+inline std::vector<Eigen::Index> segment_starts(const Eigen::Ref<const Eigen::VectorXd>& t,
+                                                double segment) {
+  std::vector<Eigen::Index> starts{0};
+  if (!(segment > 0.0) || !std::isfinite(segment)) return starts;
+  const double t0 = t[0];
+  const double tolerance = 1e-9 * segment;  // a sample on a boundary despite rounding
+  double boundary = t0 + segment;
+  for (Eigen::Index i = 1; i + 1 < t.size(); ++i) {
+    if (t[i] < boundary - tolerance) continue;
+    starts.push_back(i);
+    // Skip boundaries that fall into a gap of the data (no samples there).
+    while (boundary <= t[i] + tolerance) boundary += segment;
+  }
+  return starts;
+}
+
+}  // namespace detail
+
+/// @brief Simulates `model` with parameters theta open loop, driven by the measured torque
+/// k.tau, restarting from the smoothed state (k.q, k.qd) every options.segment seconds, and
+/// compares the simulated angles with k.q.
+///
+/// The torque is the measured one with its noise. It is low-passed far above the motion's
+/// bandwidth (FreeSimulationOptions::torque_bandwidth, 20 Hz by default) only so that CVODE can
+/// take steps longer than a sample, and interpolated between samples by a cubic Hermite curve
+/// (linear interpolation would bias the result by ~h^2 tau''/12, detail::TorqueInterpolator).
+/// No filter can remove what matters of the noise: the angles integrate its low-frequency
+/// content, so an exact model still drifts like a random walk of size ~ sigma_tau sqrt(Ts t) /
+/// theta_friction within a segment (about 5e-3 rad on each joint after 1 s at sigma_tau =
+/// 0.1 N m, Ts = 2.5 ms). Callers judge the error against that floor (diagnose_with_simulation
+/// calibrates it by simulating the noise alone); the segments keep it bounded.
+///
+/// A numerical failure (CVODE gives up, the model blows up, a singular mass matrix) never
+/// throws: the failed segment's remaining rows are NaN, ok is false and message says which
+/// segment failed and why; the other segments are still simulated.
+/// @param[in] model the model (any terms; its forward dynamics is used).
+/// @param[in] theta its parameters, finite, model.num_parameters() entries.
+/// @param[in] k kinematics: t strictly increasing, q [rad], qd [rad/s] (initial states of the
+///   segments) and tau [N m] (the input); at least 2 samples; qdd is not used.
+/// @param[in] options segment length, blow-up limit, CVODE settings.
+/// @throws std::invalid_argument on wrongly sized or non-finite input or bad options.
+inline FreeSimulation free_simulation(const Model<double>& model,
+                                      const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                      const Kinematics<double>& k,
+                                      const FreeSimulationOptions& options = {}) {
+  detail::validate_free_simulation(model, theta, k, options);
+  const Eigen::Index n = k.size();
+  FreeSimulation result;
+  result.t = k.t;
+  result.q.setConstant(n, 2, std::numeric_limits<double>::quiet_NaN());
+  result.segment_starts = detail::segment_starts(k.t, options.segment);
+
+  const Eigen::VectorXd parameters = theta;
+  const detail::TorqueInterpolator torque(
+      k.t, detail::driving_torque(k, options.torque_bandwidth, result.torque_filtered));
+  const double limit = options.blow_up;
+  auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
+                 Eigen::Map<Eigen::VectorXd>& xdot) {
+    if (!x.allFinite() || x.cwiseAbs().maxCoeff() > limit)
+      throw std::runtime_error("the state left |x| <= " + detail::format_time(limit) +
+                               " (blow-up) at t = " + detail::format_time(time));
+    const Vector2<double> q = x.head<2>();
+    const Vector2<double> qd = x.tail<2>();
+    xdot.head<2>() = qd;
+    xdot.tail<2>() = model.forward_dynamics(parameters, q, qd, torque(time));
+  };
+
+  const auto segments = static_cast<Eigen::Index>(result.segment_starts.size());
+  Eigen::VectorXd x0(4);
+  for (Eigen::Index s = 0; s < segments; ++s) {
+    const Eigen::Index begin = result.segment_starts[static_cast<std::size_t>(s)];
+    const Eigen::Index end =
+        s + 1 < segments ? result.segment_starts[static_cast<std::size_t>(s + 1)] : n;
+    x0 << k.q.row(begin).transpose(), k.qd.row(begin).transpose();
+    const SimulationResult sim = simulate(rhs, x0, k.t.segment(begin, end - begin), options.simulator);
+    result.q.middleRows(begin, sim.completed) = sim.states.topLeftCorner(sim.completed, 2);
+    const SimulationStatistics& st = sim.statistics;
+    result.statistics.steps += st.steps;
+    result.statistics.rhs_evaluations += st.rhs_evaluations;
+    result.statistics.error_test_failures += st.error_test_failures;
+    result.statistics.nonlinear_iterations += st.nonlinear_iterations;
+    result.statistics.nonlinear_convergence_failures += st.nonlinear_convergence_failures;
+    result.statistics.jacobian_evaluations += st.jacobian_evaluations;
+    if (!sim.ok()) {
+      ++result.failed_segments;
+      result.ok = false;
+      if (!result.message.empty()) result.message += "; ";
+      result.message += "segment " + std::to_string(s + 1) + " of " + std::to_string(segments) +
+                        " (t = " + detail::format_time(k.t[begin]) + " s) stopped at t = " +
+                        detail::format_time(sim.t_reached) + " s: " + to_string(sim.status) +
+                        (sim.message.empty() ? "" : " (" + sim.message + ")");
+    }
+  }
+
+  result.error = k.q - result.q;
+  for (int j = 0; j < 2; ++j) {
+    double sum = 0.0;
+    Eigen::Index count = 0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double e = result.error(i, j);
+      if (std::isfinite(e)) {
+        sum += e * e;
+        ++count;
+      }
+    }
+    if (count > 0) result.error_rms[j] = std::sqrt(sum / static_cast<double>(count));
+  }
+  return result;
+}
+
+}  // namespace sid
