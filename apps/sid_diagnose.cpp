@@ -33,7 +33,7 @@ must be strictly increasing, every cell a finite number.
 What it does:
   1. Identifies theta1..theta7 by the cubic smoothing spline (lambda by GCV, no noise level
      needed), dropping t < t_0 + 0.25 s and the last 0.05 s.
-  2. Estimates the torque noise floor per joint from the second differences of tau, and flags
+  2. Estimates the torque noise floor per joint (sigma of a GCV smoothing spline of tau), flags
      windows (--window s) whose torque residual RMS exceeds it.
   3. Simulates the identified model open loop, driven by the measured torque and restarted
      from the smoothed state every --segment s, and flags windows whose angle error exceeds

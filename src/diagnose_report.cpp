@@ -124,7 +124,7 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
   if (k.size() > 0) out << " (t = " << g(k.t[0]) << " .. " << g(k.t[k.size() - 1]) << " s)";
   out << "\n\n";
 
-  out << "noise floor of the torque (from its second differences) [N m]: joint 1 " << g(r.noise_floor[0])
+  out << "noise floor of the torque (sigma of its GCV smoothing spline) [N m]: joint 1 " << g(r.noise_floor[0])
       << ", joint 2 " << g(r.noise_floor[1]) << "\n";
   out << "free simulation: restarted from the smoothed state every " << g(context.segment)
       << " s; torque noise alone gives " << g(sim.noise_error_rms[0]) << ", " << g(sim.noise_error_rms[1])
