@@ -99,7 +99,8 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("DATA", o.input, "input CSV file ('-' reads standard input)")->required();
   cli.add_option("--reference-theta", o.reference,
                  "theta1..theta7 of a reference identification, comma-separated: report drift");
-  cli.add_option("--json", o.json, "also write the diagnosis as JSON to FILE ('-': standard output)");
+  cli.add_option("--json", o.json,
+                 "also write the diagnosis as JSON to FILE ('-': standard output)");
   cli.add_option("--plots", o.plots, "draw the figures (PNG via gnuplot) into DIR");
   cli.add_option("--candidates", o.candidates, "effect ids to try, comma-separated (default: all)");
   cli.add_option("--coulomb-epsilon", o.coulomb_epsilon,
@@ -118,31 +119,16 @@ std::string short_number(double v) {
   return buffer;
 }
 
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t");
-  if (b == std::string::npos) return "";
-  return s.substr(b, s.find_last_not_of(" \t") - b + 1);
-}
-
 std::vector<std::string> parse_candidates(const std::string& text) {
-  using sid::app::require;
-  std::vector<std::string> ids;
-  require(!trim(text).empty(), "--candidates: no effect ids given");
-  std::string::size_type start = 0;
-  while (true) {
-    const auto comma = text.find(',', start);
-    const std::string id = trim(text.substr(start, comma - start));
-    require(!id.empty(), "--candidates: empty effect id in '" + text + "'");
+  const std::vector<std::string> ids =
+      sid::app::parse_name_list(text, "--candidates", "effect id", "effect ids");
+  for (const auto& id : ids)
     if (!sid::is_effect_id(id)) {
       std::string valid;
       for (const auto& v : sid::effect_ids()) valid += (valid.empty() ? "" : ", ") + v;
-      throw sid::app::InputError("--candidates: unknown effect '" + id + "' (expected " + valid + ")");
+      throw sid::app::InputError("--candidates: unknown effect '" + id + "' (expected " + valid +
+                                 ")");
     }
-    for (const auto& seen : ids) require(seen != id, "--candidates: '" + id + "' is given twice");
-    ids.push_back(id);
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
   return ids;
 }
 
@@ -166,7 +152,8 @@ int diagnose(const Options& o) {
   if (!o.candidates.empty()) options.candidates = parse_candidates(o.candidates);
   if (o.coulomb_epsilon) {
     require(std::isfinite(*o.coulomb_epsilon) && *o.coulomb_epsilon > 0.0,
-            "--coulomb-epsilon must be a finite number > 0 [rad/s], got " + short_number(*o.coulomb_epsilon));
+            "--coulomb-epsilon must be a finite number > 0 [rad/s], got " +
+                short_number(*o.coulomb_epsilon));
     options.effects.coulomb_epsilon = *o.coulomb_epsilon;
   }
   require(std::isfinite(o.segment) && o.segment > 0.0,
@@ -187,7 +174,8 @@ int diagnose(const Options& o) {
   const sid::app::CsvTable table = sid::app::read_csv(o.input);
   const sid::Trajectory<double> data = sid::app::trajectory_from_table(table);
   const std::string input = table.source == "-" ? "<stdin>" : table.source;
-  require(data.size() >= 20, input + ": a diagnosis needs at least 20 data rows, got " + std::to_string(data.size()));
+  require(data.size() >= 20,
+          input + ": a diagnosis needs at least 20 data rows, got " + std::to_string(data.size()));
 
   sid::SimulationCheck sim;
   sid::DiagnosisResult result;
@@ -205,7 +193,8 @@ int diagnose(const Options& o) {
   context.check = check;
   context.has_reference = options.reference_theta.has_value();
   // With the JSON on standard output the report goes to standard error, so each stays parseable.
-  (o.json == "-" ? std::cerr : std::cout) << sid::app::diagnose_report(result, sim, context) << std::flush;
+  (o.json == "-" ? std::cerr : std::cout)
+      << sid::app::diagnose_report(result, sim, context) << std::flush;
   if (!o.json.empty()) sid::app::write_json(o.json, sid::app::diagnose_json(result, sim, context));
   if (!o.plots.empty()) {
     const auto plots = sid::app::write_diagnose_plots(o.plots, result, sim);

@@ -155,33 +155,18 @@ std::uint64_t parse_seed(const std::string& text) {
   return seed;
 }
 
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t");
-  if (b == std::string::npos) return "";
-  return s.substr(b, s.find_last_not_of(" \t") - b + 1);
-}
-
 std::vector<sid::StudyMethod> parse_methods(const std::string& text) {
-  using sid::app::require;
+  constexpr const char* kExpected = "raw, filtered, css, css_gcv, css_wls, css_iv, oracle";
   std::vector<sid::StudyMethod> methods;
-  require(!trim(text).empty(), "--methods: no methods given (expected raw, filtered, css, css_gcv, css_wls, css_iv, oracle)");
-  std::string::size_type start = 0;
-  while (true) {
-    const auto comma = text.find(',', start);
-    const std::string name = trim(text.substr(start, comma - start));
-    require(!name.empty(), "--methods: empty method name in '" + text + "'");
-    sid::StudyMethod m{};
+  for (const auto& name :
+       sid::app::parse_name_list(text, "--methods", "method name", "methods", kExpected)) {
     try {
-      m = sid::parse_study_method(name);
+      methods.push_back(sid::parse_study_method(name));
     } catch (const std::invalid_argument&) {
-      throw sid::app::InputError("--methods: unknown method '" + name +
-                                 "' (expected raw, filtered, css, css_gcv, css_wls, css_iv or oracle)");
+      throw sid::app::InputError(
+          "--methods: unknown method '" + name +
+          "' (expected raw, filtered, css, css_gcv, css_wls, css_iv or oracle)");
     }
-    require(std::find(methods.begin(), methods.end(), m) == methods.end(),
-            "--methods: '" + name + "' is given twice");
-    methods.push_back(m);
-    if (comma == std::string::npos) break;
-    start = comma + 1;
   }
   return methods;
 }
@@ -189,8 +174,8 @@ std::vector<sid::StudyMethod> parse_methods(const std::string& text) {
 sid::MonteCarloOptions study_options(const Options& o) {
   using sid::app::require;
   sid::MonteCarloOptions study;
-  require(o.runs >= 2, "--runs must be >= 2 (a sample variance needs two runs), got " +
-                           std::to_string(o.runs));
+  require(o.runs >= 2,
+          "--runs must be >= 2 (a sample variance needs two runs), got " + std::to_string(o.runs));
   require(o.runs <= 1000000, "--runs must be <= 1000000, got " + std::to_string(o.runs));
   study.runs = o.runs;
   study.sigma_q2_levels = sid::app::parse_doubles(o.levels, "--levels");
@@ -203,13 +188,15 @@ sid::MonteCarloOptions study_options(const Options& o) {
       require(sid::app::level_label(study.sigma_q2_levels[j]) != sid::app::level_label(v),
               "--levels: " + sid::app::level_label(v) + " is given twice");
   }
-  require(std::isfinite(o.sigma_tau2) && o.sigma_tau2 >= 0.0,
-          "--sigma-tau2 must be a finite variance >= 0 [(N m)^2], got " + short_number(o.sigma_tau2));
+  require(
+      std::isfinite(o.sigma_tau2) && o.sigma_tau2 >= 0.0,
+      "--sigma-tau2 must be a finite variance >= 0 [(N m)^2], got " + short_number(o.sigma_tau2));
   study.sigma_tau2 = o.sigma_tau2;
   study.methods = parse_methods(o.methods);
   study.refine = sid::instrumental_variable_step();
   study.seed = parse_seed(o.seed);
-  require(o.threads >= 0, "--threads must be >= 0 (0 = all cores), got " + std::to_string(o.threads));
+  require(o.threads >= 0,
+          "--threads must be >= 0 (0 = all cores), got " + std::to_string(o.threads));
   study.threads = o.threads;
   return study;
 }
@@ -228,12 +215,13 @@ class ProgressBar {
     last_ = now;
     drawn_ = true;
     constexpr int kWidth = 40;
-    const int filled = total > 0 ? static_cast<int>(static_cast<long long>(kWidth) * done / total) : kWidth;
+    const int filled =
+        total > 0 ? static_cast<int>(static_cast<long long>(kWidth) * done / total) : kWidth;
     std::string bar(static_cast<std::size_t>(filled), '#');
     bar += std::string(static_cast<std::size_t>(kWidth - filled), '.');
     const double left = done > 0 ? elapsed * (total - done) / done : 0.0;
-    std::fprintf(stderr, "\r%s: [%s] %d/%d runs, %.0f s, about %.0f s left ", kName, bar.c_str(), done,
-                 total, elapsed, left);
+    std::fprintf(stderr, "\r%s: [%s] %d/%d runs, %.0f s, about %.0f s left ", kName, bar.c_str(),
+                 done, total, elapsed, left);
     std::fflush(stderr);
   }
 
@@ -266,10 +254,11 @@ sid::Kinematics<double> simulate_truth(const sid::TwoLinkParameters<double>& the
                      const sid::Vector2<double>& tau) {
     return sid::two_link_forward_dynamics(theta, q, qd, tau, sid::kPaperGravity);
   };
-  const sid::ExperimentResult run = sid::simulate_arm_experiment(fd, sid::PaperInput(), sid::ArmExperiment());
+  const sid::ExperimentResult run =
+      sid::simulate_arm_experiment(fd, sid::PaperInput(), sid::ArmExperiment());
   if (!run.ok())
-    throw std::runtime_error("the simulation of the true trajectory failed (" + run.flag_name + "): " +
-                             run.message);
+    throw std::runtime_error("the simulation of the true trajectory failed (" + run.flag_name +
+                             "): " + run.message);
   return run.truth;
 }
 
@@ -280,7 +269,8 @@ int study(const Options& o) {
   if (!o.json.empty()) for_option("--json", [&] { sid::app::ensure_writable(o.json, o.force); });
   if (!o.csv_dir.empty())
     for_option("--csv-dir", [&] {
-      sid::app::ensure_output_directory(o.csv_dir, sid::app::montecarlo_csv_files(options), o.force);
+      sid::app::ensure_output_directory(o.csv_dir, sid::app::montecarlo_csv_files(options),
+                                        o.force);
     });
   if (!o.plots.empty())
     for_option("--plots", [&] {
@@ -288,7 +278,8 @@ int study(const Options& o) {
     });
 
   const sid::Kinematics<double> truth = simulate_truth(options.theta);
-  if (!json_to_stdout) std::cout << sid::app::montecarlo_header(options, truth.size()) << std::flush;
+  if (!json_to_stdout)
+    std::cout << sid::app::montecarlo_header(options, truth.size()) << std::flush;
 
   ProgressBar bar(!o.quiet && ::isatty(2) != 0);
   options.progress = [&bar](int done, int total) { bar.update(done, total); };
@@ -311,7 +302,8 @@ int study(const Options& o) {
   }
   if (!o.csv_dir.empty()) {
     sid::app::write_montecarlo_csv(o.csv_dir, result);
-    if (!o.quiet) std::cerr << kName << ": wrote the estimates of every run into " << o.csv_dir << "\n";
+    if (!o.quiet)
+      std::cerr << kName << ": wrote the estimates of every run into " << o.csv_dir << "\n";
   }
   if (!o.plots.empty()) {
     const auto plots = sid::app::write_montecarlo_plots(o.plots, truth, result, options);
@@ -327,8 +319,8 @@ int study(const Options& o) {
                   << " figures; to draw them all: cd '" << o.plots
                   << "' && for f in *.gp; do gnuplot \"$f\"; done\n";
     } else if (!o.quiet) {
-      std::cerr << kName << ": wrote " << plots.size() << " figures (PNG, data and gnuplot script) into "
-                << o.plots << "\n";
+      std::cerr << kName << ": wrote " << plots.size()
+                << " figures (PNG, data and gnuplot script) into " << o.plots << "\n";
     }
   }
   return sid::app::kExitOk;

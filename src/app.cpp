@@ -159,6 +159,26 @@ std::vector<double> parse_doubles(const std::string& text, const std::string& wh
   return values;
 }
 
+std::vector<std::string> parse_name_list(const std::string& text, const std::string& option,
+                                         const std::string& item, const std::string& items,
+                                         const std::string& expected) {
+  require(!trim(text).empty(), option + ": no " + items + " given" +
+                                   (expected.empty() ? "" : " (expected " + expected + ")"));
+  std::vector<std::string> names;
+  std::string::size_type start = 0;
+  while (true) {
+    const auto comma = text.find(',', start);
+    const std::string name = trim(text.substr(start, comma - start));
+    require(!name.empty(), option + ": empty " + item + " in '" + text + "'");
+    for (const auto& seen : names)
+      require(seen != name, option + ": '" + name + "' is given twice");
+    names.push_back(name);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return names;
+}
+
 std::vector<double> parse_doubles(const std::string& text, const std::string& what,
                                   std::size_t count) {
   std::vector<double> values = parse_doubles(text, what);

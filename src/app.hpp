@@ -69,6 +69,15 @@ std::vector<double> parse_doubles(const std::string& text, const std::string& wh
 std::vector<double> parse_doubles(const std::string& text, const std::string& what,
                                   std::size_t count);
 
+/// @brief Splits "a, b,c" at commas into trimmed names (an option's list of ids or methods).
+/// @param option e.g. "--methods"; item, items e.g. "method name", "methods" (for messages);
+///        expected, if not empty, is shown with the empty-list error ("(expected raw, css)").
+/// @throws InputError "--methods: no methods given", "--methods: empty method name in 'a,,b'",
+///         "--methods: 'css' is given twice".
+std::vector<std::string> parse_name_list(const std::string& text, const std::string& option,
+                                         const std::string& item, const std::string& items,
+                                         const std::string& expected = "");
+
 /// @brief An Eigen vector as a JSON array (numbers keep every bit: nlohmann prints the shortest
 /// text that reads back the same double; NaN/Inf become null).
 nlohmann::json to_json_array(const Eigen::Ref<const Eigen::VectorXd>& v);
