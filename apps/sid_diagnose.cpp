@@ -34,7 +34,9 @@ What it does:
   1. Identifies theta1..theta7 by the cubic smoothing spline (lambda by GCV, no noise level
      needed), dropping t < t_0 + 0.25 s and the last 0.05 s.
   2. Estimates the torque noise floor per joint (sigma of a GCV smoothing spline of tau), flags
-     windows (--window s) whose torque residual RMS exceeds it.
+     windows (--window s) whose torque residual RMS exceeds it. Where a joint rests (|qd| <
+     --rest-velocity) its friction is static and unknown: its equations there and 20 ms
+     around are left out of the fits, tests and residual figures.
   3. Simulates the identified model open loop, driven by the measured torque and restarted
      from the smoothed state every --segment s, and flags windows whose angle error exceeds
      6x what the torque noise alone does (calibrated by simulating that noise).
@@ -91,6 +93,7 @@ struct Options {
   std::optional<double> coulomb_epsilon;
   double segment = 1.0;
   double window = 0.5;
+  double rest_velocity = sid::DiagnoseOptions{}.rest_velocity;
   bool force = false;
 };
 
@@ -105,6 +108,10 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--candidates", o.candidates, "effect ids to try, comma-separated (default: all)");
   cli.add_option("--coulomb-epsilon", o.coulomb_epsilon,
                  "eps of the Coulomb term tanh(qd/eps) [rad/s], > 0 (default 0.01)");
+  cli.add_option("--rest-velocity", o.rest_velocity,
+                 "a joint with |qd| below V [rad/s] is at rest: its equations there (and 20 ms "
+                 "around) are left out, static friction being unknown; 0 keeps all, >= 0")
+      ->capture_default_str();
   cli.add_option("--segment", o.segment,
                  "free simulation: restart from the smoothed state every S seconds, > 0")
       ->capture_default_str();
@@ -161,6 +168,10 @@ int diagnose(const Options& o) {
   require(std::isfinite(o.window) && o.window > 0.0,
           "--window must be a finite number > 0 [s], got " + short_number(o.window));
   options.window_length = o.window;
+  require(std::isfinite(o.rest_velocity) && o.rest_velocity >= 0.0,
+          "--rest-velocity must be a finite number >= 0 [rad/s], got " +
+              short_number(o.rest_velocity));
+  options.rest_velocity = o.rest_velocity;
   sid::FreeSimulationOptions simulation;
   simulation.segment = o.segment;
   const sid::SimulationCheckOptions check;
@@ -192,6 +203,8 @@ int diagnose(const Options& o) {
   context.window_length = o.window;
   context.check = check;
   context.has_reference = options.reference_theta.has_value();
+  context.rest_velocity = options.rest_velocity;
+  context.rest_margin = options.rest_margin;
   // With the JSON on standard output the report goes to standard error, so each stays parseable.
   (o.json == "-" ? std::cerr : std::cout)
       << sid::app::diagnose_report(result, sim, context) << std::flush;

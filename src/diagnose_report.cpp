@@ -113,6 +113,17 @@ Eigen::VectorXd moving_average(const Eigen::VectorXd& y, Eigen::Index half) {
   return out;
 }
 
+// Equations per joint the fits left out because that joint was at rest.
+Eigen::Vector2i left_out(const sid::DiagnosisResult& r) {
+  const Eigen::Index n = r.kinematics.size();
+  Eigen::Vector2i count = Eigen::Vector2i::Zero();
+  if (r.kept.size() != 2 * n) return count;
+  for (int j = 0; j < 2; ++j)
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (r.kept[j * n + i] == 0.0) ++count[j];
+  return count;
+}
+
 }  // namespace
 
 std::string diagnose_report(const sid::DiagnosisResult& r, const sid::SimulationCheck& sim,
@@ -126,6 +137,10 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
 
   out << "noise floor of the torque (sigma of its GCV smoothing spline) [N m]: joint 1 " << g(r.noise_floor[0])
       << ", joint 2 " << g(r.noise_floor[1]) << "\n";
+  const Eigen::Vector2i rest = left_out(r);
+  out << "equations left out where a joint rests (|qd| < " << g(context.rest_velocity) << " rad/s, and "
+      << g(context.rest_margin) << " s around; static friction is unknown there): joint 1 " << rest[0]
+      << ", joint 2 " << rest[1] << " of " << k.size() << "\n";
   out << "free simulation: restarted from the smoothed state every " << g(context.segment)
       << " s; torque noise alone gives " << g(sim.noise_error_rms[0]) << ", " << g(sim.noise_error_rms[1])
       << " rad RMS (" << context.check.noise_runs << " simulations); windows of " << g(context.window_length)
@@ -218,6 +233,10 @@ nlohmann::json diagnose_json(const sid::DiagnosisResult& r, const sid::Simulatio
   j["samples_total"] = context.samples_total;
   j["samples_used"] = r.kinematics.size();
   j["noise_floor"] = pair_json(r.noise_floor);
+  const Eigen::Vector2i rest = left_out(r);
+  j["rest"] = {{"velocity", context.rest_velocity},
+               {"margin", context.rest_margin},
+               {"left_out", {rest[0], rest[1]}}};
   nlohmann::json effects = nlohmann::json::array();
   for (const auto& e : r.effects) {
     nlohmann::json units = nlohmann::json::array();

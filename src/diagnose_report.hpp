@@ -21,6 +21,8 @@ struct DiagnoseReportContext {
   double window_length = 0.5;   ///< [s]
   SimulationCheckOptions check;
   bool has_reference = false;
+  double rest_velocity = 0.0;  ///< DiagnoseOptions::rest_velocity [rad/s]
+  double rest_margin = 0.0;    ///< DiagnoseOptions::rest_margin [s]
 };
 
 /// @brief The readable report: noise floor, nominal fit, where model and data disagree, the

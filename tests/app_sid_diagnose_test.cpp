@@ -74,7 +74,7 @@ void expect_model_keys(const nlohmann::json& m, std::size_t parameters) {
 TEST_F(SidDiagnose, HelpDescribesTheEffectsAndExitsZero) {
   const AppRun r = diagnose("--help");
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  for (const char* word : {"--reference-theta", "--json", "--plots", "--candidates", "--coulomb-epsilon",
+  for (const char* word : {"--reference-theta", "--json", "--plots", "--candidates", "--coulomb-epsilon", "--rest-velocity",
                            "--force", "coulomb_j2", "stribeck_j1", "angle_offset_q1", "armature_j1",
                            "Exit codes", "Examples"})
     EXPECT_NE(r.out.find(word), std::string::npos) << word;
@@ -105,6 +105,10 @@ TEST_F(SidDiagnose, NamesAHiddenCoulombFrictionAndShrinksTheGap) {
   ASSERT_EQ(j["noise_floor"].size(), 2u);
   EXPECT_NEAR(j["noise_floor"][0].get<double>(), 0.1, 0.01);
   EXPECT_NEAR(j["noise_floor"][1].get<double>(), 0.1, 0.01);
+  // Joint 2 reverses in this record (the paper's excitation): some of its equations are left out.
+  ASSERT_EQ(j["rest"]["left_out"].size(), 2u);
+  EXPECT_GT(j["rest"]["left_out"][1].get<int>(), 0);
+  EXPECT_EQ(j["rest"]["velocity"].get<double>(), 0.03);
   expect_model_keys(j["nominal"], 7);
   expect_model_keys(j["final"], 8);
   const double before = j["nominal"]["excess_rms"][1].get<double>();
@@ -194,6 +198,7 @@ TEST_F(SidDiagnose, BadInputExitsWithTwoAndAClearMessage) {
   // Option errors are found before the file is read.
   expect_input_error("x.csv --coulomb-epsilon 0", "--coulomb-epsilon");
   expect_input_error("x.csv --coulomb-epsilon -1", "--coulomb-epsilon");
+  expect_input_error("x.csv --rest-velocity -0.1", "--rest-velocity");
   expect_input_error("x.csv --candidates coulomb_j3", "coulomb_j3");
   expect_input_error("x.csv --candidates coulomb_j1,coulomb_j1", "twice");
   expect_input_error("x.csv --reference-theta 1,2,3,4,5,6", "7 values");

@@ -280,33 +280,98 @@ TEST(Diagnose, ReportsJointOneArmatureAsNotSeparableAndAsThetaOneDrift) {
     EXPECT_FALSE(r.drift[i].significant) << r.drift[i].name << " z " << r.drift[i].z;
 }
 
-// --- Stribeck friction: what the method achieves (it misses the target; see the report).
-// The Stribeck bump lives where the joint reverses, which is where the friction step makes q̈
-// jump and CSS smears q̈ most; so the bump is under-estimated and a residual stays. What holds:
-// a friction effect of the right joint (Stribeck or Coulomb) and nothing else is named, and the
-// joint's excess residual drops by at least a quarter.
+// --- Stribeck friction (Fc 0.1, Fs 0.3, vs 0.2). The bump lives where the joint reverses: there
+// the joint sticks (its friction is static, left out by DiagnoseOptions::rest_velocity), and it
+// slides through |q̇| < vs in a few tens of milliseconds, about the spline's bandwidth. On the
+// multisine excitation Stribeck is named on both joints. Fs is within 15 % on joint 2; on joint 1
+// it scatters more (0.21-0.31 over seeds 1-8, 6 of 8 within 15 %), so there the test holds Fc.
 
-TEST(Diagnose, SeesStribeckFrictionAsFrictionOnItsJoint) {
-  constexpr double kStribeckShrink = 0.75;
+sid::DiagnosisResult run_stribeck(int joint, Excitation excitation, unsigned seed) {
+  const std::string spec = "stribeck_j" + std::to_string(joint) + ":0.1,0.3,0.2";
+  const sid::DiagnosisResult r = sid::diagnose(simulate({sid::parse_effect(spec)}, excitation, seed));
+  std::ostringstream line;
+  line << spec << " | " << excitation_name(excitation) << " " << seed << " | "
+       << join(named_ids(r)) << " | ";
+  for (const auto& e : r.effects) line << e.estimate.transpose() << " ";
+  line << "| " << r.nominal.excess_rms[joint - 1] << " -> " << r.final.excess_rms[joint - 1];
+  summary().add(spec, r, line.str());
+  return r;
+}
+
+TEST(Diagnose, NamesStribeckFrictionOnTheMultisineExcitation) {
   for (int joint : {1, 2})
-    for (Excitation excitation : {Excitation::Paper, Excitation::Multisine}) {
+    for (unsigned seed : {11u, 12u}) {
+      SCOPED_TRACE("joint " + std::to_string(joint) + " seed " + std::to_string(seed));
+      const sid::DiagnosisResult r = run_stribeck(joint, Excitation::Multisine, seed);
+      ASSERT_EQ(named_ids(r), std::vector<std::string>{"stribeck_j" + std::to_string(joint)});
+      const Eigen::VectorXd& e = r.effects[0].estimate;  // Fc, Fs, vs
+      EXPECT_NEAR(e[0], 0.1, kEstimateTolerance * 0.1) << "Fc";
+      if (joint == 2) {
+        EXPECT_NEAR(e[1], 0.3, kEstimateTolerance * 0.3) << "Fs";
+      }
+      EXPECT_GT(e[1], e[0]) << "Fs > Fc";
+      EXPECT_LE(r.final.excess_rms[joint - 1], kExcessShrink * r.nominal.excess_rms[joint - 1]);
+    }
+}
+
+// On the paper's excitation the joints reverse fast and then stick: the data fix the bump's
+// area (about (Fs − Fc) vs) better than its height, so Fs comes out 20-40 % low with vs high
+// (joint 2), and on joint 1 (reversals at 13 rad/s², |q̇| < vs for 30 ms) the bump is named in
+// about half of the seeds, otherwise Coulomb. What holds: a friction effect of the right joint
+// and nothing else, Fc within 15 %, the excess at least halved; on joint 2 it is Stribeck.
+TEST(Diagnose, SeesStribeckFrictionOnThePaperExcitationAsFrictionOnItsJoint) {
+  for (int joint : {1, 2})
+    for (unsigned seed : {11u, 12u}) {
+      SCOPED_TRACE("joint " + std::to_string(joint) + " seed " + std::to_string(seed));
+      const sid::DiagnosisResult r = run_stribeck(joint, Excitation::Paper, seed);
       const std::string j = std::to_string(joint);
-      const std::string spec = "stribeck_j" + j + ":0.1,0.3,0.2";
-      SCOPED_TRACE(spec + " " + excitation_name(excitation));
-      const sid::DiagnosisResult r =
-          sid::diagnose(simulate({sid::parse_effect(spec)}, excitation, 51u));
-      std::ostringstream line;
-      line << spec << " | " << excitation_name(excitation) << " 51 | " << join(named_ids(r))
-           << " | ";
-      for (const auto& e : r.effects) line << e.estimate.transpose() << " ";
-      line << "| " << r.nominal.excess_rms[joint - 1] << " -> " << r.final.excess_rms[joint - 1];
-      summary().add(spec, r, line.str());
       const auto ids = named_ids(r);
       ASSERT_EQ(ids.size(), 1u) << join(ids);
-      EXPECT_TRUE(ids[0] == "stribeck_j" + j || ids[0] == "coulomb_j" + j) << ids[0];
+      if (joint == 2)
+        EXPECT_EQ(ids[0], "stribeck_j2");
+      else
+        EXPECT_TRUE(ids[0] == "stribeck_j1" || ids[0] == "coulomb_j1") << ids[0];
       EXPECT_NEAR(r.effects[0].estimate[0], 0.1, kEstimateTolerance * 0.1) << "Fc";
-      EXPECT_LE(r.final.excess_rms[joint - 1], kStribeckShrink * r.nominal.excess_rms[joint - 1]);
+      EXPECT_LE(r.final.excess_rms[joint - 1], kExcessShrink * r.nominal.excess_rms[joint - 1]);
     }
+}
+
+TEST(Diagnose, LeavesOutTheEquationsOfAJointAtRestAndNearIt) {
+  sid::Kinematics<double> k;
+  const Eigen::Index n = 101;
+  k.t = Eigen::VectorXd::LinSpaced(n, 0.0, 1.0);  // 10 ms steps
+  k.q = k.qdd = k.tau = sid::MatrixX2<double>::Zero(n, 2);
+  k.qd.resize(n, 2);
+  k.qd.col(0) = (k.t.array() - 0.5) * 2.0;  // joint 1 reverses at 0.5 s: |q̇| < 0.03 on 0.49..0.51
+  k.qd.col(1).setConstant(1.0);             // joint 2 never rests
+  const Eigen::VectorXd kept = sid::detail::moving_rows(k, 0.03, 0.025);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const bool near_rest = std::fabs(k.t[i] - 0.5) < 0.035;  // 0.49..0.51 and 2 samples' margin
+    EXPECT_EQ(kept[i], near_rest ? 0.0 : 1.0) << "t = " << k.t[i];
+    EXPECT_EQ(kept[n + i], 1.0);
+  }
+  EXPECT_EQ(sid::detail::moving_rows(k, 0.0, 0.02), Eigen::VectorXd::Ones(2 * n));
+  // A reversal fast enough to step over |q̇| < 0.03 between two samples is still one.
+  k.qd.col(1) = (k.t.array() - 0.505) * 20.0;  // q̇ = -0.1 at 0.50 s, +0.1 at 0.51 s
+  const Eigen::VectorXd fast = sid::detail::moving_rows(k, 0.03, 0.025);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const bool near_reversal = k.t[i] > 0.475 - 1e-9 && k.t[i] < 0.535 + 1e-9;  // 0.48..0.53
+    EXPECT_EQ(fast[n + i], near_reversal ? 0.0 : 1.0) << "t = " << k.t[i];
+  }
+}
+
+TEST(Diagnose, DoesNotTryAStribeckBumpTheSamplesDoNotResolve) {
+  sid::DiagnoseOptions options;
+  options.candidates = {"coulomb_j2", "stribeck_j2"};
+  options.stribeck_min_support = 100000;  // more samples than the data have
+  const sid::DiagnosisResult r =
+      sid::diagnose(simulate({sid::parse_effect("stribeck_j2:0.1,0.3,0.2")}, Excitation::Multisine, 11u),
+                    options);
+  EXPECT_EQ(named_ids(r), std::vector<std::string>{"coulomb_j2"});
+  const auto s = std::find_if(r.not_named.begin(), r.not_named.end(),
+                              [](const auto& u) { return u.id == "stribeck_j2"; });
+  ASSERT_NE(s, r.not_named.end());
+  EXPECT_NE(s->reason.find("no Stribeck width is resolved"), std::string::npos) << s->reason;
 }
 
 // --- The result is self-consistent (what the app and the CVODE layer rely on).
@@ -336,10 +401,17 @@ TEST(Diagnose, FinalModelMatchesItsReport) {
     EXPECT_NEAR(k.tau(i, 0) - tau[0], r.final.residual[i], kResidualTolerance);
     EXPECT_NEAR(k.tau(i, 1) - tau[1], r.final.residual[k.size() + i], kResidualTolerance);
   }
-  // Residual RMS is the RMS of that residual.
+  // Residual RMS is the RMS of that residual over the equations kept (the joint moving).
   const Eigen::Index n = k.size();
-  EXPECT_NEAR(r.final.residual_rms[1], std::sqrt(r.final.residual.tail(n).squaredNorm() / n),
-              1e-12);
+  ASSERT_EQ(r.kept.size(), 2 * n);
+  double sum = 0.0, count = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (r.kept[n + i] == 0.0) continue;
+    sum += r.final.residual[n + i] * r.final.residual[n + i];
+    count += 1.0;
+  }
+  EXPECT_GT(count, 0.9 * static_cast<double>(n));
+  EXPECT_NEAR(r.final.residual_rms[1], std::sqrt(sum / count), 1e-12);
   // The nominal model's flagged windows include joint 2's and lie within the data's time span.
   EXPECT_TRUE(std::any_of(r.nominal.windows.begin(), r.nominal.windows.end(),
                           [](const auto& w) { return w.joint == 2; }));
@@ -397,6 +469,18 @@ TEST(Diagnose, ThrowsOnBadInput) {
   velocities.stribeck_velocities = {0.1, -0.2};
   sid_test::expect_invalid_argument([&] { (void)sid::diagnose(good, velocities); }, "sid::diagnose",
                                     "stribeck_velocities");
+  sid::DiagnoseOptions rest;
+  rest.rest_velocity = -0.1;
+  sid_test::expect_invalid_argument([&] { (void)sid::diagnose(good, rest); }, "sid::diagnose",
+                                    "rest_velocity");
+  sid::DiagnoseOptions margin;
+  margin.rest_margin = std::nan("");
+  sid_test::expect_invalid_argument([&] { (void)sid::diagnose(good, margin); }, "sid::diagnose",
+                                    "rest_margin");
+  sid::DiagnoseOptions support;
+  support.stribeck_min_support = -1;
+  sid_test::expect_invalid_argument([&] { (void)sid::diagnose(good, support); }, "sid::diagnose",
+                                    "stribeck_min_support");
   sid::DiagnoseOptions skip;
   skip.identify.skip = 9.9;
   sid_test::expect_invalid_argument([&] { (void)sid::diagnose(good, skip); }, "sid::diagnose",

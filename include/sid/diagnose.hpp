@@ -65,6 +65,18 @@ struct DiagnoseOptions {
   /// excitation (few slow reversals) lets a narrow Stribeck bump (vs at the grid's 0.05 rad/s)
   /// win over Coulomb. Reports (residual RMS, flagged windows) stay per sample.
   int integration_window = 1;
+  /// A joint whose |q̇| is below rest_velocity [rad/s] is (nearly) at rest: it sticks, and its
+  /// friction is static — any value up to Fs that balances the other torques, a function of no
+  /// velocity the data resolve (the spline's q̇ noise is about 0.01–0.03 rad/s at σq² = 1e-6).
+  /// That joint's equations at those samples, and within rest_margin [s] of them (where the
+  /// spline's q̈ smears the stick and breakaway), are left out of the fits, the tests and the
+  /// residual figures. On data with Stribeck friction this took the naming from 3 to 7 of 8
+  /// data sets. 0 keeps every sample.
+  double rest_velocity = 0.03;
+  double rest_margin = 0.02;  ///< [s]
+  /// A Stribeck width vs is tried only if at least this many kept samples of the joint lie within
+  /// the bump's half height (|q̇| < 0.83 vs): a bump crossed in a few samples is not resolved.
+  Eigen::Index stribeck_min_support = 30;
   std::optional<Eigen::VectorXd> reference_theta;  ///< θ1..θ7 of a reference identification (drift)
 };
 
@@ -80,7 +92,8 @@ struct ModelReport {
   std::vector<std::string> parameter_names;  ///< the regression parameters of this model
   Eigen::VectorXd theta;                     ///< their estimates
   Eigen::VectorXd std;                       ///< their HAC (Newey–West) standard deviations
-  Vector2<double> residual_rms = Vector2<double>::Zero();  ///< torque residual RMS per joint [N m]
+  /// Torque residual RMS per joint over the equations the fits kept (DiagnosisResult::kept) [N m].
+  Vector2<double> residual_rms = Vector2<double>::Zero();
   /// sqrt(max(0, residual_rms² − noise_floor²)) per joint [N m].
   Vector2<double> excess_rms = Vector2<double>::Zero();
   /// Free-simulation q error RMS [rad]; filled by the CVODE layer, NaN otherwise.
@@ -133,6 +146,9 @@ struct DiagnosisResult {
   std::vector<UnnamedEffect> not_named;
   std::vector<ParameterDrift> drift;  ///< empty without reference_theta
   Kinematics<double> kinematics;      ///< the smoothed samples the fits used
+  /// Per equation (joint 1's samples, then joint 2's): 1 if the fits used it, 0 if that joint was
+  /// at rest there (DiagnoseOptions::rest_velocity).
+  Eigen::VectorXd kept;
   Model<double> final_model;          ///< two_link_arm_model + named effect terms
   Model<double> nominal_model;
   /// The settings the final model's effect terms were built with, per named effect (stribeck
@@ -194,6 +210,21 @@ inline Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::MatrixXd>
       for (Eigen::Index i = w * m; i < (w + 1) * m; ++i)
         out.row(j * count + w) +=
             (0.5 * (t[i + 1] - t[i])) * (rows.row(j * n + i) + rows.row(j * n + i + 1));
+  return out;
+}
+
+/// The same with equations left out (row_weight 0 instead of 1): a window that contains one of
+/// them is left out as a whole (its integral would miss a piece of the equation).
+inline Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::MatrixXd>& rows,
+                                         const Eigen::Ref<const Eigen::VectorXd>& t, int window,
+                                         const Eigen::VectorXd& row_weight) {
+  if (window <= 1) return rows.array().colwise() * row_weight.array();
+  Eigen::MatrixXd out = integrate_windows(rows, t, window);
+  const Eigen::Index n = t.size(), count = out.rows() / 2;
+  for (Eigen::Index j = 0; j < 2; ++j)
+    for (Eigen::Index w = 0; w < count; ++w)
+      if (row_weight.segment(j * n + w * window, window + 1).minCoeff() < 1.0)
+        out.row(j * count + w).setZero();
   return out;
 }
 
@@ -362,17 +393,59 @@ inline std::vector<double> default_stribeck_grid() {
   return grid;
 }
 
+/// 1 for each equation (joint 1's samples, then joint 2's) the fits use, 0 where that joint is at
+/// rest (|q̇| < rest_velocity, or q̇ changes sign next to the sample) or within margin [s] of
+/// such a sample. rest_velocity = 0 keeps every equation.
+inline Eigen::VectorXd moving_rows(const Kinematics<double>& k, double rest_velocity,
+                                   double margin) {
+  const Eigen::Index n = k.size();
+  Eigen::VectorXd weight = Eigen::VectorXd::Ones(2 * n);
+  for (int j = 0; j < 2; ++j) {
+    Eigen::Index cleared_to = -1;  // rows before this are already cleared
+    for (Eigen::Index i = 0; i < n; ++i) {
+      // A sign change passes through rest even when no sample falls below rest_velocity.
+      const bool reverses = (i > 0 && (k.qd(i - 1, j) > 0.0) != (k.qd(i, j) > 0.0)) ||
+                            (i + 1 < n && (k.qd(i + 1, j) > 0.0) != (k.qd(i, j) > 0.0));
+      if (!(std::fabs(k.qd(i, j)) < rest_velocity) && !(reverses && rest_velocity > 0.0)) continue;
+      Eigen::Index first = i, last = i;
+      while (first > 0 && k.t[i] - k.t[first - 1] <= margin) --first;
+      while (last + 1 < n && k.t[last + 1] - k.t[i] <= margin) ++last;
+      for (Eigen::Index d = std::max(first, cleared_to + 1); d <= last; ++d) weight[j * n + d] = 0.0;
+      cleared_to = std::max(cleared_to, last);
+    }
+  }
+  return weight;
+}
+
+/// Samples of joint `joint` (0-based) that the fit keeps and at which a Stribeck bump of width vs
+/// is above half its height (|q̇| < 0.83 vs): what the data say about that bump.
+inline Eigen::Index stribeck_support(int joint, double vs, const Kinematics<double>& k,
+                                     const Eigen::VectorXd& row_weight) {
+  const Eigen::Index n = k.size();
+  const double half = vs * std::sqrt(std::log(2.0));
+  Eigen::Index count = 0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (row_weight[joint * n + i] > 0.0 && std::fabs(k.qd(i, joint)) < half) ++count;
+  return count;
+}
+
 /// The Stribeck velocity that lets the term explain most of r: grid search over vs, then a
-/// golden-section search in log vs between the best point's neighbours.
+/// golden-section search in log vs between the best point's neighbours. Only widths whose bump
+/// the kept samples resolve (min_support of them within its half height) are tried; NaN when
+/// there is none.
 inline double best_stribeck_velocity(const std::string& id, const EffectSettings& base,
                                      const std::vector<double>& grid, const Kinematics<double>& k,
-                                     int integration_window, const Projector& proj,
-                                     const Eigen::Ref<const Eigen::VectorXd>& r, double r2) {
+                                     int integration_window, const Eigen::VectorXd& row_weight,
+                                     const Projector& proj,
+                                     const Eigen::Ref<const Eigen::VectorXd>& r, double r2,
+                                     Eigen::Index min_support) {
+  const int joint = id.back() == '1' ? 0 : 1;
   const auto explained = [&](double vs) {
+    if (stribeck_support(joint, vs, k, row_weight) < min_support) return -1.0;
     EffectSettings s = base;
     s.stribeck_velocity = vs;
     const Eigen::MatrixXd z =
-        integrate_windows(stack_term(effect_term(id, s), k), k.t, integration_window);
+        integrate_windows(stack_term(effect_term(id, s), k), k.t, integration_window, row_weight);
     const Eigen::MatrixXd zr = proj.residualize(z);
     double max_r2 = 0;
     const auto kept = separable_columns(z, zr, r2, &max_r2);
@@ -388,6 +461,7 @@ inline double best_stribeck_velocity(const std::string& id, const EffectSettings
     value[i] = explained(grid[i]);
     if (value[i] > value[best]) best = i;
   }
+  if (value[best] < 0.0) return std::numeric_limits<double>::quiet_NaN();
   double lo = std::log(grid[best > 0 ? best - 1 : best]);
   double hi = std::log(grid[best + 1 < grid.size() ? best + 1 : best]);
   constexpr double kGolden = 0.6180339887498949;
@@ -460,6 +534,12 @@ inline void check_diagnose_options(const DiagnoseOptions& o) {
   if (o.cv_blocks < 2)
     throw std::invalid_argument(who + "options.cv_blocks must be >= 2, got " +
                                 std::to_string(o.cv_blocks));
+  if (!(o.rest_velocity >= 0.0) || !std::isfinite(o.rest_velocity))
+    throw std::invalid_argument(who + "options.rest_velocity must be finite and >= 0 [rad/s]");
+  if (!(o.rest_margin >= 0.0) || !std::isfinite(o.rest_margin))
+    throw std::invalid_argument(who + "options.rest_margin must be finite and >= 0 [s]");
+  if (o.stribeck_min_support < 0)
+    throw std::invalid_argument(who + "options.stribeck_min_support must be >= 0 [samples]");
   if (o.integration_window < 1)
     throw std::invalid_argument(who + "options.integration_window must be >= 1 [samples], got " +
                                 std::to_string(o.integration_window));
@@ -531,19 +611,21 @@ inline void fill_report(ModelReport& report, const HacFit& fit,
                         const std::vector<std::string>& names, const Kinematics<double>& k,
                         const Eigen::Ref<const Eigen::MatrixXd>& x_samples,
                         const Eigen::Ref<const Eigen::VectorXd>& y_samples,
-                        const Vector2<double>& floor, double window_length, double alpha) {
+                        const Eigen::VectorXd& row_weight, const Vector2<double>& floor,
+                        double window_length, double alpha) {
   const Eigen::Index n = k.size();
   report.parameter_names = names;
   report.theta = fit.theta;
   report.std = fit.std;
   report.residual = y_samples - x_samples * fit.theta;
+  const Eigen::VectorXd kept_residual = report.residual.cwiseProduct(row_weight);
   for (int j = 0; j < 2; ++j) {
-    report.residual_rms[j] =
-        std::sqrt(report.residual.segment(j * n, n).squaredNorm() / static_cast<double>(n));
+    const double kept = std::max(1.0, row_weight.segment(j * n, n).sum());
+    report.residual_rms[j] = std::sqrt(kept_residual.segment(j * n, n).squaredNorm() / kept);
     report.excess_rms[j] = std::sqrt(
         std::max(0.0, report.residual_rms[j] * report.residual_rms[j] - floor[j] * floor[j]));
   }
-  report.windows = flag_windows(k.t, report.residual, floor, window_length, alpha);
+  report.windows = flag_windows(k.t, kept_residual, floor, window_length, alpha);
 }
 
 }  // namespace detail
@@ -613,8 +695,10 @@ inline DiagnosisResult diagnose(const Trajectory<double>& data,
                                 " integration windows of " + std::to_string(iw) +
                                 " samples fit in the data; at least " +
                                 std::to_string(4 * options.cv_blocks) + " are needed");
+  result.kept = detail::moving_rows(k, options.rest_velocity, options.rest_margin);
+  const Eigen::VectorXd& row_weight = result.kept;
   const auto integral_form = [&](const Eigen::Ref<const Eigen::MatrixXd>& rows) {
-    return detail::integrate_windows(rows, k.t, iw);
+    return detail::integrate_windows(rows, k.t, iw, row_weight);
   };
   const auto stack_effect = [&](const std::string& id, const EffectSettings& settings) {
     return integral_form(detail::stack_term(effect_term(id, settings), k));
@@ -629,7 +713,7 @@ inline DiagnosisResult diagnose(const Trajectory<double>& data,
   }
   const detail::HacFit nominal_fit = detail::hac_fit(x0, y);
   detail::fill_report(result.nominal, nominal_fit, result.nominal_model.parameter_names(), k,
-                      x0_samples, y_samples, result.noise_floor, options.window_length,
+                      x0_samples, y_samples, row_weight, result.noise_floor, options.window_length,
                       options.family_alpha);
 
   // Candidates, and those the nominal model cannot be told apart from.
@@ -673,10 +757,19 @@ inline DiagnosisResult diagnose(const Trajectory<double>& data,
       detail::CandidateTest t;
       t.id = *it;
       t.settings = options.effects;
-      if (detail::starts_with(t.id, "stribeck_j"))
-        t.settings.stribeck_velocity =
-            detail::best_stribeck_velocity(t.id, options.effects, grid, k, iw, projector,
-                                           current.residual, options.separability_r2);
+      if (detail::starts_with(t.id, "stribeck_j")) {
+        t.settings.stribeck_velocity = detail::best_stribeck_velocity(
+            t.id, options.effects, grid, k, iw, row_weight, projector, current.residual,
+            options.separability_r2, options.stribeck_min_support);
+        if (std::isnan(t.settings.stribeck_velocity)) {
+          dropped.emplace_back(t.id, "no Stribeck width is resolved: fewer than " +
+                                         std::to_string(options.stribeck_min_support) +
+                                         " kept samples lie within the bump's half height "
+                                         "for every vs tried");
+          it = remaining.erase(it);
+          continue;
+        }
+      }
       t.z = stack_effect(t.id, t.settings);
       const Eigen::MatrixXd z_resid = projector.residualize(t.z);
       t.kept = detail::separable_columns(t.z, z_resid, options.separability_r2, &t.max_r2);
@@ -782,7 +875,7 @@ inline DiagnosisResult diagnose(const Trajectory<double>& data,
     c += z.cols();
   }
   detail::fill_report(result.final, final_fit, result.final_model.parameter_names(), k,
-                      x_final_samples, y_samples, result.noise_floor, options.window_length,
+                      x_final_samples, y_samples, row_weight, result.noise_floor, options.window_length,
                       options.family_alpha);
   for (auto& e : named) {
     const auto s =
