@@ -33,8 +33,9 @@ must be strictly increasing, every cell a finite number.
 What it does:
   1. Identifies theta1..theta7 by the cubic smoothing spline (lambda by GCV, no noise level
      needed), dropping t < t_0 + 0.25 s and the last 0.05 s.
-  2. Estimates the torque noise floor per joint (sigma of a GCV smoothing spline of tau), flags
-     windows (--window s) whose torque residual RMS exceeds it. Where a joint rests (|qd| <
+  2. Estimates the torque noise floor per joint (sigma of a GCV smoothing spline of tau) and
+     the kinematic floor (the torque error the angle noise leaves through the smoothed qd, qdd,
+     by Monte Carlo), flags windows (--window s) whose torque residual RMS exceeds both. Where a joint rests (|qd| <
      --rest-velocity) its friction is static and unknown: its equations there and 20 ms
      around are left out of the fits, tests and residual figures.
   3. Simulates the identified model open loop, driven by the measured torque and restarted

@@ -51,6 +51,7 @@ nlohmann::json model_json(const sid::ModelReport& m) {
   j["std"] = to_json_array(m.std);
   j["residual_rms"] = pair_json(m.residual_rms);
   j["excess_rms"] = pair_json(m.excess_rms);
+  j["excess_resolution"] = pair_json(m.excess_resolution);
   j["sim_error_rms"] = pair_json(m.sim_error_rms);
   j["windows"] = windows_json(m.windows);
   j["sim_windows"] = windows_json(m.sim_windows);
@@ -85,11 +86,12 @@ std::string unit_of(const std::string& id, std::size_t k) {
 // The unit of an effect's main physical parameter (the one detection limits are given in).
 std::string main_unit(const std::string& id) { return unit_of(id, 0); }
 
-void disagreement(std::ostringstream& out, const sid::ModelReport& m, const sid::Vector2<double>& floor) {
+void disagreement(std::ostringstream& out, const sid::ModelReport& m, const sid::DiagnosisResult& r) {
   for (int j = 0; j < 2; ++j) {
     out << "  joint " << j + 1 << ": torque residual RMS " << g(m.residual_rms[j]) << " N m vs noise floor "
-        << g(floor[j]) << " N m, excess " << g(m.excess_rms[j]) << " N m; free-simulation error RMS "
-        << g(m.sim_error_rms[j]) << " rad\n";
+        << g(r.noise_floor[j]) << " (torque) and " << g(r.kinematic_floor[j]) << " (angle noise through q''), excess "
+        << g(m.excess_rms[j]) << " N m (below " << g(m.excess_resolution[j])
+        << " it means nothing); free-simulation error RMS " << g(m.sim_error_rms[j]) << " rad\n";
     out << "    torque windows beyond the noise: " << window_list(m.windows, j + 1) << "\n";
     out << "    simulation windows beyond the noise: " << window_list(m.sim_windows, j + 1) << "\n";
   }
@@ -137,6 +139,9 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
 
   out << "noise floor of the torque (sigma of its GCV smoothing spline) [N m]: joint 1 " << g(r.noise_floor[0])
       << ", joint 2 " << g(r.noise_floor[1]) << "\n";
+  out << "kinematic floor (the torque error the angle noise leaves through the smoothed qd, qdd) [N m]: joint 1 "
+      << g(r.kinematic_floor[0]) << ", joint 2 " << g(r.kinematic_floor[1])
+      << "; excesses are over sqrt(noise^2 + kinematic^2)\n";
   const Eigen::Vector2i rest = left_out(r);
   out << "equations left out where a joint rests (|qd| < " << g(context.rest_velocity) << " rad/s, and "
       << g(context.rest_margin) << " s around; static friction is unknown there): joint 1 " << rest[0]
@@ -155,7 +160,7 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
         << (p < r.nominal.std.size() ? g(r.nominal.std[p]) : "n/a") << "\n";
   }
   out << "\nwhere the nominal model and the data disagree:\n";
-  disagreement(out, r.nominal, r.noise_floor);
+  disagreement(out, r.nominal, r);
   if (!sim.nominal.ok) out << "  note: the free simulation of the nominal model failed: " << sim.nominal.message << "\n";
 
   out << "\nnamed effects (forward selection; each passed the HAC Wald test, BIC and blocked CV):\n";
@@ -166,7 +171,7 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
       const auto vk = static_cast<std::size_t>(v);
       const std::string vname = vk < e.value_names.size() ? e.value_names[vk] : "value";
       out << " " << vname << " = " << format("%.5g", e.estimate[v]) << " +- "
-          << (v < e.std.size() ? g(e.std[v]) : "n/a");
+          << (v < e.std.size() && std::isfinite(e.std[v]) ? g(e.std[v]) : "n/a");
       const std::string unit = unit_of(e.id, vk);
       if (!unit.empty()) out << " " << unit;
       out << (v + 1 < e.estimate.size() ? ";" : "");
@@ -233,6 +238,7 @@ nlohmann::json diagnose_json(const sid::DiagnosisResult& r, const sid::Simulatio
   j["samples_total"] = context.samples_total;
   j["samples_used"] = r.kinematics.size();
   j["noise_floor"] = pair_json(r.noise_floor);
+  j["kinematic_floor"] = pair_json(r.kinematic_floor);
   const Eigen::Vector2i rest = left_out(r);
   j["rest"] = {{"velocity", context.rest_velocity},
                {"margin", context.rest_margin},

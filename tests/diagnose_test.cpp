@@ -173,20 +173,31 @@ INSTANTIATE_TEST_SUITE_P(
                       EffectCase{"armature_j2:0.012256543232", 2}, EffectCase{"spring_j1:0.02", 1},
                       EffectCase{"spring_j2:0.02", 2}));
 
-// --- Near the detection limit the claim is detection only: exactly the hidden effect is named.
-// (Accuracy there is limited by the estimate's own scatter and by CSS smoothing bias; the summary
-// prints the errors.)
+// --- Near the detection limit: exactly the hidden effect is named, its estimate is within 15 %
+// or, where its own HAC std is larger than 5 % (angle offset q2 at 0.05 rad: std about 20 %),
+// within 3 std of the truth, and the affected joint's excess (over the torque noise and the
+// kinematic floor) at least halves or ends below the excess resolution (what the sampling noise
+// of the residual RMS alone reaches, about 0.021 N m here: an excess of 0.03 N m cannot be shown
+// to halve). Two seeds, both excitations.
 
 class DiagnoseSmallEffect : public ::testing::TestWithParam<EffectCase> {};
 
-TEST_P(DiagnoseSmallEffect, NamesExactlyIt) {
+TEST_P(DiagnoseSmallEffect, NamesExactlyItEstimatesItAndHalvesTheExcess) {
   const EffectCase& c = GetParam();
   const std::string id = sid::parse_effect(c.spec).id;
-  for (Excitation excitation : {Excitation::Paper, Excitation::Multisine}) {
-    SCOPED_TRACE(c.spec + " " + excitation_name(excitation));
-    const Outcome o = run_case(c, excitation, 13u);
-    EXPECT_EQ(named_ids(o.result), std::vector<std::string>{id});
-  }
+  for (Excitation excitation : {Excitation::Paper, Excitation::Multisine})
+    for (unsigned seed : {13u, 14u}) {
+      SCOPED_TRACE(c.spec + " " + excitation_name(excitation) + " seed " + std::to_string(seed));
+      const Outcome o = run_case(c, excitation, seed);
+      ASSERT_EQ(named_ids(o.result), std::vector<std::string>{id});
+      const double std = o.result.effects[0].std[0];
+      EXPECT_LE(std::fabs(o.estimate - o.truth),
+                std::max(kEstimateTolerance * std::fabs(o.truth), 3.0 * std))
+          << "estimate " << o.estimate << " +- " << std;
+      const double resolution = o.result.final.excess_resolution[c.joint - 1];
+      EXPECT_LE(o.excess_after, std::max(kExcessShrink * o.excess_before, resolution));
+      EXPECT_GT(o.excess_before, 0.0);
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -310,6 +321,8 @@ TEST(Diagnose, NamesStribeckFrictionOnTheMultisineExcitation) {
         EXPECT_NEAR(e[1], 0.3, kEstimateTolerance * 0.3) << "Fs";
       }
       EXPECT_GT(e[1], e[0]) << "Fs > Fc";
+      EXPECT_GT(r.effects[0].std[1], 0.0);
+      EXPECT_TRUE(std::isnan(r.effects[0].std[2])) << "vs comes from a grid search";
       EXPECT_LE(r.final.excess_rms[joint - 1], kExcessShrink * r.nominal.excess_rms[joint - 1]);
     }
 }

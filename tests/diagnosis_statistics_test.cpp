@@ -6,6 +6,8 @@
 #include <cmath>
 #include <random>
 #include <sid/diagnosis/hac.hpp>
+#include <sid/diagnosis/kinematic_floor.hpp>
+#include <sid/model/two_link_arm.hpp>
 #include <sid/diagnosis/noise_floor.hpp>
 
 #include "test_support.hpp"
@@ -119,6 +121,60 @@ TEST(NoiseFloor, ThrowsOnTooFewSamples) {
   sid_test::expect_invalid_argument(
       [] { (void)sid::noise_sigma_second_differences(Eigen::VectorXd::Zero(2)); },
       "sid::noise_sigma_second_differences", "samples");
+}
+
+// The kinematic floor of a model whose inverse dynamics is tau1 = qdd1 (theta1 = 1) is the RMS
+// of the smoothed noise's second derivative, and of tau1 = qd1 (theta6 = 1) of its first: both
+// known exactly from the smoother's derivative rows, sigma^2 sum_k (d^m A_ik / dt^m)^2, which
+// smoothing each unit vector gives.
+TEST(KinematicFloor, MatchesTheSmoothersDerivativeVarianceForAPureInertiaAndADamper) {
+  const Eigen::Index n = 161;
+  sid::Kinematics<double> k;
+  k.t = Eigen::VectorXd::LinSpaced(n, 0.0, 0.4);  // 2.5 ms steps
+  k.q = k.qd = k.qdd = k.tau = sid::MatrixX2<double>::Zero(n, 2);
+  const double sigma = 1e-3, p = 6e4;  // the order of the GCV choice at sigma_q^2 = 1e-6
+  const sid::SmoothingSpline<double> spline(k.t);
+  Eigen::VectorXd var1 = Eigen::VectorXd::Zero(n), var2 = Eigen::VectorXd::Zero(n);
+  for (Eigen::Index c = 0; c < n; ++c) {
+    const auto fit = spline.fit_penalized(Eigen::VectorXd::Unit(n, c), 1.0, p);
+    var1 += sigma * sigma * fit.spline.derivatives_at_knots(1).cwiseAbs2();
+    var2 += sigma * sigma * fit.spline.derivatives_at_knots(2).cwiseAbs2();
+  }
+  const Eigen::Index first = 20, count = n - 40;  // judged rows away from the ends
+  const double exact_qdd = std::sqrt(var2.segment(first, count).mean());
+  const double exact_qd = std::sqrt(var1.segment(first, count).mean());
+  const sid::Model<double> model = sid::two_link_arm_model<double>();
+  const Eigen::VectorXd weight = Eigen::VectorXd::Ones(2 * count);
+  constexpr int kRuns = 400;  // Monte Carlo error of the RMS about 1/sqrt(2 x 400 x ~10) < 2 %
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(7);
+  theta[0] = 1.0;
+  const sid::Vector2<double> inertia = sid::kinematic_noise_rms(
+      model, theta, k, {sigma, sigma}, {p, p}, first, count, weight, kRuns, 7u);
+  EXPECT_NEAR(inertia[0], exact_qdd, 0.05 * exact_qdd);
+  EXPECT_EQ(inertia[1], 0.0);
+  theta.setZero();
+  theta[5] = 1.0;
+  const sid::Vector2<double> damper = sid::kinematic_noise_rms(
+      model, theta, k, {sigma, sigma}, {p, p}, first, count, weight, kRuns, 7u);
+  EXPECT_NEAR(damper[0], exact_qd, 0.05 * exact_qd);
+  // Left-out rows do not count: with joint 1's rows all out its floor is 0.
+  Eigen::VectorXd none = weight;
+  none.head(count).setZero();
+  EXPECT_EQ(sid::kinematic_noise_rms(model, theta, k, {sigma, sigma}, {p, p}, first, count, none,
+                                     2, 7u)[0],
+            0.0);
+  sid_test::expect_invalid_argument(
+      [&] {
+        (void)sid::kinematic_noise_rms(model, theta, k, {sigma, sigma}, {p, p}, first, n, weight,
+                                       2, 7u);
+      },
+      "sid::kinematic_noise_rms", "rows");
+  sid_test::expect_invalid_argument(
+      [&] {
+        (void)sid::kinematic_noise_rms(model, theta, k, {0.0, sigma}, {p, p}, first, count, weight,
+                                       2, 7u);
+      },
+      "sid::kinematic_noise_rms", "sigma_q");
 }
 
 }  // namespace

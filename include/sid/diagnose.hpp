@@ -8,9 +8,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <optional>
 #include <sid/diagnosis/hac.hpp>
+#include <sid/diagnosis/kinematic_floor.hpp>
 #include <sid/diagnosis/noise_floor.hpp>
 #include <sid/identify.hpp>
 #include <sid/least_squares.hpp>
@@ -77,6 +79,13 @@ struct DiagnoseOptions {
   /// A Stribeck width vs is tried only if at least this many kept samples of the joint lie within
   /// the bump's half height (|q̇| < 0.83 vs): a bump crossed in a few samples is not resolved.
   Eigen::Index stribeck_min_support = 30;
+  /// Monte Carlo draws of the angle noise (at the GCV spline's σ̂ and λ) for the kinematic floor
+  /// (DiagnosisResult::kinematic_floor); 0: none (the floor is the torque noise alone). Only
+  /// with GCV/CV smoothing, which estimates σ̂. Why: at σq² = 1e-6 the smoothed q̈ alone leaves
+  /// about 0.02 N m on joint 1, which would otherwise count as model error, so a small effect
+  /// could never halve its joint's "excess".
+  int kinematic_noise_runs = 4;
+  std::uint64_t kinematic_noise_seed = 20261122;
   std::optional<Eigen::VectorXd> reference_theta;  ///< θ1..θ7 of a reference identification (drift)
 };
 
@@ -94,8 +103,12 @@ struct ModelReport {
   Eigen::VectorXd std;                       ///< their HAC (Newey–West) standard deviations
   /// Torque residual RMS per joint over the equations the fits kept (DiagnosisResult::kept) [N m].
   Vector2<double> residual_rms = Vector2<double>::Zero();
-  /// sqrt(max(0, residual_rms² − noise_floor²)) per joint [N m].
+  /// sqrt(max(0, residual_rms² − noise_floor² − kinematic_floor²)) per joint [N m].
   Vector2<double> excess_rms = Vector2<double>::Zero();
+  /// The excess that the sampling noise of residual_rms alone reaches at 2 standard deviations,
+  /// floor sqrt(2 sqrt(2 / N)) with N the joint's kept equations [N m]: an excess below it is
+  /// indistinguishable from none (about 0.021 N m for σ_τ = 0.1 N m and 3881 samples).
+  Vector2<double> excess_resolution = Vector2<double>::Zero();
   /// Free-simulation q error RMS [rad]; filled by the CVODE layer, NaN otherwise.
   Vector2<double> sim_error_rms =
       Vector2<double>::Constant(std::numeric_limits<double>::quiet_NaN());
@@ -108,7 +121,9 @@ struct ModelReport {
 struct NamedEffect {
   std::string id, name;
   std::vector<std::string> value_names;
-  Eigen::VectorXd estimate, std;  ///< physical values (effect_estimate) from the final fit
+  /// Physical values (effect_estimate) from the final fit and their HAC standard deviations
+  /// (NaN for a Stribeck vs, which a grid search chose).
+  Eigen::VectorXd estimate, std;
   double wald = 0, p_value = 1;  ///< HAC Wald statistic and its Holm-corrected p-value at selection
   double information_drop = 0;   ///< drop of BIC at selection
   double cv_drop = 0;            ///< relative drop of the blocked-CV prediction error
@@ -140,6 +155,10 @@ struct ParameterDrift {
 /// @brief Everything diagnose() found.
 struct DiagnosisResult {
   Vector2<double> noise_floor = Vector2<double>::Zero();  ///< torque noise σ per joint [N m]
+  /// RMS per joint of the torque error the angle noise leaves through the smoothed q̇, q̈
+  /// (kinematic_noise_rms; DiagnoseOptions::kinematic_noise_runs) [N m]; 0 when not computed.
+  /// Residual excesses and windows are judged against sqrt(noise_floor² + kinematic_floor²).
+  Vector2<double> kinematic_floor = Vector2<double>::Zero();
   ModelReport nominal, final;
   std::vector<NamedEffect> effects;  ///< in selection order
   std::vector<NotSeparable> not_separable;
@@ -538,6 +557,8 @@ inline void check_diagnose_options(const DiagnoseOptions& o) {
     throw std::invalid_argument(who + "options.rest_velocity must be finite and >= 0 [rad/s]");
   if (!(o.rest_margin >= 0.0) || !std::isfinite(o.rest_margin))
     throw std::invalid_argument(who + "options.rest_margin must be finite and >= 0 [s]");
+  if (o.kinematic_noise_runs < 0)
+    throw std::invalid_argument(who + "options.kinematic_noise_runs must be >= 0");
   if (o.stribeck_min_support < 0)
     throw std::invalid_argument(who + "options.stribeck_min_support must be >= 0 [samples]");
   if (o.integration_window < 1)
@@ -622,6 +643,7 @@ inline void fill_report(ModelReport& report, const HacFit& fit,
   for (int j = 0; j < 2; ++j) {
     const double kept = std::max(1.0, row_weight.segment(j * n, n).sum());
     report.residual_rms[j] = std::sqrt(kept_residual.segment(j * n, n).squaredNorm() / kept);
+    report.excess_resolution[j] = floor[j] * std::sqrt(2.0 * std::sqrt(2.0 / kept));
     report.excess_rms[j] = std::sqrt(
         std::max(0.0, report.residual_rms[j] * report.residual_rms[j] - floor[j] * floor[j]));
   }
@@ -673,7 +695,8 @@ inline DiagnosisResult diagnose(const Trajectory<double>& data,
                                 ": options.identify.skip and skip_end must be finite and >= 0 [s]");
 
   DiagnosisResult result;
-  const Kinematics<double> all = estimate_kinematics(data, io);
+  SmoothingReport smoothing;
+  const Kinematics<double> all = estimate_kinematics(data, io, &smoothing);
   result.kinematics = window(all, data.t[0] + io.skip, data.t[data.size() - 1] - io.skip_end);
   const Kinematics<double>& k = result.kinematics;
   const Eigen::Index n = k.size();
@@ -712,8 +735,21 @@ inline DiagnosisResult diagnose(const Trajectory<double>& data,
                                   ": the data do not excite the nominal model: " + check.message);
   }
   const detail::HacFit nominal_fit = detail::hac_fit(x0, y);
+  const bool cross_validated =
+      io.smoothing == SmoothingMode::Gcv || io.smoothing == SmoothingMode::Cv;
+  if (options.kinematic_noise_runs > 0 && io.method == DerivativeMethod::SmoothingSpline &&
+      cross_validated && smoothing.sigma.allFinite() && (smoothing.sigma.array() > 0.0).all()) {
+    const Eigen::Index first = std::lower_bound(all.t.data(), all.t.data() + all.size(), k.t[0]) -
+                               all.t.data();
+    result.kinematic_floor =
+        kinematic_noise_rms(result.nominal_model, nominal_fit.theta, all, smoothing.sigma,
+                            smoothing.p, first, n, row_weight, options.kinematic_noise_runs,
+                            options.kinematic_noise_seed);
+  }
+  const Vector2<double> floor =
+      (result.noise_floor.array().square() + result.kinematic_floor.array().square()).sqrt();
   detail::fill_report(result.nominal, nominal_fit, result.nominal_model.parameter_names(), k,
-                      x0_samples, y_samples, row_weight, result.noise_floor, options.window_length,
+                      x0_samples, y_samples, row_weight, floor, options.window_length,
                       options.family_alpha);
 
   // Candidates, and those the nominal model cannot be told apart from.
@@ -875,7 +911,7 @@ inline DiagnosisResult diagnose(const Trajectory<double>& data,
     c += z.cols();
   }
   detail::fill_report(result.final, final_fit, result.final_model.parameter_names(), k,
-                      x_final_samples, y_samples, row_weight, result.noise_floor, options.window_length,
+                      x_final_samples, y_samples, row_weight, floor, options.window_length,
                       options.family_alpha);
   for (auto& e : named) {
     const auto s =
@@ -884,6 +920,13 @@ inline DiagnosisResult diagnose(const Trajectory<double>& data,
                                                result.final_model, s->settings);
     e.estimate = est.value;
     e.std = est.std;
+    if (detail::starts_with(e.id, "stribeck_j")) {
+      // vs came from a search over widths, not from the linear fit.
+      e.std[2] = std::numeric_limits<double>::quiet_NaN();
+      e.note += std::string(e.note.empty() ? "" : "; ") +
+                "vs is the best width of a grid search (no standard deviation); the standard "
+                "deviations of Fc and Fs hold at that vs";
+    }
   }
   result.effects = std::move(named);
   for (const auto& d : dropped)
