@@ -180,6 +180,16 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
         << ", CV drop " << format("%.1f", 100.0 * e.cv_drop) << " %\n";
     if (!e.note.empty()) out << "    note: " << e.note << "\n";
   }
+  if (!r.friction_checks.empty()) {
+    out << "\nfriction curves tested by output error (angles simulated around each reversal):\n";
+    for (const auto& c : r.friction_checks) {
+      out << "  joint " << c.joint << ": named " << c.named << " -> " << c.chosen << " (" << c.windows
+          << " windows; Stribeck vs Coulomb likelihood ratio " << g(c.statistic) << ", p " << g(c.p_value)
+          << "; angle error / noise " << format("%.3f", c.normalized_rms_coulomb) << " Coulomb, "
+          << format("%.3f", c.normalized_rms_stribeck) << " Stribeck)\n";
+      if (!c.message.empty()) out << "    note: " << c.message << "\n";
+    }
+  }
   if (!r.not_separable.empty()) {
     out << "\nnot separable (the data cannot tell these from the nominal model):\n";
     for (const auto& s : r.not_separable) out << "  " << s.id << ": " << s.name << ": " << s.explanation << "\n";
@@ -260,6 +270,18 @@ nlohmann::json diagnose_json(const sid::DiagnosisResult& r, const sid::Simulatio
                        {"note", e.note}});
   }
   j["effects"] = effects;
+  nlohmann::json friction = nlohmann::json::array();
+  for (const auto& c : r.friction_checks)
+    friction.push_back({{"joint", c.joint},
+                        {"named", c.named},
+                        {"chosen", c.chosen},
+                        {"likelihood_ratio", number(c.statistic)},
+                        {"p_value", number(c.p_value)},
+                        {"windows", c.windows},
+                        {"normalized_rms_coulomb", number(c.normalized_rms_coulomb)},
+                        {"normalized_rms_stribeck", number(c.normalized_rms_stribeck)},
+                        {"message", c.message}});
+  j["friction_checks"] = friction;
   nlohmann::json not_separable = nlohmann::json::array();
   for (const auto& s : r.not_separable)
     not_separable.push_back({{"id", s.id}, {"name", s.name}, {"explanation", s.explanation}});

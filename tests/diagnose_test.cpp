@@ -18,41 +18,19 @@
 #include <string>
 #include <vector>
 
+#include "hidden_effect_data.hpp"
 #include "test_support.hpp"
 
 namespace {
 
-constexpr double kTauVariance = 1e-2;        // σ_τ² [N² m²] of the test data
-constexpr double kQVariance = 1e-6;          // σq² [rad²]
+using sid::test::Excitation;
+using sid::test::excitation_name;
+using sid::test::kQVariance;
+using sid::test::kTauVariance;
+using sid::test::simulate;
+
 constexpr double kEstimateTolerance = 0.15;  // relative error allowed on an effect's main value
 constexpr double kExcessShrink = 0.5;        // the affected joint's excess must at least halve
-
-enum class Excitation { Paper, Multisine };
-
-std::string excitation_name(Excitation e) { return e == Excitation::Paper ? "paper" : "multisine"; }
-
-/// Measured data of the paper's arm with hidden effects: CVODE through effectful_arm's model,
-/// then measured τ = applied + b, measured q = true q − δ, then Gaussian noise.
-sid::Trajectory<double> simulate(const std::vector<sid::EffectSpec>& effects, Excitation excitation,
-                                 unsigned seed, double q_variance = kQVariance) {
-  const sid::EffectfulArm arm = sid::effectful_arm(sid::paper_arm_parameters<double>(), effects);
-  const auto fd = [&arm](const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
-                         const sid::Vector2<double>& tau) {
-    return arm.model.forward_dynamics(arm.theta, q, qd, tau);
-  };
-  const sid::ExperimentResult run = excitation == Excitation::Paper
-                                        ? sid::simulate_arm_experiment(fd, sid::PaperInput())
-                                        : sid::simulate_arm_experiment(fd, sid::MultisineInput());
-  EXPECT_TRUE(run.ok()) << run.message;
-  sid::Trajectory<double> truth = run.trajectory();
-  for (int j = 0; j < 2; ++j) {
-    truth.q.col(j).array() -= arm.angle_offset[j];
-    truth.tau.col(j).array() += arm.torque_offset[j];
-  }
-  std::mt19937_64 rng(seed);
-  return sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{q_variance, kTauVariance},
-                                    rng);
-}
 
 std::vector<std::string> named_ids(const sid::DiagnosisResult& r) {
   std::vector<std::string> ids;

@@ -152,6 +152,23 @@ struct ParameterDrift {
   bool significant = false;  ///< |z| > 3
 };
 
+/// @brief The output-error test of one joint's friction curve (sid/cvode/friction_refinement.hpp,
+/// run by diagnose_with_simulation where friction was named): simulations of the angles around
+/// the joint's velocity reversals decide between Coulomb and Stribeck friction.
+struct FrictionCheck {
+  int joint = 1;       ///< 1 or 2
+  std::string named;   ///< what the torque-domain selection named (coulomb_jX or stribeck_jX)
+  std::string chosen;  ///< what the output-error test chose (the same ids)
+  /// Likelihood ratio of Stribeck against Coulomb friction (χ² with 2 degrees of freedom under
+  /// Coulomb) and its p-value.
+  double statistic = 0, p_value = 1;
+  Eigen::Index windows = 0;  ///< simulation windows (one per reversal used)
+  /// RMS of (measured − simulated q) / σq over the windows for each curve (1 = the noise).
+  double normalized_rms_coulomb = std::numeric_limits<double>::quiet_NaN();
+  double normalized_rms_stribeck = std::numeric_limits<double>::quiet_NaN();
+  std::string message;  ///< empty when both fits went through; otherwise why nothing changed
+};
+
 /// @brief Everything diagnose() found.
 struct DiagnosisResult {
   Vector2<double> noise_floor = Vector2<double>::Zero();  ///< torque noise σ per joint [N m]
@@ -164,6 +181,8 @@ struct DiagnosisResult {
   std::vector<NotSeparable> not_separable;
   std::vector<UnnamedEffect> not_named;
   std::vector<ParameterDrift> drift;  ///< empty without reference_theta
+  /// One per joint with named friction, filled by diagnose_with_simulation (empty otherwise).
+  std::vector<FrictionCheck> friction_checks;
   Kinematics<double> kinematics;      ///< the smoothed samples the fits used
   /// Per equation (joint 1's samples, then joint 2's): 1 if the fits used it, 0 if that joint was
   /// at rest there (DiagnoseOptions::rest_velocity).
@@ -650,6 +669,62 @@ inline void fill_report(ModelReport& report, const HacFit& fit,
   report.windows = flag_windows(k.t, kept_residual, floor, window_length, alpha);
 }
 
+
+/// The final model of a diagnosis (the nominal model plus `selected`) fitted to the equations,
+/// its report, the estimates of result.effects (in `selected`'s order) and, with a reference
+/// θ, the drift of θ1..θ7.
+inline void fit_final_model(DiagnosisResult& result, const std::vector<SelectedTerm>& selected,
+                            const Eigen::MatrixXd& x0, const Eigen::VectorXd& y,
+                            const Eigen::MatrixXd& x0_samples, const Eigen::VectorXd& y_samples,
+                            const Vector2<double>& floor, const DiagnoseOptions& options) {
+  const Kinematics<double>& k = result.kinematics;
+  result.final_model = assemble_model(options.identify.gravity, selected);
+  result.final_settings.clear();
+  for (const auto& s : selected) result.final_settings.push_back(s.settings);
+  const Eigen::MatrixXd x_final = assemble_columns(x0, selected);
+  const HacFit final_fit = hac_fit(x_final, y);
+  Eigen::MatrixXd x_final_samples(x0_samples.rows(), x_final.cols());
+  x_final_samples.leftCols(x0_samples.cols()) = x0_samples;
+  Eigen::Index c = x0_samples.cols();
+  for (const auto& s : selected) {
+    const Eigen::MatrixXd z = stack_term(effect_term(s.id, s.settings), k);
+    x_final_samples.middleCols(c, z.cols()) = z;
+    c += z.cols();
+  }
+  fill_report(result.final, final_fit, result.final_model.parameter_names(), k, x_final_samples,
+              y_samples, result.kept, floor, options.window_length, options.family_alpha);
+  for (auto& e : result.effects) {
+    const auto s =
+        std::find_if(selected.begin(), selected.end(), [&](const auto& t) { return t.id == e.id; });
+    const EffectEstimate est = effect_estimate(e.id, final_fit.theta, final_fit.covariance,
+                                               result.final_model, s->settings);
+    e.estimate = est.value;
+    e.std = est.std;
+    if (starts_with(e.id, "stribeck_j")) {
+      // vs came from a search over widths, not from the linear fit.
+      e.std[2] = std::numeric_limits<double>::quiet_NaN();
+      e.note += std::string(e.note.empty() ? "" : "; ") +
+                "vs is the best width of a grid search (no standard deviation); the standard "
+                "deviations of Fc and Fs hold at that vs";
+    }
+  }
+  result.drift.clear();
+  if (options.reference_theta) {
+    const Eigen::VectorXd& ref = *options.reference_theta;
+    const auto names = two_link_parameter_names();
+    for (Eigen::Index i = 0; i < 7; ++i) {
+      ParameterDrift d;
+      d.name = names[static_cast<std::size_t>(i)];
+      d.reference = ref[i];
+      d.estimate = final_fit.theta[i];
+      d.std = final_fit.std[i];
+      d.z = (d.estimate - d.reference) / d.std;
+      d.significant = std::fabs(d.z) > 3.0;
+      result.drift.push_back(d);
+    }
+  }
+}
+
 }  // namespace detail
 
 /// @brief Diagnoses the discrepancy between the two-link arm model and measured data.
@@ -897,38 +972,8 @@ inline DiagnosisResult diagnose(const Trajectory<double>& data,
     remaining.erase(std::find(remaining.begin(), remaining.end(), chosen.id));
   }
 
-  // The final model.
-  result.final_model = detail::assemble_model(g, selected);
-  for (const auto& s : selected) result.final_settings.push_back(s.settings);
-  const Eigen::MatrixXd x_final = detail::assemble_columns(x0, selected);
-  const detail::HacFit final_fit = detail::hac_fit(x_final, y);
-  Eigen::MatrixXd x_final_samples(x0_samples.rows(), x_final.cols());
-  x_final_samples.leftCols(x0_samples.cols()) = x0_samples;
-  Eigen::Index c = x0_samples.cols();
-  for (const auto& s : selected) {
-    const Eigen::MatrixXd z = detail::stack_term(effect_term(s.id, s.settings), k);
-    x_final_samples.middleCols(c, z.cols()) = z;
-    c += z.cols();
-  }
-  detail::fill_report(result.final, final_fit, result.final_model.parameter_names(), k,
-                      x_final_samples, y_samples, row_weight, floor, options.window_length,
-                      options.family_alpha);
-  for (auto& e : named) {
-    const auto s =
-        std::find_if(selected.begin(), selected.end(), [&](const auto& t) { return t.id == e.id; });
-    const EffectEstimate est = effect_estimate(e.id, final_fit.theta, final_fit.covariance,
-                                               result.final_model, s->settings);
-    e.estimate = est.value;
-    e.std = est.std;
-    if (detail::starts_with(e.id, "stribeck_j")) {
-      // vs came from a search over widths, not from the linear fit.
-      e.std[2] = std::numeric_limits<double>::quiet_NaN();
-      e.note += std::string(e.note.empty() ? "" : "; ") +
-                "vs is the best width of a grid search (no standard deviation); the standard "
-                "deviations of Fc and Fs hold at that vs";
-    }
-  }
   result.effects = std::move(named);
+  detail::fit_final_model(result, selected, x0, y, x0_samples, y_samples, floor, options);
   for (const auto& d : dropped)
     result.not_named.push_back({d.first, effect_name(d.first), d.second, std::nan("")});
   for (const auto& t : last_round) {
@@ -944,22 +989,39 @@ inline DiagnosisResult diagnose(const Trajectory<double>& data,
       reason = "not admissible: " + t.inadmissible;
     result.not_named.push_back({t.id, effect_name(t.id), reason, t.detection_limit});
   }
-  if (options.reference_theta) {
-    const Eigen::VectorXd& ref = *options.reference_theta;
-    const auto names = two_link_parameter_names();
-    for (Eigen::Index i = 0; i < 7; ++i) {
-      ParameterDrift d;
-      d.name = names[static_cast<std::size_t>(i)];
-      d.reference = ref[i];
-      d.estimate = final_fit.theta[i];
-      d.std = final_fit.std[i];
-      d.z = (d.estimate - d.reference) / d.std;
-      d.significant = std::fabs(d.z) > 3.0;
-      result.drift.push_back(d);
-    }
-  }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
+}
+
+/// @brief Refits the final model of a diagnosis with the effects result.effects names, each
+/// built with the matching entry of result.final_settings, so that the torque-domain report,
+/// the effect estimates and the drift follow a change a later step made (the output-error test
+/// of sid/cvode/friction_refinement.hpp choosing Stribeck over Coulomb friction, or the Stribeck
+/// velocity it estimated).
+/// @param options the options the diagnosis ran with.
+/// @throws std::invalid_argument if result.effects and result.final_settings differ in size.
+inline void refit_final_model(DiagnosisResult& result, const DiagnoseOptions& options) {
+  if (result.effects.size() != result.final_settings.size())
+    throw std::invalid_argument("sid::refit_final_model: result.effects has " +
+                                std::to_string(result.effects.size()) +
+                                " entries but result.final_settings has " +
+                                std::to_string(result.final_settings.size()));
+  const Kinematics<double>& k = result.kinematics;
+  const int iw = options.integration_window;
+  const StackedRegression<double> nominal = stack_two_link_regression(k, options.identify.gravity);
+  const Eigen::MatrixXd x0 = detail::integrate_windows(nominal.X, k.t, iw, result.kept);
+  const Eigen::VectorXd y = detail::integrate_windows(nominal.y, k.t, iw, result.kept);
+  std::vector<detail::SelectedTerm> selected;
+  for (std::size_t i = 0; i < result.effects.size(); ++i) {
+    const auto& id = result.effects[i].id;
+    const auto& settings = result.final_settings[i];
+    selected.push_back({id, settings,
+                        detail::integrate_windows(detail::stack_term(effect_term(id, settings), k),
+                                                  k.t, iw, result.kept)});
+  }
+  const Vector2<double> floor =
+      (result.noise_floor.array().square() + result.kinematic_floor.array().square()).sqrt();
+  detail::fit_final_model(result, selected, x0, y, nominal.X, nominal.y, floor, options);
 }
 
 }  // namespace sid

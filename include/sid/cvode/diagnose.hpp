@@ -5,6 +5,7 @@
 /// angles, and the time windows where a model drifts further than the torque noise explains.
 
 #include <sid/cvode/free_simulation.hpp>
+#include <sid/cvode/friction_refinement.hpp>
 #include <sid/diagnose.hpp>
 #include <sid/trajectory.hpp>
 
@@ -53,6 +54,10 @@ struct SimulationCheckOptions {
   /// with included): they only set a statistical scale, and 1e-6 (errors ~1e-5 rad, against a
   /// noise effect of ~5e-3 rad) makes them several times cheaper than the checked simulations.
   double noise_tolerance = 1e-6;
+  /// Test each named friction curve by output error (sid/cvode/friction_refinement.hpp):
+  /// Coulomb or Stribeck, and the Stribeck values from the angles.
+  bool refine_friction = true;
+  FrictionRefinementOptions friction;
 };
 
 /// @brief The simulations behind diagnose_with_simulation, for reports and plots.
@@ -160,6 +165,7 @@ inline DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
     throw std::invalid_argument(who + "check.noise_tolerance must be finite and > 0");
   const auto start = std::chrono::steady_clock::now();
   DiagnosisResult result = diagnose(data, options);
+  if (check.refine_friction) refine_named_friction(result, data, options, check.friction);
   const Kinematics<double>& k = result.kinematics;
   const Eigen::Index n = k.size();
 

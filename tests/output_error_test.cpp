@@ -1,0 +1,136 @@
+// Tests of sid::fit_output_error: exact angles of a known arm are reproduced from wrong starting
+// parameters and states; bad problems are refused with a message.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <sid/cvode/experiment.hpp>
+#include <sid/cvode/output_error.hpp>
+#include <sid/model/effects.hpp>
+#include <string>
+#include <vector>
+
+#include "test_support.hpp"
+
+namespace {
+
+constexpr double kVs = 0.2;  // Stribeck velocity of the true arm [rad/s]
+
+/// The paper's arm with Stribeck friction on joint 2 (Fc 0.1, Fs 0.3), simulated exactly.
+struct ExactRun {
+  sid::EffectfulArm arm =
+      sid::effectful_arm(sid::paper_arm_parameters<double>(), {sid::parse_effect("stribeck_j2:0.1,0.3,0.2")});
+  sid::Kinematics<double> truth;
+  ExactRun() {
+    const auto fd = [this](const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
+                           const sid::Vector2<double>& tau) {
+      return arm.model.forward_dynamics(arm.theta, q, qd, tau);
+    };
+    const sid::ExperimentResult run = sid::simulate_arm_experiment(fd, sid::PaperInput());
+    EXPECT_TRUE(run.ok()) << run.message;
+    truth = run.truth;
+  }
+};
+
+sid::Model<double> model_at(double vs) {
+  sid::EffectSettings s;
+  s.stribeck_velocity = vs;
+  sid::Model<double> m = sid::two_link_arm_model<double>(sid::kPaperGravity);
+  m.add(sid::effect_term("stribeck_j2", s));
+  return m;
+}
+
+/// Three windows of 0.4 s around joint 2's reversals, started from states that are off.
+sid::OutputErrorProblem exact_problem(const ExactRun& run) {
+  sid::OutputErrorProblem p;
+  p.model_at = model_at;
+  p.t = run.truth.t;
+  p.q_measured = run.truth.q;
+  p.tau = run.truth.tau;
+  p.sigma_q.setConstant(1e-3);
+  const auto& k = run.truth;
+  for (Eigen::Index i = 1; i < k.size() && p.windows.size() < 3; ++i) {
+    if ((k.qd(i - 1, 1) > 0.0) == (k.qd(i, 1) > 0.0) || k.t[i] < 0.5) continue;
+    sid::OutputErrorWindow w;
+    w.begin = i - 60;
+    w.end = i + 100;
+    w.q0 = k.q.row(w.begin).transpose().array() + 2e-3;
+    w.qd0 = k.qd.row(w.begin).transpose().array() - 0.02;
+    p.windows.push_back(w);
+  }
+  EXPECT_EQ(p.windows.size(), 3u);
+  p.theta0 = run.arm.theta;
+  for (Eigen::Index u = 0; u < 6; ++u) p.fixed_parameters.push_back(u);  // θ7, Fc, Fs − Fc free
+  p.theta0[6] *= 1.05;
+  p.theta0[7] = 0.15;
+  p.theta0[8] = 0.1;
+  return p;
+}
+
+TEST(OutputError, RecoversFrictionAndStatesFromExactAngles) {
+  const ExactRun run;
+  sid::OutputErrorProblem p = exact_problem(run);
+  p.estimate_nonlinear = true;
+  p.s0 = 0.4;  // twice the truth
+  const sid::OutputErrorFit fit = sid::fit_output_error(p);
+  ASSERT_TRUE(fit.ok) << fit.message;
+  EXPECT_TRUE(fit.converged) << fit.message;
+  EXPECT_LT(fit.cost, 1e-2 * fit.initial_cost);
+  EXPECT_LT(fit.cost, 1.0);  // the angles to well within σq = 1e-3 rad
+  EXPECT_NEAR(fit.theta[6], run.arm.theta[6], 1e-3 * run.arm.theta[6]);
+  EXPECT_NEAR(fit.theta[7], 0.1, 1e-3);
+  EXPECT_NEAR(fit.theta[8], 0.2, 2e-3);
+  EXPECT_NEAR(fit.s, kVs, 2e-3);
+  for (Eigen::Index u = 0; u < 6; ++u) EXPECT_EQ(fit.theta[u], p.theta0[u]) << "fixed " << u;
+  for (const auto& w : fit.windows) {
+    EXPECT_NEAR(w.q0[0], run.truth.q(w.begin, 0), 1e-5);
+    EXPECT_NEAR(w.qd0[1], run.truth.qd(w.begin, 1), 1e-3);
+    EXPECT_NEAR(w.torque_offset[1], 0.0, 1e-3);
+  }
+  ASSERT_EQ(fit.covariance.rows(), p.theta0.size() + 1);
+  EXPECT_GT(fit.covariance(9, 9), 0.0);
+  EXPECT_EQ(fit.covariance(0, 0), 0.0) << "a fixed parameter has no variance";
+}
+
+TEST(OutputError, AbsorbsAConstantTorqueErrorInTheWindowOffsets) {
+  // The applied torque is known only up to a smooth error (the caller smooths a noisy one):
+  // the windows' offsets and slopes take it, not the friction.
+  const ExactRun run;
+  sid::OutputErrorProblem p = exact_problem(run);
+  p.s0 = kVs;                    // held: only the linear parameters and the windows are fitted
+  p.tau.col(1).array() += 0.02;  // the model sees 0.02 N m more than was applied
+  const sid::OutputErrorFit fit = sid::fit_output_error(p);
+  ASSERT_TRUE(fit.ok) << fit.message;
+  EXPECT_NEAR(fit.theta[7], 0.1, 2e-3);
+  EXPECT_NEAR(fit.theta[8], 0.2, 4e-3);
+  for (const auto& w : fit.windows) EXPECT_NEAR(w.torque_offset[1], -0.02, 1e-3);
+}
+
+TEST(OutputError, RefusesBadProblems) {
+  const ExactRun run;
+  const sid::OutputErrorProblem good = exact_problem(run);
+  auto bad = good;
+  bad.windows.clear();
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "no windows");
+  bad = good;
+  bad.windows[0].end = good.t.size() + 5;
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "outside the data");
+  bad = good;
+  bad.tau.conservativeResize(10, 2);
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "same number of rows");
+  bad = good;
+  bad.s0 = 1e9;
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "s0");
+  bad = good;
+  bad.prior_mean = Eigen::VectorXd::Zero(3);
+  bad.prior_std = Eigen::VectorXd::Ones(3);
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "prior");
+  bad = good;
+  bad.fixed_parameters = {42};
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "fixed parameter");
+  bad = good;
+  bad.sigma_q[0] = 0.0;
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "sigma_q");
+}
+
+}  // namespace
