@@ -10,6 +10,7 @@
 #include <sid/measurement_noise.hpp>
 #include <sid/model/effects.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -68,6 +69,27 @@ void BM_DiagnoseWithSimulation(benchmark::State& state) {
   state.counters["samples"] = static_cast<double>(data.size());
 }
 BENCHMARK(BM_DiagnoseWithSimulation)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The same on Stribeck friction, where the output-error test of the friction curve runs too.
+void BM_DiagnoseWithSimulationStribeck(benchmark::State& state) {
+  const sid::Trajectory<double> data = data_set("stribeck_j1:0.1,0.3,0.2", false, 1);
+  for (auto _ : state) {
+    const sid::DiagnosisResult r = sid::diagnose_with_simulation(data);
+    benchmark::DoNotOptimize(r.final.sim_error_rms.data());
+  }
+}
+BENCHMARK(BM_DiagnoseWithSimulationStribeck)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The output-error test of the friction curve alone (two fits on two threads).
+void BM_RefineFriction(benchmark::State& state) {
+  const sid::Trajectory<double> data = data_set("stribeck_j1:0.1,0.3,0.2", false, 1);
+  const sid::DiagnosisResult r = sid::diagnose(data);
+  for (auto _ : state) {
+    const sid::FrictionRefinement f = sid::refine_friction(r, data, 1);
+    benchmark::DoNotOptimize(f.estimate.data());
+  }
+}
+BENCHMARK(BM_RefineFriction)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // diagnose() alone, so the cost of the simulation check is the difference.
 void BM_DiagnoseOnly(benchmark::State& state) {
@@ -142,7 +164,13 @@ void BM_ConfusionMatrix(benchmark::State& state) {
       int not_separable = 0;
           for (const bool multisine : {false, true})
         for (const unsigned seed : {1u, 2u}) {
-          const sid::DiagnosisResult r = sid::diagnose(data_set(spec, multisine, seed));
+          // The naming steps of the workflow: diagnose() and the output-error test of a named
+          // friction curve (the free simulations name nothing).
+          const sid::Trajectory<double> data = data_set(spec, multisine, seed);
+          const auto start = std::chrono::steady_clock::now();
+          sid::DiagnosisResult r = sid::diagnose(data);
+          sid::refine_named_friction(r, data, sid::DiagnoseOptions());
+          r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
           seconds += r.seconds;
           worst = std::max(worst, r.seconds);
           ++total;
@@ -185,7 +213,7 @@ void BM_ConfusionMatrix(benchmark::State& state) {
   for (std::size_t c = 0; c < ids.size(); ++c) legend += " e" + std::to_string(c + 1) + "=" + ids[c];
   std::printf("\nConfusion matrix (sigma_q2 = 1e-6, sigma_tau2 = 1e-2; seeds 1, 2; paper and multisine "
               "excitation; armature_j1 counts as right when nothing is named)\n%s%s\n"
-              "right: %d/%d data sets; diagnose() wall time mean %.3f s, worst %.3f s\n\n",
+              "right: %d/%d data sets; diagnose() + friction test wall time mean %.3f s, worst %.3f s\n\n",
               table.c_str(), legend.c_str(), correct, total, seconds / std::max(total, 1), worst);
   state.counters["right"] = correct;
   state.counters["data_sets"] = total;

@@ -19,11 +19,15 @@
 #include <Eigen/Dense>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
 #include <functional>
 #include <limits>
+#include <mutex>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace sid {
@@ -38,6 +42,9 @@ struct OutputErrorOptions {
   /// CVODE settings of the simulations. BDF: a friction term Fc tanh(q̇/ε) is stiff near a
   /// reversal. 1e-9 keeps the finite-difference Jacobian (steps of 1e-4 relative) accurate to
   /// about 1e-5.
+  /// Threads over the windows (each window's simulations are independent); 0: the hardware's.
+  /// The result does not depend on it.
+  int threads = 0;
   SimulatorOptions simulator = [] {
     SimulatorOptions s;
     s.method = IntegrationMethod::Bdf;
@@ -129,6 +136,34 @@ inline bool simulate_window(const Model<double>& model, const Eigen::VectorXd& t
   return true;
 }
 
+/// Calls f(i, thread) for i in [0, count) on up to `threads` threads (thread 0 is the caller's).
+/// An exception in f is rethrown after all threads finished.
+template <typename F>
+void for_each_index(Eigen::Index count, int threads, const F& f) {
+  if (threads <= 1 || count <= 1) {
+    for (Eigen::Index i = 0; i < count; ++i) f(i, 0);
+    return;
+  }
+  std::atomic<Eigen::Index> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  const auto work = [&](int thread) {
+    for (Eigen::Index i = next++; i < count; i = next++) {
+      try {
+        f(i, thread);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(work, t);
+  work(0);
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+
 }  // namespace detail
 
 /// @brief Levenberg–Marquardt on the normalised angle errors of every window, over the model's
@@ -176,7 +211,12 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   const auto nw = static_cast<Eigen::Index>(problem.windows.size());
   const Eigen::Index local = kLocalUnknowns;
   const Eigen::Index unknowns = g + local * nw;
-  const detail::TorqueInterpolator torque(problem.t, problem.tau);
+  const int threads = static_cast<int>(std::min<Eigen::Index>(
+      nw, options.threads > 0 ? options.threads
+                              : std::max(1u, std::thread::hardware_concurrency())));
+  // One interpolator per thread: it caches the interval of its last call.
+  const std::vector<detail::TorqueInterpolator> torques(
+      static_cast<std::size_t>(threads), detail::TorqueInterpolator(problem.t, problem.tau));
   const Eigen::VectorXd prior_weight =
       has_prior ? Eigen::VectorXd(problem.prior_std.cwiseInverse()) : Eigen::VectorXd();
 
@@ -197,7 +237,8 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   };
   // Normalised residuals of window w (2 m entries, joint 1 then joint 2) for unknowns v.
   const auto window_residual = [&](const Model<double>& model, const Eigen::VectorXd& v,
-                                   Eigen::Index w, Eigen::VectorXd& r) {
+                                   Eigen::Index w, int thread, Eigen::VectorXd& r) {
+    const detail::TorqueInterpolator& torque = torques[static_cast<std::size_t>(thread)];
     const auto& win = problem.windows[static_cast<std::size_t>(w)];
     const Eigen::Index m = win.end - win.begin;
     Eigen::MatrixXd q;
@@ -219,12 +260,16 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   };
   const auto total_cost = [&](const Eigen::VectorXd& v, double* data_part) {
     const Model<double> model = model_for(v);
+    std::vector<double> window_cost(static_cast<std::size_t>(nw));
+    detail::for_each_index(nw, threads, [&](Eigen::Index w, int thread) {
+      Eigen::VectorXd r;
+      window_cost[static_cast<std::size_t>(w)] = window_residual(model, v, w, thread, r)
+                                                     ? r.squaredNorm()
+                                                     : std::numeric_limits<double>::infinity();
+    });
     double c = 0;
-    Eigen::VectorXd r;
-    for (Eigen::Index w = 0; w < nw; ++w) {
-      if (!window_residual(model, v, w, r)) return std::numeric_limits<double>::infinity();
-      c += r.squaredNorm();
-    }
+    for (double wc : window_cost) c += wc;  // in window order: the same sum for any threads
+    if (!std::isfinite(c)) return std::numeric_limits<double>::infinity();
     if (data_part) *data_part = c;
     return c + prior_residual(v).squaredNorm();
   };
@@ -249,42 +294,50 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
     normal.setZero();
     gradient.setZero();
     const Model<double> model = model_for(x);
-    bool failed = false;
-    for (Eigen::Index w = 0; w < nw && !failed; ++w) {
-      Eigen::VectorXd r0;
-      if (!window_residual(model, x, w, r0)) {
-        failed = true;
-        break;
-      }
+    struct Block {
       std::vector<Eigen::Index> columns;
+      Eigen::MatrixXd jtj;
+      Eigen::VectorXd jtr;
+      bool ok = false;
+    };
+    std::vector<Block> blocks(static_cast<std::size_t>(nw));
+    detail::for_each_index(nw, threads, [&](Eigen::Index w, int thread) {
+      Block& block = blocks[static_cast<std::size_t>(w)];
+      Eigen::VectorXd r0;
+      if (!window_residual(model, x, w, thread, r0)) return;
       for (Eigen::Index c = 0; c < g; ++c)
-        if (!is_fixed[static_cast<std::size_t>(c)]) columns.push_back(c);
-      for (Eigen::Index c = 0; c < local; ++c) columns.push_back(g + local * w + c);
-      Eigen::MatrixXd jac(r0.size(), static_cast<Eigen::Index>(columns.size()));
-      for (std::size_t c = 0; c < columns.size(); ++c) {
-        const Eigen::Index u = columns[c];
-        Eigen::VectorXd v = x;
-        const double h = u >= g ? ((u - g) % local < 4 ? kStateStep : (u - g) % local < 6 ? kTorqueStep : 10 * kTorqueStep)
+        if (!is_fixed[static_cast<std::size_t>(c)]) block.columns.push_back(c);
+      for (Eigen::Index c = 0; c < local; ++c) block.columns.push_back(g + local * w + c);
+      Eigen::MatrixXd jac(r0.size(), static_cast<Eigen::Index>(block.columns.size()));
+      for (std::size_t c = 0; c < block.columns.size(); ++c) {
+        const Eigen::Index u = block.columns[c];
+        const Eigen::Index role = (u - g) % local;  // for a window's own unknowns
+        const double h = u >= g ? (role < 4 ? kStateStep : role < 6 ? kTorqueStep : 10 * kTorqueStep)
                                 : kParameterStep * std::max(std::fabs(x[u]), 1e-2);
+        Eigen::VectorXd v = x;
         v[u] += h;
         Eigen::VectorXd r1;
         const bool changes_model = problem.estimate_nonlinear && u == p;
-        const bool ok = changes_model ? window_residual(model_for(v), v, w, r1)
-                                      : window_residual(model, v, w, r1);
-        if (!ok) {
-          failed = true;
-          break;
-        }
+        if (!(changes_model ? window_residual(model_for(v), v, w, thread, r1)
+                            : window_residual(model, v, w, thread, r1)))
+          return;
         jac.col(static_cast<Eigen::Index>(c)) = (r0 - r1) / h;  // d(q_sim)/du, normalised
       }
-      if (failed) break;
-      const Eigen::MatrixXd jtj = jac.transpose() * jac;
-      const Eigen::VectorXd jtr = jac.transpose() * r0;
-      for (std::size_t a = 0; a < columns.size(); ++a) {
-        gradient[columns[a]] += jtr[static_cast<Eigen::Index>(a)];
-        for (std::size_t b = 0; b < columns.size(); ++b)
-          normal(columns[a], columns[b]) +=
-              jtj(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+      block.jtj = jac.transpose() * jac;
+      block.jtr = jac.transpose() * r0;
+      block.ok = true;
+    });
+    bool failed = false;
+    for (const Block& block : blocks) {
+      if (!block.ok) {
+        failed = true;
+        break;
+      }
+      for (std::size_t a = 0; a < block.columns.size(); ++a) {
+        gradient[block.columns[a]] += block.jtr[static_cast<Eigen::Index>(a)];
+        for (std::size_t b = 0; b < block.columns.size(); ++b)
+          normal(block.columns[a], block.columns[b]) +=
+              block.jtj(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
       }
     }
     if (failed) {
