@@ -305,11 +305,13 @@ TEST(Diagnose, NamesStribeckFrictionOnTheMultisineExcitation) {
     }
 }
 
-// On the paper's excitation the joints reverse fast and then stick: the data fix the bump's
-// area (about (Fs − Fc) vs) better than its height, so Fs comes out 20-40 % low with vs high
-// (joint 2), and on joint 1 (reversals at 13 rad/s², |q̇| < vs for 30 ms) the bump is named in
-// about half of the seeds, otherwise Coulomb. What holds: a friction effect of the right joint
-// and nothing else, Fc within 15 %, the excess at least halved; on joint 2 it is Stribeck.
+// On the paper's excitation the joints reverse fast and then stick: the torque-domain data fix
+// the bump's area (about (Fs − Fc) vs) better than its height, so Fs comes out 20-40 % low with
+// vs high (joint 2), and on joint 1 (reversals at 13 rad/s², |q̇| < vs for 30 ms) the bump is
+// named in about half of the seeds, otherwise Coulomb. What holds for diagnose() alone: a
+// friction effect of the right joint and nothing else, Fc within 15 %, the excess at least
+// halved; on joint 2 it is Stribeck. The output-error friction test that diagnose_with_simulation
+// runs next names Stribeck with Fc and Fs within 15 % (tests/friction_refinement_test.cpp).
 TEST(Diagnose, SeesStribeckFrictionOnThePaperExcitationAsFrictionOnItsJoint) {
   for (int joint : {1, 2})
     for (unsigned seed : {11u, 12u}) {
