@@ -22,15 +22,15 @@ inline std::string excitation_name(Excitation e) { return e == Excitation::Paper
 /// Measured data of the paper's arm with hidden effects: CVODE through effectful_arm's model,
 /// then measured τ = applied + b, measured q = true q − δ, then Gaussian noise.
 inline Trajectory<double> simulate(const std::vector<EffectSpec>& effects, Excitation excitation,
-                                 unsigned seed, double q_variance = kQVariance) {
+                                   unsigned seed, double q_variance = kQVariance) {
   const EffectfulArm arm = effectful_arm(paper_arm_parameters<double>(), effects);
   const auto fd = [&arm](const Vector2<double>& q, const Vector2<double>& qd,
                          const Vector2<double>& tau) {
     return arm.model.forward_dynamics(arm.theta, q, qd, tau);
   };
   const ExperimentResult run = excitation == Excitation::Paper
-                                        ? simulate_arm_experiment(fd, PaperInput())
-                                        : simulate_arm_experiment(fd, MultisineInput());
+                                   ? simulate_arm_experiment(fd, PaperInput())
+                                   : simulate_arm_experiment(fd, MultisineInput());
   EXPECT_TRUE(run.ok()) << run.message;
   Trajectory<double> truth = run.trajectory();
   for (int j = 0; j < 2; ++j) {
@@ -38,9 +38,7 @@ inline Trajectory<double> simulate(const std::vector<EffectSpec>& effects, Excit
     truth.tau.col(j).array() += arm.torque_offset[j];
   }
   std::mt19937_64 rng(seed);
-  return add_measurement_noise(truth, MeasurementNoise<double>{q_variance, kTauVariance},
-                                    rng);
+  return add_measurement_noise(truth, MeasurementNoise<double>{q_variance, kTauVariance}, rng);
 }
-
 
 }  // namespace sid::test

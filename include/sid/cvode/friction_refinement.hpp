@@ -257,8 +257,7 @@ inline FrictionRefinement refine_friction(const DiagnosisResult& result,
   }
   // Likelihood ratio with the noise level the Stribeck fit implies (never below the estimate).
   const double dof = std::max<double>(
-      1.0, static_cast<double>(out.stribeck.residuals) -
-               static_cast<double>(8 * problem.windows.size() + 4));
+      1.0, static_cast<double>(out.stribeck.residuals - out.stribeck.free_unknowns));
   const double scale = std::max(1.0, out.stribeck.data_cost / dof);
   check.statistic = (out.coulomb.cost - out.stribeck.cost) / scale;
   check.p_value = chi_square_tail(std::max(0.0, check.statistic), 2.0);

@@ -100,6 +100,8 @@ struct OutputErrorFit {
   double initial_cost = 0, cost = 0;  ///< Σ ((q − q_sim)/σq)² over the windows (+ prior term)
   double data_cost = 0;               ///< the same without the prior term
   Eigen::Index residuals = 0;         ///< number of angle residuals
+  /// Unknowns the fit moved: the free parameters, log s if estimated, and the windows' own.
+  Eigen::Index free_unknowns = 0;
   int iterations = 0;
   bool converged = false;
   bool ok = true;           ///< false if a simulation failed at the start
@@ -220,7 +222,7 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   const Eigen::VectorXd prior_weight =
       has_prior ? Eigen::VectorXd(problem.prior_std.cwiseInverse()) : Eigen::VectorXd();
 
-  // x = (theta, log s, per window q0, qd0)
+  // x = (theta, log s, per window q0, qd0, torque offset, torque slope)
   Eigen::VectorXd x(unknowns);
   x.head(p) = problem.theta0;
   if (problem.estimate_nonlinear) x[p] = std::log(problem.s0);
@@ -276,6 +278,7 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
 
   OutputErrorFit fit;
   fit.residuals = residual_count;
+  fit.free_unknowns = unknowns - static_cast<Eigen::Index>(problem.fixed_parameters.size());
   double data_cost = 0;
   double cost = total_cost(x, &data_cost);
   fit.initial_cost = cost;
