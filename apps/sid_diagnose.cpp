@@ -202,7 +202,8 @@ int diagnose(const Options& o) {
   context.samples_total = data.size();
   context.segment = o.segment;
   context.window_length = o.window;
-  context.check = check;
+  context.noise_runs = check.noise_runs;
+  context.threshold = check.threshold;
   context.has_reference = options.reference_theta.has_value();
   context.rest_velocity = options.rest_velocity;
   context.rest_margin = options.rest_margin;

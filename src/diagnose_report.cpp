@@ -148,8 +148,8 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
       << ", joint 2 " << rest[1] << " of " << k.size() << "\n";
   out << "free simulation: restarted from the smoothed state every " << g(context.segment)
       << " s; torque noise alone gives " << g(sim.noise_error_rms[0]) << ", " << g(sim.noise_error_rms[1])
-      << " rad RMS (" << context.check.noise_runs << " simulations); windows of " << g(context.window_length)
-      << " s are flagged above " << g(context.check.threshold) << "x that\n\n";
+      << " rad RMS (" << context.noise_runs << " simulations); windows of " << g(context.window_length)
+      << " s are flagged above " << g(context.threshold) << "x that\n\n";
 
   out << "nominal fit (two-link arm, 7 parameters; std from the HAC covariance):\n";
   for (Eigen::Index p = 0; p < r.nominal.theta.size(); ++p) {
@@ -184,9 +184,14 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
     out << "\nfriction curves tested by output error (angles simulated around each reversal):\n";
     for (const auto& c : r.friction_checks) {
       out << "  joint " << c.joint << ": named " << c.named << " -> " << c.chosen << " (" << c.windows
-          << " windows; Stribeck vs Coulomb likelihood ratio " << g(c.statistic) << ", p " << g(c.p_value)
-          << "; angle error / noise " << format("%.3f", c.normalized_rms_coulomb) << " Coulomb, "
-          << format("%.3f", c.normalized_rms_stribeck) << " Stribeck)\n";
+          << " windows; score of a Stribeck bump at the Coulomb fit " << g(c.score);
+      if (c.stribeck_fitted)
+        out << "; Stribeck vs Coulomb likelihood ratio " << g(c.statistic) << ", p " << g(c.p_value);
+      else
+        out << ", too low to fit the Stribeck curve";
+      out << "; angle error / noise " << format("%.3f", c.normalized_rms_coulomb) << " Coulomb";
+      if (c.stribeck_fitted) out << ", " << format("%.3f", c.normalized_rms_stribeck) << " Stribeck";
+      out << ")\n";
       if (!c.message.empty()) out << "    note: " << c.message << "\n";
     }
   }
@@ -275,6 +280,9 @@ nlohmann::json diagnose_json(const sid::DiagnosisResult& r, const sid::Simulatio
     friction.push_back({{"joint", c.joint},
                         {"named", c.named},
                         {"chosen", c.chosen},
+                        {"score", number(c.score)},
+                        {"score_velocity", number(c.score_velocity)},
+                        {"stribeck_fitted", c.stribeck_fitted},
                         {"likelihood_ratio", number(c.statistic)},
                         {"p_value", number(c.p_value)},
                         {"windows", c.windows},
@@ -311,8 +319,8 @@ nlohmann::json diagnose_json(const sid::DiagnosisResult& r, const sid::Simulatio
   }
   j["simulation"] = {{"segment", number(context.segment)},
                      {"window_length", context.window_length},
-                     {"noise_runs", context.check.noise_runs},
-                     {"threshold", context.check.threshold},
+                     {"noise_runs", context.noise_runs},
+                     {"threshold", context.threshold},
                      {"noise_error_rms", pair_json(sim.noise_error_rms)},
                      {"nominal_ok", sim.nominal.ok},
                      {"final_ok", sim.final.ok},

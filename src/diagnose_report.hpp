@@ -5,7 +5,8 @@
 /// against joint velocity, simulated against measured angles before/after).
 
 #include <nlohmann/json.hpp>
-#include <sid/cvode/diagnose.hpp>
+#include <sid/cvode/simulation_check.hpp>
+#include <sid/diagnosis/result.hpp>
 #include <string>
 #include <vector>
 
@@ -19,7 +20,8 @@ struct DiagnoseReportContext {
   Eigen::Index samples_total = 0;
   double segment = 1.0;         ///< free-simulation restart interval [s]
   double window_length = 0.5;   ///< [s]
-  SimulationCheckOptions check;
+  int noise_runs = 0;           ///< SimulationCheckOptions::noise_runs
+  double threshold = 0.0;       ///< SimulationCheckOptions::threshold
   bool has_reference = false;
   double rest_velocity = 0.0;  ///< DiagnoseOptions::rest_velocity [rad/s]
   double rest_margin = 0.0;    ///< DiagnoseOptions::rest_margin [s]

@@ -1,11 +1,12 @@
 // Tests of the statistics behind sid::diagnose: chi-square tails, the Newey–West long-run
 // variance and the noise-floor estimators, against closed forms and known values.
 
+#include <sid/diagnosis/hac.hpp>
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
-#include <sid/diagnosis/hac.hpp>
 #include <sid/diagnosis/kinematic_floor.hpp>
 #include <sid/model/two_link_arm.hpp>
 #include <sid/diagnosis/noise_floor.hpp>

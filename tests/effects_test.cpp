@@ -3,8 +3,9 @@
 // dynamics at shifted angles, the effectful arm's mass matrix, recovering each effect's physical
 // values by least squares, and the parsing of effect specs.
 
-#include <sid/least_squares.hpp>
 #include <sid/model/effects.hpp>
+
+#include <sid/least_squares.hpp>
 #include <sid/model/model.hpp>
 #include <sid/model/regressor.hpp>
 #include <sid/model/two_link_arm.hpp>

@@ -1,5 +1,6 @@
-#include <sid/cvode/experiment.hpp>
 #include <sid/cvode/instrumental_variables.hpp>
+
+#include <sid/cvode/experiment.hpp>
 #include <sid/study/montecarlo.hpp>
 
 #include <gtest/gtest.h>

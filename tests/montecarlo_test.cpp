@@ -1,5 +1,6 @@
-#include <sid/cvode/experiment.hpp>
 #include <sid/study/montecarlo.hpp>
+
+#include <sid/cvode/experiment.hpp>
 
 #include <gtest/gtest.h>
 

@@ -1,5 +1,6 @@
 // Tests of sid::fit_output_error: exact angles of a known arm are reproduced from wrong starting
-// parameters and states; bad problems are refused with a message.
+// parameters and states; the score test of an added parameter predicts its refit's cost drop;
+// bad problems are refused with a message.
 
 #include <gtest/gtest.h>
 
@@ -16,12 +17,13 @@ namespace {
 
 constexpr double kVs = 0.2;  // Stribeck velocity of the true arm [rad/s]
 
-/// The paper's arm with Stribeck friction on joint 2 (Fc 0.1, Fs 0.3), simulated exactly.
+/// The paper's arm with friction on joint 2 (by default Stribeck, Fc 0.1, Fs 0.3), simulated
+/// exactly.
 struct ExactRun {
-  sid::EffectfulArm arm =
-      sid::effectful_arm(sid::paper_arm_parameters<double>(), {sid::parse_effect("stribeck_j2:0.1,0.3,0.2")});
+  sid::EffectfulArm arm;
   sid::Kinematics<double> truth;
-  ExactRun() {
+  explicit ExactRun(const std::string& effect = "stribeck_j2:0.1,0.3,0.2")
+      : arm(sid::effectful_arm(sid::paper_arm_parameters<double>(), {sid::parse_effect(effect)})) {
     const auto fd = [this](const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
                            const sid::Vector2<double>& tau) {
       return arm.model.forward_dynamics(arm.theta, q, qd, tau);
@@ -72,7 +74,11 @@ TEST(OutputError, RecoversFrictionAndStatesFromExactAngles) {
   sid::OutputErrorProblem p = exact_problem(run);
   p.estimate_nonlinear = true;
   p.s0 = 0.4;  // twice the truth
-  const sid::OutputErrorFit fit = sid::fit_output_error(p);
+  // Exact data: converge until the cost stops falling at all, not just by what noise would
+  // notice (the default 0.1 leaves θ7 and the window velocities a fraction of their std off).
+  sid::OutputErrorOptions exact;
+  exact.absolute_tolerance = 1e-9;
+  const sid::OutputErrorFit fit = sid::fit_output_error(p, exact);
   ASSERT_TRUE(fit.ok) << fit.message;
   EXPECT_TRUE(fit.converged) << fit.message;
   EXPECT_LT(fit.cost, 1e-2 * fit.initial_cost);
@@ -104,6 +110,64 @@ TEST(OutputError, AbsorbsAConstantTorqueErrorInTheWindowOffsets) {
   EXPECT_NEAR(fit.theta[7], 0.1, 2e-3);
   EXPECT_NEAR(fit.theta[8], 0.2, 4e-3);
   for (const auto& w : fit.windows) EXPECT_NEAR(w.torque_offset[1], -0.02, 1e-3);
+}
+
+/// The Coulomb version of exact_problem: θ7 and Fc free, θ1..θ6 held (truth: run.arm.theta's
+/// first 8 entries).
+sid::OutputErrorProblem coulomb_problem(const ExactRun& run) {
+  sid::OutputErrorProblem p = exact_problem(run);
+  p.model_at = [](double) {
+    sid::Model<double> m = sid::two_link_arm_model<double>(sid::kPaperGravity);
+    m.add(sid::effect_term("coulomb_j2", sid::EffectSettings()));
+    return m;
+  };
+  p.theta0.conservativeResize(8);
+  p.theta0[7] = 0.15;
+  return p;
+}
+
+// The score test at the Coulomb fit against the refit it stands for: to first order, its
+// statistic is the cost drop that fitting a Stribeck bump (at the true vs) gives.
+TEST(OutputError, ScoreTestPredictsTheCostDropOfARefitWithTheAddedParameter) {
+  const ExactRun run("stribeck_j2:0.1,0.15,0.2");
+  const sid::OutputErrorProblem coulomb = coulomb_problem(run);
+  const sid::OutputErrorFit null_fit = sid::fit_output_error(coulomb);
+  ASSERT_TRUE(null_fit.ok && null_fit.converged) << null_fit.message;
+  sid::OutputErrorProblem stribeck = exact_problem(run);
+  stribeck.s0 = kVs;
+  stribeck.theta0.head(8) = null_fit.theta;
+  stribeck.theta0[8] = 0.0;
+  stribeck.windows = null_fit.windows;
+  const sid::OutputErrorFit full_fit = sid::fit_output_error(stribeck);
+  ASSERT_TRUE(full_fit.ok && full_fit.converged) << full_fit.message;
+  const double drop = null_fit.cost - full_fit.cost;
+  ASSERT_GT(drop, 10.0) << "the bump must matter for the comparison to mean something";
+
+  Eigen::VectorXd with_bump(9);
+  with_bump << null_fit.theta, 0.0;
+  const sid::OutputErrorScore score =
+      sid::output_error_score_test(coulomb, null_fit, model_at(kVs), with_bump, 8, 0.005);
+  ASSERT_TRUE(score.ok);
+  EXPECT_GT(score.direction, 0.0) << "a positive bump lowers the cost";
+  EXPECT_NEAR(score.statistic, drop, 0.2 * drop);
+
+  // Where the curve is exactly Coulomb, no bump helps.
+  const ExactRun plain("coulomb_j2:0.1");
+  const sid::OutputErrorProblem exact_coulomb = coulomb_problem(plain);
+  const sid::OutputErrorFit exact_fit = sid::fit_output_error(exact_coulomb);
+  ASSERT_TRUE(exact_fit.ok) << exact_fit.message;
+  Eigen::VectorXd zero_bump(9);
+  zero_bump << exact_fit.theta, 0.0;
+  const sid::OutputErrorScore none =
+      sid::output_error_score_test(exact_coulomb, exact_fit, model_at(kVs), zero_bump, 8, 0.005);
+  ASSERT_TRUE(none.ok);
+  EXPECT_LT(none.statistic, 1e-2 * drop);
+
+  auto wrong = with_bump;
+  wrong.conservativeResize(12);
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::output_error_score_test(coulomb, null_fit, model_at(kVs), wrong, 8, 0.005); },
+      "sid::output_error_score_test: ", "plus one");
 }
 
 TEST(OutputError, RefusesBadProblems) {

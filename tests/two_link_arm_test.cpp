@@ -1,8 +1,9 @@
 // Tests of include/sid/model/two_link_arm.hpp (closed-form arm) and include/sid/detail/sincos.hpp.
 // References: Pinocchio cases in tests/data (see tests/data/README.md) and hand derivations.
 
-#include <sid/detail/sincos.hpp>
 #include <sid/model/two_link_arm.hpp>
+
+#include <sid/detail/sincos.hpp>
 
 #include "allocation_counter.hpp"
 #include "test_support.hpp"
@@ -39,7 +40,6 @@ template sid::Vector2<double> sid::two_link_forward_dynamics<double>(
     const sid::TwoLinkParameters<double>&, const sid::Vector2<double>&,
     const sid::Vector2<double>&, const sid::Vector2<double>&, double) noexcept;
 template sid::Model<double> sid::two_link_arm_model<double>(double);
-
 
 namespace {
 

@@ -149,8 +149,9 @@ LeastSquaresResult<Scalar> solve_least_squares(const char* who, const Eigen::Mat
   const Matrix r = qr.matrixQR().topLeftCorner(p, p).template triangularView<Eigen::Upper>();
   const auto qty_head = qty.head(p);
 
-  // R is p x p: its SVD is cheap.
-  const Eigen::JacobiSVD<Matrix> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  // R is p x p: its SVD is cheap, and square (Eigen's QR preconditioner, which costs seconds of
+  // compile time per file, would never run).
+  const Eigen::JacobiSVD<Matrix, Eigen::NoQRPreconditioner> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Vector& sv = svd.singularValues();
   const Scalar tol = (options.rank_tolerance > 0.0 ? Scalar(options.rank_tolerance)
                                                    : Scalar(std::max(m, p)) * std::numeric_limits<Scalar>::epsilon()) *

@@ -6,6 +6,8 @@
 
 #include <sid/cvode/free_simulation.hpp>
 #include <sid/cvode/friction_refinement.hpp>
+#include <sid/cvode/simulation_check.hpp>
+#include <sid/detail/parallel.hpp>
 #include <sid/diagnose.hpp>
 #include <sid/trajectory.hpp>
 
@@ -15,10 +17,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -58,16 +62,6 @@ struct SimulationCheckOptions {
   /// Coulomb or Stribeck, and the Stribeck values from the angles.
   bool refine_friction = true;
   FrictionRefinementOptions friction;
-};
-
-/// @brief The simulations behind diagnose_with_simulation, for reports and plots.
-struct SimulationCheck {
-  FreeSimulation nominal;  ///< the nominal model on the result's kinematics
-  FreeSimulation final;    ///< the final model (a copy of nominal when nothing was named)
-  /// RMS per sample that the torque noise alone gives, per joint [rad] (over the noise runs).
-  MatrixX2<double> noise_rms;
-  /// Overall RMS of the noise-alone error per joint [rad].
-  Vector2<double> noise_error_rms = Vector2<double>::Zero();
 };
 
 namespace detail {
@@ -170,23 +164,32 @@ inline DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
   const Eigen::Index n = k.size();
 
   SimulationCheck check_result;
-  check_result.nominal = free_simulation(result.nominal_model, result.nominal.theta, k, sim);
-
-  // The noise alone: (sim with tau + w) - (sim with tau), w white at the noise floor.
+  // The noise alone: (sim with tau + w) - (sim with tau), w white at the noise floor. The draws
+  // come first, in order, so that the simulations (independent) can run on every core.
   FreeSimulationOptions loose = sim;
   loose.simulator.rtol = loose.simulator.atol = check.noise_tolerance;
-  const FreeSimulation base = free_simulation(result.nominal_model, result.nominal.theta, k, loose);
   std::mt19937_64 rng(check.seed);
   std::normal_distribution<double> normal(0.0, 1.0);
-  std::vector<MatrixX2<double>> noise_errors;
-  Kinematics<double> noisy = k;
-  for (int r = 0; r < check.noise_runs; ++r) {
+  std::vector<Kinematics<double>> noisy(static_cast<std::size_t>(check.noise_runs), k);
+  for (auto& run : noisy)
     for (int j = 0; j < 2; ++j)
-      for (Eigen::Index i = 0; i < n; ++i)
-        noisy.tau(i, j) = k.tau(i, j) + result.noise_floor[j] * normal(rng);
-    const FreeSimulation perturbed = free_simulation(result.nominal_model, result.nominal.theta, noisy, loose);
-    noise_errors.push_back(perturbed.q - base.q);
-  }
+      for (Eigen::Index i = 0; i < n; ++i) run.tau(i, j) = k.tau(i, j) + result.noise_floor[j] * normal(rng);
+  FreeSimulation base;
+  std::vector<FreeSimulation> perturbed(noisy.size());
+  const bool named = !result.effects.empty();
+  // The two checked simulations (tight tolerances, the longest) first.
+  std::vector<std::function<void()>> runs;
+  runs.emplace_back([&] { check_result.nominal = free_simulation(result.nominal_model, result.nominal.theta, k, sim); });
+  if (named)
+    runs.emplace_back([&] { check_result.final = free_simulation(result.final_model, result.final.theta, k, sim); });
+  runs.emplace_back([&] { base = free_simulation(result.nominal_model, result.nominal.theta, k, loose); });
+  for (std::size_t r = 0; r < noisy.size(); ++r)
+    runs.emplace_back([&, r] { perturbed[r] = free_simulation(result.nominal_model, result.nominal.theta, noisy[r], loose); });
+  detail::for_each_index(static_cast<Eigen::Index>(runs.size()),
+                         static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
+                         [&](Eigen::Index task, int) { runs[static_cast<std::size_t>(task)](); });
+  std::vector<MatrixX2<double>> noise_errors;
+  for (const auto& p : perturbed) noise_errors.push_back(p.q - base.q);
   const MatrixX2<double> expected_ms = detail::mean_square(noise_errors, n);
   check_result.noise_rms = expected_ms.cwiseSqrt();
   for (int j = 0; j < 2; ++j)
@@ -195,11 +198,7 @@ inline DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
   result.nominal.sim_error_rms = check_result.nominal.error_rms;
   result.nominal.sim_windows =
       simulation_windows(check_result.nominal, expected_ms, options.window_length, check);
-  if (result.effects.empty()) {
-    check_result.final = check_result.nominal;
-  } else {
-    check_result.final = free_simulation(result.final_model, result.final.theta, k, sim);
-  }
+  if (!named) check_result.final = check_result.nominal;
   result.final.sim_error_rms = check_result.final.error_rms;
   result.final.sim_windows =
       simulation_windows(check_result.final, expected_ms, options.window_length, check);

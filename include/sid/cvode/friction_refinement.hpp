@@ -10,7 +10,8 @@
 /// the seeds. The measured angles keep the full bandwidth. Here the final model is simulated
 /// over a window around each reversal of the joint, driven by the applied torque, and its
 /// friction parameters are fitted to the measured angles (sid/cvode/output_error.hpp), once
-/// with the Coulomb curve and once with the Stribeck curve; a likelihood-ratio test chooses.
+/// with the Coulomb curve and, if a score test at that fit hints at a bump, once with the
+/// Stribeck curve; a likelihood-ratio test chooses.
 ///
 /// The applied torque is the measured one smoothed by a GCV spline (the sensor noise would
 /// otherwise drive the simulation like a random walk). What the spline leaves of the noise
@@ -44,8 +45,8 @@ struct FrictionRefinementOptions {
   double after = 0.25;   ///< [s] and ends this long after it
   /// [s] a window that the previous one cuts shorter than this is not used.
   double min_window = 0.2;
-  /// At most this many windows, spread evenly over the reversals (each costs about a dozen
-  /// short simulations per iteration).
+  /// At most this many windows, spread evenly over the reversals (each costs a dozen short
+  /// simulations per finite-difference Jacobian and one per Levenberg–Marquardt step).
   int max_windows = 8;
   /// Level of the likelihood-ratio test (Stribeck against Coulomb). Not 0.01: the angle
   /// residuals are not independent (what the smoothed torque leaves varies smoothly), so the
@@ -57,16 +58,22 @@ struct FrictionRefinementOptions {
   /// [rad/s] a Stribeck velocity outside this range is not admissible (the bump is then a
   /// step, or wider than the motion).
   double min_velocity = 0.01, max_velocity = 2.0;
-  /// Start of vs when the torque-domain selection named Coulomb friction [rad/s].
+  /// Start of vs when the torque-domain selection named Coulomb friction and the screen found no
+  /// better one [rad/s].
   double start_velocity = 0.5;
-  double gravity = kPaperGravity;
+  double gravity = kPaperGravity;  ///< g of the model [m/s²]: the diagnosis's identify.gravity
   /// Hold Fc near the torque-domain estimate (a prior with its standard deviation): the
   /// sliding away from the reversals fixes Fc better than the windows do. Without it Fc
   /// scattered by up to 18 % over the Stribeck test cases, with it by up to 14 %; Fs is fixed
   /// by the windows either way.
   bool prior_on_coulomb_level = true;
-  /// Fit the Coulomb and the Stribeck curve on two threads (CVODE runs are independent).
-  bool parallel = true;  ///< g of the model [m/s²]: the diagnosis's identify.gravity
+  /// The screen: at the Coulomb fit, the score test of a Stribeck bump at each of these vs
+  /// [rad/s] (one simulation per window each). The Stribeck fit, several times the cost of the
+  /// Coulomb one, runs only if the largest statistic with a positive bump reaches
+  /// screen_level; otherwise Coulomb is kept. Why the level is far below the test's χ²(2)
+  /// critical value: see the README's calibration ("Stribeck friction"). An empty grid: always fit.
+  std::vector<double> screen_velocities = {0.03, 0.06, 0.12, 0.25, 0.5, 1.0};
+  double screen_level = 4.0;
   OutputErrorOptions fit;
 };
 
@@ -128,7 +135,9 @@ inline std::vector<OutputErrorWindow> reversal_windows(const Kinematics<double>&
 /// curve (viscous, Fc, Fs − Fc and vs free) to the measured angles over windows around the
 /// joint's reversals, every other parameter held at the diagnosis's final fit, and prefers
 /// Stribeck when the likelihood ratio passes the χ²(2) test at options.alpha with Fs > Fc and vs
-/// within [min_velocity, max_velocity].
+/// within [min_velocity, max_velocity]. The Stribeck fit runs only if the score test of a bump at
+/// the Coulomb fit (options.screen_velocities) reaches options.screen_level; otherwise Coulomb
+/// is kept without it (check.stribeck_fitted false, no likelihood ratio).
 /// @param result a diagnosis of `data` (diagnose()), naming coulomb_jX or stribeck_jX.
 /// @param data the measured data the diagnosis ran on.
 /// @param joint 1 or 2.
@@ -243,16 +252,52 @@ inline FrictionRefinement refine_friction(const DiagnosisResult& result,
   stribeck.fixed_parameters = fixed_except(2, stribeck.theta0.size());
   priors(stribeck);
   out.coulomb = fit_output_error(coulomb, options.fit);
-  out.stribeck = fit_output_error(stribeck, options.fit);
-
   const auto normalized_rms = [](const OutputErrorFit& f) {
     return f.residuals > 0 ? std::sqrt(f.data_cost / static_cast<double>(f.residuals))
                            : std::numeric_limits<double>::quiet_NaN();
   };
   check.normalized_rms_coulomb = normalized_rms(out.coulomb);
+  if (!out.coulomb.ok) {
+    check.message = "a simulation failed: " + out.coulomb.message;
+    return out;
+  }
+  const Eigen::Index a = friction_offset;
+  // The screen: a bump added to the Coulomb fit (parameters with a zero bump after Fc).
+  bool screened_out = !options.screen_velocities.empty();
+  if (screened_out) {
+    Eigen::VectorXd with_bump(out.coulomb.theta.size() + 1);
+    with_bump << out.coulomb.theta.head(a + 1), 0.0, out.coulomb.theta.tail(out.coulomb.theta.size() - a - 1);
+    const double step = std::max(0.05 * std::fabs(out.coulomb.theta[a]), 1e-3);
+    check.score = 0.0;
+    for (double vs : options.screen_velocities) {
+      const OutputErrorScore score =
+          output_error_score_test(coulomb, out.coulomb, model_with(stribeck_id, vs), with_bump, a + 1, step, options.fit);
+      if (!score.ok) {  // cannot screen: fit
+        screened_out = false;
+        break;
+      }
+      if (score.direction > 0.0 && score.statistic > check.score) {
+        check.score = score.statistic;
+        check.score_velocity = vs;
+      }
+    }
+    if (!(check.score < options.screen_level)) screened_out = false;
+  }
+  if (screened_out) {
+    check.chosen = coulomb_id;
+    check.statistic = check.p_value = std::numeric_limits<double>::quiet_NaN();
+    out.ok = true;
+    out.estimate = Eigen::VectorXd::Constant(1, out.coulomb.theta[a]);
+    out.std = Eigen::VectorXd::Constant(1, std::sqrt(std::max(0.0, out.coulomb.covariance(a, a))));
+    return out;
+  }
+  if (!named_stribeck && std::isfinite(check.score_velocity))
+    stribeck.s0 = std::clamp(check.score_velocity, stribeck.s_min, stribeck.s_max);
+  out.stribeck = fit_output_error(stribeck, options.fit);
+  check.stribeck_fitted = true;
   check.normalized_rms_stribeck = normalized_rms(out.stribeck);
-  if (!out.coulomb.ok || !out.stribeck.ok) {
-    check.message = "a simulation failed: " + (out.coulomb.ok ? out.stribeck.message : out.coulomb.message);
+  if (!out.stribeck.ok) {
+    check.message = "a simulation failed: " + out.stribeck.message;
     return out;
   }
   // Likelihood ratio with the noise level the Stribeck fit implies (never below the estimate).
@@ -261,7 +306,6 @@ inline FrictionRefinement refine_friction(const DiagnosisResult& result,
   const double scale = std::max(1.0, out.stribeck.data_cost / dof);
   check.statistic = (out.coulomb.cost - out.stribeck.cost) / scale;
   check.p_value = chi_square_tail(std::max(0.0, check.statistic), 2.0);
-  const Eigen::Index a = friction_offset;
   const double fitted_fc = out.stribeck.theta[a], fitted_bump = out.stribeck.theta[a + 1];
   const double vs = out.stribeck.s;
   const bool admissible = fitted_fc > 0.0 && fitted_bump > 0.0 && vs >= options.min_velocity &&
@@ -323,9 +367,16 @@ inline void refine_named_friction(DiagnosisResult& result, const Trajectory<doub
     if (!r.ok) continue;
     for (auto& e : result.effects) {
       if (e.id != r.check.chosen) continue;
-      const std::string test = "output-error test around the joint's reversals: likelihood ratio " +
-                               detail::format_value(r.check.statistic) + " (p = " +
-                               detail::format_value(r.check.p_value) + ") for Stribeck against Coulomb";
+      const std::string test =
+          r.check.stribeck_fitted
+              ? "output-error test around the joint's reversals: likelihood ratio " +
+                    detail::format_value(r.check.statistic) + " (p = " + detail::format_value(r.check.p_value) +
+                    ") for Stribeck against Coulomb"
+              : "output-error test around the joint's reversals: no Stribeck bump would lower the angle "
+                "error beyond the noise (largest score statistic " + detail::format_value(r.check.score) + " over vs " +
+                    detail::format_value(friction.screen_velocities.front()) + "-" +
+                    detail::format_value(friction.screen_velocities.back()) + " rad/s, below " +
+                    detail::format_value(friction.screen_level) + ")";
       if (detail::starts_with(e.id, "stribeck_j")) {
         e.estimate = r.estimate;
         e.std = r.std;

@@ -106,7 +106,7 @@ inline void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::VectorXd& 
   fit.covariance = scale.cwiseInverse().asDiagonal() * cov_scaled * scale.cwiseInverse().asDiagonal();
   fit.std_dev = fit.covariance.diagonal().cwiseSqrt();
   fit.relative_std_dev = 100.0 * fit.std_dev.cwiseQuotient(theta.cwiseAbs());
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(wtx);
+  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(wtx);  // square
   const auto& s = svd.singularValues();
   fit.condition_number = s[s.size() - 1] > 0.0 ? s[0] / s[s.size() - 1] : std::numeric_limits<double>::infinity();
   fit.rank = lu.rank();

@@ -13,28 +13,29 @@
 
 #include <sid/cvode/free_simulation.hpp>
 #include <sid/cvode/simulator.hpp>
+#include <sid/detail/parallel.hpp>
 #include <sid/model/model.hpp>
 #include <sid/trajectory.hpp>
 
 #include <Eigen/Dense>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
 #include <functional>
 #include <limits>
-#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace sid {
 
 /// @brief Settings of fit_output_error().
 struct OutputErrorOptions {
-  int max_iterations = 15;  ///< Levenberg–Marquardt iterations, >= 1
+  /// Levenberg–Marquardt steps, >= 1. Most cost one simulation per window (the Jacobian is
+  /// updated, not recomputed), so more are allowed than a plain Gauss–Newton method would need.
+  int max_iterations = 40;
   /// Stop when an accepted step lowers the cost by less than this fraction of it, > 0.
   double relative_tolerance = 1e-7;
   /// ... or by less than this [χ² units]: a change that no test or standard deviation notices.
@@ -56,13 +57,13 @@ struct OutputErrorOptions {
 };
 
 /// @brief One multiple-shooting window: rows [begin, end) of the data, simulated from a free
-/// initial state (q, q̇) that starts at the given guess.
+/// initial state (q, q̇) that starts at the given guess (a previous fit's windows are a warm start).
 struct OutputErrorWindow {
   Eigen::Index begin = 0, end = 0;
   Vector2<double> q0 = Vector2<double>::Zero(), qd0 = Vector2<double>::Zero();
-  /// A constant torque added to the input over the window [N m], estimated (starts at 0).
+  /// A constant torque added to the input over the window [N m], estimated from this start.
   Vector2<double> torque_offset = Vector2<double>::Zero();
-  /// Its rate of change over the window [N m/s] (about the window's middle), estimated.
+  /// Its rate of change over the window [N m/s] (about the window's middle), likewise.
   Vector2<double> torque_slope = Vector2<double>::Zero();
 };
 
@@ -73,7 +74,7 @@ struct OutputErrorProblem {
   std::function<Model<double>(double)> model_at;
   Eigen::VectorXd theta0;  ///< start of the model's parameters
   /// Indices into theta0 of parameters held at their start values (each costs one simulation
-  /// per window and iteration when free).
+  /// per window and finite-difference Jacobian when free).
   std::vector<Eigen::Index> fixed_parameters;
   double s0 = 1.0;         ///< start of the nonlinear scalar (> 0)
   /// Bounds the estimate of s is kept within (where its bump vanishes, s has no gradient and
@@ -107,6 +108,14 @@ struct OutputErrorFit {
   bool ok = true;           ///< false if a simulation failed at the start
   std::string message;      ///< why not ok / not converged
   std::vector<OutputErrorWindow> windows;  ///< with the estimated initial states
+  /// What a test of a parameter added at the solution needs (output_error_score_test): per
+  /// window, the normalised residuals at the solution and d(q_sim)/du over the window's unknowns
+  /// (the free globals, then its own 8), and the Gauss–Newton normal matrix over all unknowns
+  /// (prior included; a fixed parameter's row and column are the identity's).
+  std::vector<Eigen::VectorXd> window_residuals;
+  std::vector<Eigen::MatrixXd> window_jacobians;
+  std::vector<std::vector<Eigen::Index>> window_columns;
+  Eigen::MatrixXd normal;
 };
 
 namespace detail {
@@ -138,39 +147,12 @@ inline bool simulate_window(const Model<double>& model, const Eigen::VectorXd& t
   return true;
 }
 
-/// Calls f(i, thread) for i in [0, count) on up to `threads` threads (thread 0 is the caller's).
-/// An exception in f is rethrown after all threads finished.
-template <typename F>
-void for_each_index(Eigen::Index count, int threads, const F& f) {
-  if (threads <= 1 || count <= 1) {
-    for (Eigen::Index i = 0; i < count; ++i) f(i, 0);
-    return;
-  }
-  std::atomic<Eigen::Index> next{0};
-  std::exception_ptr error;
-  std::mutex error_mutex;
-  const auto work = [&](int thread) {
-    for (Eigen::Index i = next++; i < count; i = next++) {
-      try {
-        f(i, thread);
-      } catch (...) {
-        const std::lock_guard<std::mutex> lock(error_mutex);
-        if (!error) error = std::current_exception();
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(work, t);
-  work(0);
-  for (auto& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
-}
-
 }  // namespace detail
 
 /// @brief Levenberg–Marquardt on the normalised angle errors of every window, over the model's
-/// parameters, log s (if estimated) and each window's initial state, with a forward-difference
-/// Jacobian (one simulation per column and window).
+/// parameters, log s (if estimated) and each window's initial state and torque correction, with
+/// a forward-difference Jacobian (one simulation per column and window) kept current between
+/// evaluations by Broyden updates.
 /// @throws std::invalid_argument on inconsistent sizes or settings.
 inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
                                        const OutputErrorOptions& options = {}) {
@@ -228,8 +210,7 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   if (problem.estimate_nonlinear) x[p] = std::log(problem.s0);
   for (Eigen::Index w = 0; w < nw; ++w) {
     const auto& win = problem.windows[static_cast<std::size_t>(w)];
-    x.segment(g + local * w, local).setZero();
-    x.segment(g + local * w, 4) << win.q0, win.qd0;
+    x.segment(g + local * w, local) << win.q0, win.qd0, win.torque_offset, win.torque_slope;
   }
   Eigen::Index residual_count = 0;
   for (const auto& w : problem.windows) residual_count += 2 * (w.end - w.begin);
@@ -260,18 +241,20 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
     if (!has_prior) return Eigen::VectorXd(Eigen::VectorXd::Zero(0));
     return Eigen::VectorXd((v.head(p) - problem.prior_mean).cwiseProduct(prior_weight));
   };
-  const auto total_cost = [&](const Eigen::VectorXd& v, double* data_part) {
+  // Residuals of every window at v (empty where a simulation failed) and their total cost.
+  const auto evaluate = [&](const Eigen::VectorXd& v, std::vector<Eigen::VectorXd>& r,
+                            double* data_part) {
     const Model<double> model = model_for(v);
-    std::vector<double> window_cost(static_cast<std::size_t>(nw));
+    r.assign(static_cast<std::size_t>(nw), Eigen::VectorXd());
     detail::for_each_index(nw, threads, [&](Eigen::Index w, int thread) {
-      Eigen::VectorXd r;
-      window_cost[static_cast<std::size_t>(w)] = window_residual(model, v, w, thread, r)
-                                                     ? r.squaredNorm()
-                                                     : std::numeric_limits<double>::infinity();
+      Eigen::VectorXd& rw = r[static_cast<std::size_t>(w)];
+      if (!window_residual(model, v, w, thread, rw)) rw.resize(0);
     });
     double c = 0;
-    for (double wc : window_cost) c += wc;  // in window order: the same sum for any threads
-    if (!std::isfinite(c)) return std::numeric_limits<double>::infinity();
+    for (const auto& rw : r) {  // in window order: the same sum for any threads
+      if (rw.size() == 0) return std::numeric_limits<double>::infinity();
+      c += rw.squaredNorm();
+    }
     if (data_part) *data_part = c;
     return c + prior_residual(v).squaredNorm();
   };
@@ -280,7 +263,8 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   fit.residuals = residual_count;
   fit.free_unknowns = unknowns - static_cast<Eigen::Index>(problem.fixed_parameters.size());
   double data_cost = 0;
-  double cost = total_cost(x, &data_cost);
+  std::vector<Eigen::VectorXd> residual;  // per window, at x
+  double cost = evaluate(x, residual, &data_cost);
   fit.initial_cost = cost;
   if (!std::isfinite(cost)) {
     fit.ok = false;
@@ -288,65 +272,59 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
     fit.theta = problem.theta0;
     return fit;
   }
-  double mu = 1e-3;
+
+  // Per window: the columns it touches (the free globals and its own unknowns) and d(q_sim)/du
+  // over them, normalised.
+  std::vector<Eigen::Index> free_globals;
+  for (Eigen::Index c = 0; c < g; ++c)
+    if (!is_fixed[static_cast<std::size_t>(c)]) free_globals.push_back(c);
+  const auto columns = static_cast<Eigen::Index>(free_globals.size()) + local;
+  const auto column_unknown = [&](Eigen::Index w, Eigen::Index c) {
+    return c < static_cast<Eigen::Index>(free_globals.size())
+               ? free_globals[static_cast<std::size_t>(c)]
+               : g + local * w + (c - static_cast<Eigen::Index>(free_globals.size()));
+  };
+  std::vector<Eigen::MatrixXd> jacobian(static_cast<std::size_t>(nw));
+  // Forward differences at x, one task per window and column (an even load on the threads).
+  const auto difference_jacobian = [&]() {
+    const Model<double> model = model_for(x);
+    std::vector<char> ok(static_cast<std::size_t>(nw * columns), 1);
+    for (Eigen::Index w = 0; w < nw; ++w)
+      jacobian[static_cast<std::size_t>(w)].resize(residual[static_cast<std::size_t>(w)].size(), columns);
+    detail::for_each_index(nw * columns, threads, [&](Eigen::Index task, int thread) {
+      const Eigen::Index w = task / columns, c = task % columns;
+      const Eigen::Index u = column_unknown(w, c);
+      const Eigen::Index role = (u - g) % local;  // for a window's own unknowns
+      const double h = u >= g ? (role < 4 ? kStateStep : role < 6 ? kTorqueStep : 10 * kTorqueStep)
+                              : kParameterStep * std::max(std::fabs(x[u]), 1e-2);
+      Eigen::VectorXd v = x;
+      v[u] += h;
+      Eigen::VectorXd r1;
+      const bool changes_model = problem.estimate_nonlinear && u == p;
+      if (!(changes_model ? window_residual(model_for(v), v, w, thread, r1)
+                          : window_residual(model, v, w, thread, r1))) {
+        ok[static_cast<std::size_t>(task)] = 0;
+        return;
+      }
+      jacobian[static_cast<std::size_t>(w)].col(c) = (residual[static_cast<std::size_t>(w)] - r1) / h;
+    });
+    return std::all_of(ok.begin(), ok.end(), [](char o) { return o != 0; });
+  };
   Eigen::MatrixXd normal(unknowns, unknowns);
   Eigen::VectorXd gradient(unknowns);
-  for (int it = 0; it < options.max_iterations; ++it) {
-    fit.iterations = it + 1;
-    // Gauss–Newton normal equations, window by window (each touches the globals and its state).
+  // Gauss–Newton normal equations from the window blocks, the prior and the fixed parameters.
+  const auto assemble = [&]() {
     normal.setZero();
     gradient.setZero();
-    const Model<double> model = model_for(x);
-    struct Block {
-      std::vector<Eigen::Index> columns;
-      Eigen::MatrixXd jtj;
-      Eigen::VectorXd jtr;
-      bool ok = false;
-    };
-    std::vector<Block> blocks(static_cast<std::size_t>(nw));
-    detail::for_each_index(nw, threads, [&](Eigen::Index w, int thread) {
-      Block& block = blocks[static_cast<std::size_t>(w)];
-      Eigen::VectorXd r0;
-      if (!window_residual(model, x, w, thread, r0)) return;
-      for (Eigen::Index c = 0; c < g; ++c)
-        if (!is_fixed[static_cast<std::size_t>(c)]) block.columns.push_back(c);
-      for (Eigen::Index c = 0; c < local; ++c) block.columns.push_back(g + local * w + c);
-      Eigen::MatrixXd jac(r0.size(), static_cast<Eigen::Index>(block.columns.size()));
-      for (std::size_t c = 0; c < block.columns.size(); ++c) {
-        const Eigen::Index u = block.columns[c];
-        const Eigen::Index role = (u - g) % local;  // for a window's own unknowns
-        const double h = u >= g ? (role < 4 ? kStateStep : role < 6 ? kTorqueStep : 10 * kTorqueStep)
-                                : kParameterStep * std::max(std::fabs(x[u]), 1e-2);
-        Eigen::VectorXd v = x;
-        v[u] += h;
-        Eigen::VectorXd r1;
-        const bool changes_model = problem.estimate_nonlinear && u == p;
-        if (!(changes_model ? window_residual(model_for(v), v, w, thread, r1)
-                            : window_residual(model, v, w, thread, r1)))
-          return;
-        jac.col(static_cast<Eigen::Index>(c)) = (r0 - r1) / h;  // d(q_sim)/du, normalised
+    for (Eigen::Index w = 0; w < nw; ++w) {
+      const Eigen::MatrixXd& jac = jacobian[static_cast<std::size_t>(w)];
+      const Eigen::MatrixXd jtj = jac.transpose() * jac;
+      const Eigen::VectorXd jtr = jac.transpose() * residual[static_cast<std::size_t>(w)];
+      for (Eigen::Index a = 0; a < columns; ++a) {
+        gradient[column_unknown(w, a)] += jtr[a];
+        for (Eigen::Index b = 0; b < columns; ++b)
+          normal(column_unknown(w, a), column_unknown(w, b)) += jtj(a, b);
       }
-      block.jtj = jac.transpose() * jac;
-      block.jtr = jac.transpose() * r0;
-      block.ok = true;
-    });
-    bool failed = false;
-    for (const Block& block : blocks) {
-      if (!block.ok) {
-        failed = true;
-        break;
-      }
-      for (std::size_t a = 0; a < block.columns.size(); ++a) {
-        gradient[block.columns[a]] += block.jtr[static_cast<Eigen::Index>(a)];
-        for (std::size_t b = 0; b < block.columns.size(); ++b)
-          normal(block.columns[a], block.columns[b]) +=
-              block.jtj(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
-      }
-    }
-    if (failed) {
-      fit.message = "a simulation failed while forming the Jacobian at iteration " +
-                    std::to_string(it + 1);
-      break;
     }
     if (has_prior) {
       // The prior's residual (θ − μ)/σ adds 1/σ² to the normal matrix's diagonal.
@@ -360,8 +338,22 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
       normal(u, u) = 1.0;
       gradient[u] = 0.0;
     }
-    // Solve with damping; raise it until a step lowers the cost.
-    bool accepted = false;
+  };
+
+  // Levenberg–Marquardt. The finite-difference Jacobian costs a simulation per column and
+  // window; between them a Broyden update from each trial step's residuals keeps it current
+  // (the windows are nearly linear in their own unknowns), so most iterations cost one
+  // simulation per window. Convergence is only declared on a fresh Jacobian, so the minimum
+  // and the covariance are those of the full Gauss–Newton method.
+  double mu = 1e-3;
+  bool fresh = difference_jacobian();
+  bool failed = !fresh;
+  if (failed) fit.message = "a simulation failed while forming the Jacobian at the start";
+  std::vector<Eigen::VectorXd> trial;
+  for (int it = 0; !failed && it < options.max_iterations; ++it) {
+    fit.iterations = it + 1;
+    assemble();
+    bool accepted = false, small = false, poor = false;
     for (int tries = 0; tries < 12; ++tries) {
       Eigen::MatrixXd damped = normal;
       damped.diagonal() += mu * normal.diagonal().cwiseMax(1e-12);
@@ -370,27 +362,57 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
       if (problem.estimate_nonlinear)
         candidate[p] = std::clamp(candidate[p], std::log(problem.s_min), std::log(problem.s_max));
       double candidate_data = 0;
-      const double c = total_cost(candidate, &candidate_data);
+      const double c = evaluate(candidate, trial, &candidate_data);
       if (std::isfinite(c) && c < cost) {
+        // Broyden: make each window's Jacobian reproduce the change the step caused.
+        for (Eigen::Index w = 0; w < nw; ++w) {
+          Eigen::VectorXd d(columns);
+          for (Eigen::Index a = 0; a < columns; ++a)
+            d[a] = candidate[column_unknown(w, a)] - x[column_unknown(w, a)];
+          const double dd = d.squaredNorm();
+          if (!(dd > 0.0)) continue;
+          Eigen::MatrixXd& jac = jacobian[static_cast<std::size_t>(w)];
+          const Eigen::VectorXd change =
+              residual[static_cast<std::size_t>(w)] - trial[static_cast<std::size_t>(w)];
+          jac += (change - jac * d) * (d.transpose() / dd);
+        }
         const double drop = (cost - c) / cost, cost_drop = cost - c;
+        // The drop the Gauss–Newton model predicted for the step taken.
+        const Eigen::VectorXd taken = candidate - x;
+        const double predicted = taken.dot(2.0 * gradient - normal * taken);
+        poor = cost_drop < 0.25 * predicted;
         x = candidate;
+        residual.swap(trial);
         cost = c;
         data_cost = candidate_data;
         mu = std::max(mu / 10.0, 1e-9);
         accepted = true;
-        if (drop < options.relative_tolerance || cost_drop < options.absolute_tolerance) fit.converged = true;
+        small = drop < options.relative_tolerance || cost_drop < options.absolute_tolerance;
         break;
       }
       mu *= 10.0;
     }
-    if (!accepted) {
-      fit.converged = true;  // no step lowers the cost: a minimum to within the damping
-      break;
+    const bool stale = !fresh;
+    if (accepted && !small && !(poor && stale)) {
+      fresh = false;
+      continue;
     }
-    if (fit.converged) break;
+    if (!accepted || small) {
+      if (fresh) {  // no step (or only a negligible one) lowers the cost: a minimum
+        fit.converged = true;
+        break;
+      }
+    }
+    // The updated Jacobian may have misled the step or made it poor: go on with a fresh one.
+    fresh = difference_jacobian();
+    failed = !fresh;
+    if (failed)
+      fit.message = "a simulation failed while forming the Jacobian at iteration " + std::to_string(it + 1);
   }
+  if (!failed && !fresh) failed = !difference_jacobian();  // for the covariance
   if (!fit.converged && fit.message.empty())
-    fit.message = "not converged in " + std::to_string(options.max_iterations) + " iterations";
+    fit.message = failed ? "a simulation failed while forming the final Jacobian"
+                         : "not converged in " + std::to_string(options.max_iterations) + " iterations";
 
   fit.theta = x.head(p);
   fit.cost = cost;
@@ -407,6 +429,11 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   // square residual; s by the delta method from log s.
   const double dof = std::max<double>(1.0, static_cast<double>(residual_count - unknowns));
   const double scale = std::max(1.0, data_cost / dof);
+  if (failed) {
+    fit.covariance = Eigen::MatrixXd::Constant(g, g, std::numeric_limits<double>::quiet_NaN());
+    return fit;
+  }
+  assemble();
   const Eigen::MatrixXd inverse =
       normal.ldlt().solve(Eigen::MatrixXd::Identity(unknowns, unknowns));
   fit.covariance = scale * inverse.topLeftCorner(g, g);
@@ -418,7 +445,92 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
     fit.covariance.row(p) *= fit.s;
     fit.covariance.col(p) *= fit.s;
   }
+  fit.window_residuals = std::move(residual);
+  fit.window_jacobians = std::move(jacobian);
+  for (Eigen::Index w = 0; w < nw; ++w) {
+    std::vector<Eigen::Index> cols;
+    for (Eigen::Index c = 0; c < columns; ++c) cols.push_back(column_unknown(w, c));
+    fit.window_columns.push_back(std::move(cols));
+  }
+  fit.normal = normal;
   return fit;
+}
+
+/// @brief The score (Lagrange multiplier) test of one parameter added to a fitted model: does
+/// moving it away from its null value lower the cost, once the fit's own unknowns re-adjust?
+struct OutputErrorScore {
+  /// Squared score over its variance, scaled like the likelihood ratio: to first order the drop
+  /// of the cost a refit with the parameter would give, in units of the noise (χ²(1) under the
+  /// null when the residuals are independent).
+  double statistic = 0;
+  /// > 0: the cost falls as the parameter grows from its null value (< 0: as it shrinks).
+  double direction = 0;
+  bool ok = false;  ///< false if a simulation failed
+};
+
+/// @brief Score test at `fit` (a solution of `problem`) of the model `extended`, whose parameters
+/// are `theta_extended`: the fit's parameters with one added at index `added`, at its null value
+/// (where `extended` is the fitted model). Costs one simulation per window, with the added
+/// parameter moved by `step`.
+/// @throws std::invalid_argument if the sizes do not match the fit's.
+inline OutputErrorScore output_error_score_test(const OutputErrorProblem& problem,
+                                                const OutputErrorFit& fit,
+                                                const Model<double>& extended,
+                                                const Eigen::VectorXd& theta_extended,
+                                                Eigen::Index added, double step,
+                                                const OutputErrorOptions& options = {}) {
+  const std::string who = "sid::output_error_score_test: ";
+  const auto nw = static_cast<Eigen::Index>(fit.windows.size());
+  if (theta_extended.size() != fit.theta.size() + 1 || added < 0 || added >= theta_extended.size())
+    throw std::invalid_argument(who + "theta_extended must be the fit's parameters plus one");
+  if (problem.windows.size() != fit.windows.size())
+    throw std::invalid_argument(who + "the fit is not one of this problem (its windows differ)");
+  OutputErrorScore out;
+  if (static_cast<Eigen::Index>(fit.window_jacobians.size()) != nw || nw == 0 || fit.normal.rows() == 0)
+    return out;  // the fit failed: nothing to test at
+  if (!(step != 0.0) || !std::isfinite(step)) throw std::invalid_argument(who + "step must be finite and != 0");
+  const int threads = static_cast<int>(std::min<Eigen::Index>(
+      nw, options.threads > 0 ? options.threads
+                              : std::max(1u, std::thread::hardware_concurrency())));
+  const std::vector<detail::TorqueInterpolator> torques(
+      static_cast<std::size_t>(threads), detail::TorqueInterpolator(problem.t, problem.tau));
+  Eigen::VectorXd moved = theta_extended;
+  moved[added] += step;
+  std::vector<Eigen::VectorXd> derivative(static_cast<std::size_t>(nw));
+  std::vector<char> ok(static_cast<std::size_t>(nw), 0);
+  detail::for_each_index(nw, threads, [&](Eigen::Index w, int thread) {
+    const OutputErrorWindow& win = fit.windows[static_cast<std::size_t>(w)];
+    const Eigen::Index m = win.end - win.begin;
+    Eigen::MatrixXd q;
+    if (!detail::simulate_window(extended, moved, torques[static_cast<std::size_t>(thread)], problem.t, win,
+                                 win.q0, win.qd0, win.torque_offset, win.torque_slope, options.simulator, q))
+      return;
+    Eigen::VectorXd r1(2 * m);
+    for (int j = 0; j < 2; ++j)
+      r1.segment(j * m, m) = (problem.q_measured.col(j).segment(win.begin, m) - q.col(j)) / problem.sigma_q[j];
+    derivative[static_cast<std::size_t>(w)] = (fit.window_residuals[static_cast<std::size_t>(w)] - r1) / step;
+    ok[static_cast<std::size_t>(w)] = 1;
+  });
+  if (!std::all_of(ok.begin(), ok.end(), [](char o) { return o != 0; })) return out;
+  // Score s = jᵀr, its information d − cᵀ N⁻¹ c with c = Jᵀj (the other unknowns re-adjusting).
+  double score = 0, information = 0;
+  Eigen::VectorXd cross = Eigen::VectorXd::Zero(fit.normal.rows());
+  for (Eigen::Index w = 0; w < nw; ++w) {
+    const Eigen::VectorXd& j = derivative[static_cast<std::size_t>(w)];
+    score += j.dot(fit.window_residuals[static_cast<std::size_t>(w)]);
+    information += j.squaredNorm();
+    const Eigen::VectorXd c = fit.window_jacobians[static_cast<std::size_t>(w)].transpose() * j;
+    const auto& cols = fit.window_columns[static_cast<std::size_t>(w)];
+    for (std::size_t a = 0; a < cols.size(); ++a) cross[cols[a]] += c[static_cast<Eigen::Index>(a)];
+  }
+  for (Eigen::Index u : problem.fixed_parameters) cross[u] = 0.0;
+  information -= cross.dot(fit.normal.ldlt().solve(cross));
+  const double dof = std::max<double>(1.0, static_cast<double>(fit.residuals - fit.free_unknowns));
+  const double scale = std::max(1.0, fit.data_cost / dof);
+  out.ok = true;
+  out.direction = score;
+  out.statistic = information > 0.0 ? score * score / information / scale : 0.0;
+  return out;
 }
 
 }  // namespace sid

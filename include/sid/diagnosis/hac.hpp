@@ -146,7 +146,10 @@ inline Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::MatrixXd>&
   const auto after = scores.bottomRows(n - 1);
   Eigen::MatrixXd b = (before.transpose() * before).ldlt().solve(before.transpose() * after);
   if (!b.allFinite()) return newey_west_sum(scores, newey_west_bandwidth(scores));
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(b, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  // B is square: Eigen's QR preconditioner would never run, and instantiating it costs
+  // seconds of compile time in every file that includes this header.
+  Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(b, Eigen::ComputeFullU |
+                                                                          Eigen::ComputeFullV);
   constexpr double kMaxRoot = 0.97;
   if (svd.singularValues().maxCoeff() > kMaxRoot)
     b = svd.matrixU() * svd.singularValues().cwiseMin(kMaxRoot).asDiagonal() *
@@ -166,8 +169,20 @@ inline double wald_statistic(const Eigen::Ref<const Eigen::VectorXd>& gamma,
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(covariance);
   if (ldlt.info() == Eigen::Success && ldlt.isPositive() && (ldlt.vectorD().array() > 0.0).all())
     return gamma.dot(ldlt.solve(gamma));
-  const Eigen::MatrixXd pinv = covariance.completeOrthogonalDecomposition().pseudoInverse();
-  return gamma.dot(pinv * gamma);
+  // Moore–Penrose by the SVD (square: no QR preconditioner), singular values below
+  // k eps σ_max taken as zero.
+  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(
+      covariance, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  const double cut = sv.size() > 0 ? static_cast<double>(sv.size()) *
+                                         std::numeric_limits<double>::epsilon() * sv[0]
+                                   : 0.0;
+  const Eigen::VectorXd projected = svd.matrixU().transpose() * gamma;
+  const Eigen::VectorXd back = svd.matrixV().transpose() * gamma;
+  double statistic = 0.0;
+  for (Eigen::Index i = 0; i < sv.size(); ++i)
+    if (sv[i] > cut) statistic += projected[i] * back[i] / sv[i];
+  return statistic;
 }
 
 }  // namespace sid
