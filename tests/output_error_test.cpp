@@ -65,7 +65,7 @@ sid::OutputErrorProblem exact_problem(const ExactRun& run) {
   for (Eigen::Index u = 0; u < 6; ++u) p.fixed_parameters.push_back(u);  // θ7, Fc, Fs − Fc free
   p.theta0[6] *= 1.05;
   p.theta0[7] = 0.15;
-  p.theta0[8] = 0.1;
+  if (p.theta0.size() > 8) p.theta0[8] = 0.1;  // Fs − Fc of a Stribeck arm
   return p;
 }
 
@@ -112,8 +112,7 @@ TEST(OutputError, AbsorbsAConstantTorqueErrorInTheWindowOffsets) {
   for (const auto& w : fit.windows) EXPECT_NEAR(w.torque_offset[1], -0.02, 1e-3);
 }
 
-/// The Coulomb version of exact_problem: θ7 and Fc free, θ1..θ6 held (truth: run.arm.theta's
-/// first 8 entries).
+/// The Coulomb version of exact_problem (θ7 and Fc free, θ1..θ6 held) for either arm.
 sid::OutputErrorProblem coulomb_problem(const ExactRun& run) {
   sid::OutputErrorProblem p = exact_problem(run);
   p.model_at = [](double) {
@@ -121,8 +120,7 @@ sid::OutputErrorProblem coulomb_problem(const ExactRun& run) {
     m.add(sid::effect_term("coulomb_j2", sid::EffectSettings()));
     return m;
   };
-  p.theta0.conservativeResize(8);
-  p.theta0[7] = 0.15;
+  p.theta0.conservativeResize(8);  // drops a Stribeck arm's Fs − Fc
   return p;
 }
 
