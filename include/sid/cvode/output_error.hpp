@@ -147,6 +147,22 @@ inline bool simulate_window(const Model<double>& model, const Eigen::VectorXd& t
   return true;
 }
 
+/// (measured − simulated q)/σq of window w, joint 1's samples then joint 2's.
+inline Eigen::VectorXd normalised_residual(const OutputErrorProblem& problem, const OutputErrorWindow& w,
+                                           const Eigen::MatrixXd& q_simulated) {
+  const Eigen::Index m = w.end - w.begin;
+  Eigen::VectorXd r(2 * m);
+  for (int j = 0; j < 2; ++j)
+    r.segment(j * m, m) = (problem.q_measured.col(j).segment(w.begin, m) - q_simulated.col(j)) / problem.sigma_q[j];
+  return r;
+}
+
+/// Threads for `windows` windows: options.threads, or the hardware's when 0.
+inline int output_error_threads(const OutputErrorOptions& options, Eigen::Index windows) {
+  return static_cast<int>(std::min<Eigen::Index>(
+      windows, options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency())));
+}
+
 }  // namespace detail
 
 /// @brief Levenberg–Marquardt on the normalised angle errors of every window, over the model's
@@ -195,9 +211,7 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   const auto nw = static_cast<Eigen::Index>(problem.windows.size());
   const Eigen::Index local = kLocalUnknowns;
   const Eigen::Index unknowns = g + local * nw;
-  const int threads = static_cast<int>(std::min<Eigen::Index>(
-      nw, options.threads > 0 ? options.threads
-                              : std::max(1u, std::thread::hardware_concurrency())));
+  const int threads = detail::output_error_threads(options, nw);
   // One interpolator per thread: it caches the interval of its last call.
   const std::vector<detail::TorqueInterpolator> torques(
       static_cast<std::size_t>(threads), detail::TorqueInterpolator(problem.t, problem.tau));
@@ -223,7 +237,6 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
                                    Eigen::Index w, int thread, Eigen::VectorXd& r) {
     const detail::TorqueInterpolator& torque = torques[static_cast<std::size_t>(thread)];
     const auto& win = problem.windows[static_cast<std::size_t>(w)];
-    const Eigen::Index m = win.end - win.begin;
     Eigen::MatrixXd q;
     const Eigen::Index o = g + local * w;
     const Vector2<double> q0 = v.segment<2>(o), qd0 = v.segment<2>(o + 2);
@@ -231,10 +244,7 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
     if (!detail::simulate_window(model, v.head(p), torque, problem.t, win, q0, qd0, offset, slope,
                                  options.simulator, q))
       return false;
-    r.resize(2 * m);
-    for (int j = 0; j < 2; ++j)
-      r.segment(j * m, m) =
-          (problem.q_measured.col(j).segment(win.begin, m) - q.col(j)) / problem.sigma_q[j];
+    r = detail::normalised_residual(problem, win, q);
     return true;
   };
   const auto prior_residual = [&](const Eigen::VectorXd& v) {
@@ -341,7 +351,7 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   };
 
   // Levenberg–Marquardt. The finite-difference Jacobian costs a simulation per column and
-  // window; between them a Broyden update from each trial step's residuals keeps it current
+  // window; between them a Broyden update from each accepted step's residuals keeps it current
   // (the windows are nearly linear in their own unknowns), so most iterations cost one
   // simulation per window. Convergence is only declared on a fresh Jacobian, so the minimum
   // and the covariance are those of the full Gauss–Newton method.
@@ -397,11 +407,9 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
       fresh = false;
       continue;
     }
-    if (!accepted || small) {
-      if (fresh) {  // no step (or only a negligible one) lowers the cost: a minimum
-        fit.converged = true;
-        break;
-      }
+    if (fresh) {  // with a fresh Jacobian no step (or only a negligible one) lowers the cost
+      fit.converged = true;
+      break;
     }
     // The updated Jacobian may have misled the step or made it poor: go on with a fresh one.
     fresh = difference_jacobian();
@@ -489,9 +497,7 @@ inline OutputErrorScore output_error_score_test(const OutputErrorProblem& proble
   if (static_cast<Eigen::Index>(fit.window_jacobians.size()) != nw || nw == 0 || fit.normal.rows() == 0)
     return out;  // the fit failed: nothing to test at
   if (!(step != 0.0) || !std::isfinite(step)) throw std::invalid_argument(who + "step must be finite and != 0");
-  const int threads = static_cast<int>(std::min<Eigen::Index>(
-      nw, options.threads > 0 ? options.threads
-                              : std::max(1u, std::thread::hardware_concurrency())));
+  const int threads = detail::output_error_threads(options, nw);
   const std::vector<detail::TorqueInterpolator> torques(
       static_cast<std::size_t>(threads), detail::TorqueInterpolator(problem.t, problem.tau));
   Eigen::VectorXd moved = theta_extended;
@@ -500,15 +506,12 @@ inline OutputErrorScore output_error_score_test(const OutputErrorProblem& proble
   std::vector<char> ok(static_cast<std::size_t>(nw), 0);
   detail::for_each_index(nw, threads, [&](Eigen::Index w, int thread) {
     const OutputErrorWindow& win = fit.windows[static_cast<std::size_t>(w)];
-    const Eigen::Index m = win.end - win.begin;
     Eigen::MatrixXd q;
     if (!detail::simulate_window(extended, moved, torques[static_cast<std::size_t>(thread)], problem.t, win,
                                  win.q0, win.qd0, win.torque_offset, win.torque_slope, options.simulator, q))
       return;
-    Eigen::VectorXd r1(2 * m);
-    for (int j = 0; j < 2; ++j)
-      r1.segment(j * m, m) = (problem.q_measured.col(j).segment(win.begin, m) - q.col(j)) / problem.sigma_q[j];
-    derivative[static_cast<std::size_t>(w)] = (fit.window_residuals[static_cast<std::size_t>(w)] - r1) / step;
+    derivative[static_cast<std::size_t>(w)] =
+        (fit.window_residuals[static_cast<std::size_t>(w)] - detail::normalised_residual(problem, win, q)) / step;
     ok[static_cast<std::size_t>(w)] = 1;
   });
   if (!std::all_of(ok.begin(), ok.end(), [](char o) { return o != 0; })) return out;
