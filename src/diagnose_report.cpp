@@ -183,8 +183,11 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
   if (!r.friction_checks.empty()) {
     out << "\nfriction curves tested by output error (angles simulated around each reversal):\n";
     for (const auto& c : r.friction_checks) {
-      out << "  joint " << c.joint << ": named " << c.named << " -> " << c.chosen << " (" << c.windows
-          << " windows; score of a Stribeck bump at the Coulomb fit " << g(c.score);
+      out << "  joint " << c.joint << ": named " << c.named << " -> " << c.chosen << " (" << c.windows << " windows; ";
+      if (std::isfinite(c.score))
+        out << "score of a Stribeck bump at the Coulomb fit " << g(c.score);
+      else
+        out << "Stribeck fitted first, as named";
       if (c.stribeck_fitted)
         out << "; Stribeck vs Coulomb likelihood ratio " << g(c.statistic) << ", p " << g(c.p_value);
       else

@@ -57,7 +57,10 @@ TEST(FrictionRefinement, NamesStribeckFrictionAndItsValuesOnBothExcitations) {
         EXPECT_EQ(c.joint, joint);
         EXPECT_EQ(c.chosen, "stribeck_j" + j);
         EXPECT_TRUE(c.stribeck_fitted) << "the screen must let a real bump through";
-        EXPECT_GE(c.score, sid::FrictionRefinementOptions().screen_level);
+        if (c.named == "coulomb_j" + j)
+          EXPECT_GE(c.score, sid::FrictionRefinementOptions().screen_level);
+        else  // the torque-domain tests saw the bump: it is fitted first, without the screen
+          EXPECT_TRUE(std::isnan(c.score)) << c.score;
         EXPECT_LT(c.p_value, 1e-6);
         EXPECT_TRUE(c.message.empty()) << c.message;
         // The fit leaves about the angle noise (0.95-1.12 here: what the smoothed torque's

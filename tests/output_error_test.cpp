@@ -9,6 +9,7 @@
 #include <sid/cvode/output_error.hpp>
 #include <sid/model/effects.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "test_support.hpp"
@@ -168,6 +169,29 @@ TEST(OutputError, ScoreTestPredictsTheCostDropOfARefitWithTheAddedParameter) {
       "sid::output_error_score_test: ", "plus one");
 }
 
+// The worse side of a likelihood ratio need only be known to a fraction of the gap: the Coulomb
+// fit of a Stribeck arm, told the Stribeck fit's cost, stops sooner, and its cost is within
+// twice that fraction of the gap from the Coulomb minimum.
+TEST(OutputError, ComparedFitStopsOnceTheGapIsKnownToItsTolerance) {
+  const ExactRun run;  // Fs − Fc = 0.2: the Coulomb curve misfits
+  const sid::OutputErrorFit better = sid::fit_output_error(exact_problem(run));
+  ASSERT_TRUE(better.ok && better.converged) << better.message;
+  const sid::OutputErrorProblem coulomb = coulomb_problem(run);
+  const sid::OutputErrorFit alone = sid::fit_output_error(coulomb);
+  ASSERT_TRUE(alone.ok && alone.converged) << alone.message;
+  sid::OutputErrorOptions against;
+  against.comparison_cost = better.cost;
+  const sid::OutputErrorFit compared = sid::fit_output_error(coulomb, against);
+  ASSERT_TRUE(compared.ok && compared.converged) << compared.message;
+  const double gap = alone.cost - better.cost;
+  ASSERT_GT(gap, 100.0);
+  EXPECT_LT(compared.iterations, alone.iterations);
+  EXPECT_LE(std::fabs(compared.cost - alone.cost), 2.0 * against.comparison_tolerance * gap)
+      << "compared " << compared.cost << " alone " << alone.cost;
+  EXPECT_EQ(compared.covariance.rows(), alone.covariance.rows());
+  EXPECT_TRUE(compared.covariance.allFinite());
+}
+
 TEST(OutputError, RefusesBadProblems) {
   const ExactRun run;
   const sid::OutputErrorProblem good = exact_problem(run);
@@ -193,6 +217,14 @@ TEST(OutputError, RefusesBadProblems) {
   bad = good;
   bad.sigma_q[0] = 0.0;
   sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "sigma_q");
+  for (const auto& [cost, tolerance] : {std::pair{1.0, -0.1}, std::pair{1.0, 1.0},
+                                        std::pair{std::nan(""), 0.01}}) {
+    sid::OutputErrorOptions options;
+    options.comparison_cost = cost;
+    options.comparison_tolerance = tolerance;
+    sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(good, options); },
+                                      "sid::fit_output_error: ", "comparison_tolerance");
+  }
 }
 
 }  // namespace

@@ -9,9 +9,11 @@
 /// excitation Fs came out 20–40 % low and joint 1's bump was named as Coulomb friction in half
 /// the seeds. The measured angles keep the full bandwidth. Here the final model is simulated
 /// over a window around each reversal of the joint, driven by the applied torque, and its
-/// friction parameters are fitted to the measured angles (sid/cvode/output_error.hpp), once
-/// with the Coulomb curve and, if a score test at that fit hints at a bump, once with the
-/// Stribeck curve; a likelihood-ratio test chooses.
+/// friction parameters are fitted to the measured angles (sid/cvode/output_error.hpp) with the
+/// Coulomb and the Stribeck curve; a likelihood-ratio test chooses. Where the torque-domain
+/// tests named Coulomb friction, the Stribeck fit runs only if a score test at the Coulomb fit
+/// hints at a bump; where they named Stribeck friction, it runs first, and the Coulomb fit,
+/// which then misfits, is taken only as far as the likelihood ratio needs.
 ///
 /// The applied torque is the measured one smoothed by a GCV spline (the sensor noise would
 /// otherwise drive the simulation like a random walk). What the spline leaves of the noise
@@ -67,11 +69,12 @@ struct FrictionRefinementOptions {
   /// scattered by up to 18 % over the Stribeck test cases, with it by up to 14 %; Fs is fixed
   /// by the windows either way.
   bool prior_on_coulomb_level = true;
-  /// The screen: at the Coulomb fit, the score test of a Stribeck bump at each of these vs
-  /// [rad/s] (one simulation per window each). The Stribeck fit, several times the cost of the
-  /// Coulomb one, runs only if the largest statistic with a positive bump reaches
-  /// screen_level; otherwise Coulomb is kept. Why the level is far below the test's χ²(2)
-  /// critical value: see the README's calibration ("Stribeck friction"). An empty grid: always fit.
+  /// The screen, where the torque-domain tests named Coulomb friction: at the Coulomb fit, the
+  /// score test of a Stribeck bump at each of these vs [rad/s] (one simulation per window
+  /// each). The Stribeck fit, several times the cost of the Coulomb one, runs only if the
+  /// largest statistic with a positive bump reaches screen_level; otherwise Coulomb is kept.
+  /// Why the level is far below the test's χ²(2) critical value: see the README's calibration
+  /// ("Stribeck friction"). An empty grid: always fit.
   std::vector<double> screen_velocities = {0.03, 0.06, 0.12, 0.25, 0.5, 1.0};
   double screen_level = 4.0;
   OutputErrorOptions fit;
@@ -135,9 +138,12 @@ inline std::vector<OutputErrorWindow> reversal_windows(const Kinematics<double>&
 /// curve (viscous, Fc, Fs − Fc and vs free) to the measured angles over windows around the
 /// joint's reversals, every other parameter held at the diagnosis's final fit, and prefers
 /// Stribeck when the likelihood ratio passes the χ²(2) test at options.alpha with Fs > Fc and vs
-/// within [min_velocity, max_velocity]. The Stribeck fit runs only if the score test of a bump at
-/// the Coulomb fit (options.screen_velocities) reaches options.screen_level; otherwise Coulomb
-/// is kept without it (check.stribeck_fitted false, no likelihood ratio).
+/// within [min_velocity, max_velocity]. Named Coulomb: the Stribeck fit runs only if the score
+/// test of a bump at the Coulomb fit (options.screen_velocities) reaches options.screen_level;
+/// otherwise Coulomb is kept without it (check.stribeck_fitted false, no likelihood ratio).
+/// Named Stribeck: the Stribeck fit runs first (no screen, check.score NaN) and the Coulomb fit
+/// stops once the ratio is known to 1 % (OutputErrorOptions::comparison_cost); if Coulomb is
+/// chosen all the same, its fit is taken on to its minimum.
 /// @param result a diagnosis of `data` (diagnose()), naming coulomb_jX or stribeck_jX.
 /// @param data the measured data the diagnosis ran on.
 /// @param joint 1 or 2.
@@ -251,54 +257,66 @@ inline FrictionRefinement refine_friction(const DiagnosisResult& result,
                            stribeck.s_min, stribeck.s_max);
   stribeck.fixed_parameters = fixed_except(2, stribeck.theta0.size());
   priors(stribeck);
-  out.coulomb = fit_output_error(coulomb, options.fit);
   const auto normalized_rms = [](const OutputErrorFit& f) {
     return f.residuals > 0 ? std::sqrt(f.data_cost / static_cast<double>(f.residuals))
                            : std::numeric_limits<double>::quiet_NaN();
   };
-  check.normalized_rms_coulomb = normalized_rms(out.coulomb);
-  if (!out.coulomb.ok) {
-    check.message = "a simulation failed: " + out.coulomb.message;
-    return out;
-  }
   const Eigen::Index a = friction_offset;
-  // The screen: a bump added to the Coulomb fit (parameters with a zero bump after Fc).
-  bool screened_out = !options.screen_velocities.empty();
-  if (screened_out) {
-    Eigen::VectorXd with_bump(out.coulomb.theta.size() + 1);
-    with_bump << out.coulomb.theta.head(a + 1), 0.0, out.coulomb.theta.tail(out.coulomb.theta.size() - a - 1);
-    const double step = std::max(0.05 * std::fabs(out.coulomb.theta[a]), 1e-3);
-    check.score = 0.0;
-    for (double vs : options.screen_velocities) {
-      const OutputErrorScore score =
-          output_error_score_test(coulomb, out.coulomb, model_with(stribeck_id, vs), with_bump, a + 1, step, options.fit);
-      if (!score.ok) {  // cannot screen: fit
-        screened_out = false;
-        break;
+  const auto fit_stribeck = [&] {
+    out.stribeck = fit_output_error(stribeck, options.fit);
+    check.stribeck_fitted = true;
+    check.normalized_rms_stribeck = normalized_rms(out.stribeck);
+    if (!out.stribeck.ok) check.message = "a simulation failed: " + out.stribeck.message;
+    return out.stribeck.ok;
+  };
+  const auto fit_coulomb = [&](const OutputErrorOptions& fit_options) {
+    out.coulomb = fit_output_error(coulomb, fit_options);
+    check.normalized_rms_coulomb = normalized_rms(out.coulomb);
+    if (!out.coulomb.ok) check.message = "a simulation failed: " + out.coulomb.message;
+    return out.coulomb.ok;
+  };
+  if (named_stribeck) {
+    // The torque-domain tests saw a bump: fit it first, so that the Coulomb fit, which then
+    // misfits, need only fix the likelihood ratio to a percent (comparison_cost).
+    if (!fit_stribeck()) return out;
+    OutputErrorOptions against = options.fit;
+    against.comparison_cost = out.stribeck.cost;
+    coulomb.windows = out.stribeck.windows;  // the initial states and torque corrections: a warm start
+    if (!fit_coulomb(against)) return out;
+  } else {
+    if (!fit_coulomb(options.fit)) return out;
+    // The screen: a bump added to the Coulomb fit (parameters with a zero bump after Fc).
+    bool screened_out = !options.screen_velocities.empty();
+    if (screened_out) {
+      Eigen::VectorXd with_bump(out.coulomb.theta.size() + 1);
+      with_bump << out.coulomb.theta.head(a + 1), 0.0, out.coulomb.theta.tail(out.coulomb.theta.size() - a - 1);
+      const double step = std::max(0.05 * std::fabs(out.coulomb.theta[a]), 1e-3);
+      check.score = 0.0;
+      for (double vs : options.screen_velocities) {
+        const OutputErrorScore score = output_error_score_test(coulomb, out.coulomb, model_with(stribeck_id, vs),
+                                                               with_bump, a + 1, step, options.fit);
+        if (!score.ok) {  // cannot screen: fit
+          screened_out = false;
+          break;
+        }
+        if (score.direction > 0.0 && score.statistic > check.score) {
+          check.score = score.statistic;
+          check.score_velocity = vs;
+        }
       }
-      if (score.direction > 0.0 && score.statistic > check.score) {
-        check.score = score.statistic;
-        check.score_velocity = vs;
-      }
+      if (!(check.score < options.screen_level)) screened_out = false;
     }
-    if (!(check.score < options.screen_level)) screened_out = false;
-  }
-  if (screened_out) {
-    check.chosen = coulomb_id;
-    check.statistic = check.p_value = std::numeric_limits<double>::quiet_NaN();
-    out.ok = true;
-    out.estimate = Eigen::VectorXd::Constant(1, out.coulomb.theta[a]);
-    out.std = Eigen::VectorXd::Constant(1, std::sqrt(std::max(0.0, out.coulomb.covariance(a, a))));
-    return out;
-  }
-  if (!named_stribeck && std::isfinite(check.score_velocity))
-    stribeck.s0 = std::clamp(check.score_velocity, stribeck.s_min, stribeck.s_max);
-  out.stribeck = fit_output_error(stribeck, options.fit);
-  check.stribeck_fitted = true;
-  check.normalized_rms_stribeck = normalized_rms(out.stribeck);
-  if (!out.stribeck.ok) {
-    check.message = "a simulation failed: " + out.stribeck.message;
-    return out;
+    if (screened_out) {
+      check.chosen = coulomb_id;
+      check.statistic = check.p_value = std::numeric_limits<double>::quiet_NaN();
+      out.ok = true;
+      out.estimate = Eigen::VectorXd::Constant(1, out.coulomb.theta[a]);
+      out.std = Eigen::VectorXd::Constant(1, std::sqrt(std::max(0.0, out.coulomb.covariance(a, a))));
+      return out;
+    }
+    if (std::isfinite(check.score_velocity))
+      stribeck.s0 = std::clamp(check.score_velocity, stribeck.s_min, stribeck.s_max);
+    if (!fit_stribeck()) return out;
   }
   // Likelihood ratio with the noise level the Stribeck fit implies (never below the estimate).
   const double dof = std::max<double>(
@@ -311,6 +329,12 @@ inline FrictionRefinement refine_friction(const DiagnosisResult& result,
   const bool admissible = fitted_fc > 0.0 && fitted_bump > 0.0 && vs >= options.min_velocity &&
                           vs <= options.max_velocity;
   check.chosen = check.p_value < options.alpha && admissible ? stribeck_id : coulomb_id;
+  if (named_stribeck && check.chosen == coulomb_id) {
+    // Its values are now the answer: take the Coulomb fit to its minimum, from where it stopped.
+    coulomb.theta0 = out.coulomb.theta;
+    coulomb.windows = out.coulomb.windows;
+    if (!fit_coulomb(options.fit)) return out;
+  }
   out.ok = true;
   if (check.chosen == stribeck_id) {
     const Eigen::MatrixXd& c = out.stribeck.covariance;

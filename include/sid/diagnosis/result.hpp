@@ -91,6 +91,7 @@ struct FrictionCheck {
   double statistic = 0, p_value = 1;
   /// The screen before the Stribeck fit: the largest score statistic of a Stribeck bump at the
   /// Coulomb fit over a grid of vs (first-order the likelihood ratio at that vs), and its vs.
+  /// NaN where the torque-domain tests named Stribeck friction (fitted without a screen).
   double score = std::numeric_limits<double>::quiet_NaN();
   double score_velocity = std::numeric_limits<double>::quiet_NaN();
   bool stribeck_fitted = false;  ///< false: the score stayed below the screen's level
