@@ -80,6 +80,17 @@ void BM_DiagnoseWithSimulationStribeck(benchmark::State& state) {
 }
 BENCHMARK(BM_DiagnoseWithSimulationStribeck)->Unit(benchmark::kMillisecond)->UseRealTime();
 
+// The slowest case measured: joint 2's bump on the multisine excitation (five windows, and a
+// Coulomb curve that misfits it badly).
+void BM_DiagnoseWithSimulationStribeckMultisineJ2(benchmark::State& state) {
+  const sid::Trajectory<double> data = data_set("stribeck_j2:0.1,0.3,0.2", true, 1);
+  for (auto _ : state) {
+    const sid::DiagnosisResult r = sid::diagnose_with_simulation(data);
+    benchmark::DoNotOptimize(r.final.sim_error_rms.data());
+  }
+}
+BENCHMARK(BM_DiagnoseWithSimulationStribeckMultisineJ2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // The output-error test of the friction curve alone (two fits on two threads).
 void BM_RefineFriction(benchmark::State& state) {
   const sid::Trajectory<double> data = data_set("stribeck_j1:0.1,0.3,0.2", false, 1);
