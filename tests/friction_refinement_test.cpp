@@ -102,6 +102,42 @@ TEST(FrictionRefinement, KeepsCoulombFrictionCoulomb) {
       }
 }
 
+// Coulomb data that the torque-domain tests had named Stribeck (here by hand: a bump of 0.05
+// put after Fc): the Stribeck curve is fitted first and the Coulomb one only to 1 % of the gap,
+// but when Coulomb is chosen its values are those of a Coulomb fit taken to its minimum, as if
+// Coulomb had been named.
+TEST(FrictionRefinement, ChoosesCoulombOverANamedBumpWithTheValuesOfAFullCoulombFit) {
+  const sid::Trajectory<double> data = simulate({sid::parse_effect("coulomb_j2:0.2")}, Excitation::Paper, 11u);
+  const sid::DiagnosisResult coulomb = sid::diagnose(data);
+  ASSERT_EQ(ids(coulomb), std::vector<std::string>{"coulomb_j2"});
+  sid::DiagnosisResult bump = coulomb;
+  bump.effects[0].id = "stribeck_j2";
+  bump.final_settings[0].stribeck_velocity = 0.2;
+  const Eigen::Index fc = 7;  // θ1..θ7, then Fc
+  auto insert_after_fc = [&](const Eigen::VectorXd& v, double value) {
+    Eigen::VectorXd out(v.size() + 1);
+    out << v.head(fc + 1), value, v.tail(v.size() - fc - 1);
+    return out;
+  };
+  bump.final.theta = insert_after_fc(coulomb.final.theta, 0.05);
+  bump.final.std = insert_after_fc(coulomb.final.std, 0.01);
+
+  const sid::FrictionRefinement as_named_coulomb = sid::refine_friction(coulomb, data, 2);
+  const sid::FrictionRefinement as_named_stribeck = sid::refine_friction(bump, data, 2);
+  ASSERT_TRUE(as_named_coulomb.ok && as_named_stribeck.ok) << as_named_stribeck.check.message;
+  const sid::FrictionCheck& c = as_named_stribeck.check;
+  EXPECT_EQ(c.named, "stribeck_j2");
+  EXPECT_EQ(c.chosen, "coulomb_j2") << "likelihood ratio " << c.statistic;
+  EXPECT_TRUE(c.stribeck_fitted);
+  EXPECT_TRUE(std::isnan(c.score)) << "no screen when the bump was named";
+  EXPECT_TRUE(as_named_stribeck.coulomb.converged) << as_named_stribeck.coulomb.message;
+  ASSERT_EQ(as_named_stribeck.estimate.size(), 1);
+  EXPECT_NEAR(as_named_stribeck.estimate[0], 0.2, kFrictionLevelTolerance * 0.2);
+  // The same minimum from either start: within a fifth of its std.
+  EXPECT_NEAR(as_named_stribeck.estimate[0], as_named_coulomb.estimate[0], 0.2 * as_named_coulomb.std[0]);
+  EXPECT_NEAR(as_named_stribeck.coulomb.cost, as_named_coulomb.coulomb.cost, 1.0);
+}
+
 TEST(FrictionRefinement, LeavesDataWithoutFrictionAlone) {
   const sid::Trajectory<double> data =
       simulate({sid::parse_effect("torque_offset_j2:0.1")}, Excitation::Paper, 11u);
