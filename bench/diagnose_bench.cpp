@@ -70,26 +70,22 @@ void BM_DiagnoseWithSimulation(benchmark::State& state) {
 }
 BENCHMARK(BM_DiagnoseWithSimulation)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// The same on Stribeck friction, where the output-error test of the friction curve runs too.
-void BM_DiagnoseWithSimulationStribeck(benchmark::State& state) {
-  const sid::Trajectory<double> data = data_set("stribeck_j1:0.1,0.3,0.2", false, 1);
+// The same on Stribeck friction, where the output-error test of the friction curve runs too:
+// joint 1 on the paper's excitation, and the slowest case measured, joint 2 on the multisine
+// (five windows, and a Coulomb curve that misfits the bump badly).
+void BM_DiagnoseWithSimulationStribeck(benchmark::State& state, const char* effect, bool multisine) {
+  const sid::Trajectory<double> data = data_set(effect, multisine, 1);
   for (auto _ : state) {
     const sid::DiagnosisResult r = sid::diagnose_with_simulation(data);
     benchmark::DoNotOptimize(r.final.sim_error_rms.data());
   }
 }
-BENCHMARK(BM_DiagnoseWithSimulationStribeck)->Unit(benchmark::kMillisecond)->UseRealTime();
-
-// The slowest case measured: joint 2's bump on the multisine excitation (five windows, and a
-// Coulomb curve that misfits it badly).
-void BM_DiagnoseWithSimulationStribeckMultisineJ2(benchmark::State& state) {
-  const sid::Trajectory<double> data = data_set("stribeck_j2:0.1,0.3,0.2", true, 1);
-  for (auto _ : state) {
-    const sid::DiagnosisResult r = sid::diagnose_with_simulation(data);
-    benchmark::DoNotOptimize(r.final.sim_error_rms.data());
-  }
-}
-BENCHMARK(BM_DiagnoseWithSimulationStribeckMultisineJ2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_DiagnoseWithSimulationStribeck, j1_paper, "stribeck_j1:0.1,0.3,0.2", false)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_DiagnoseWithSimulationStribeck, j2_multisine, "stribeck_j2:0.1,0.3,0.2", true)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // The output-error test of the friction curve alone (two fits on two threads).
 void BM_RefineFriction(benchmark::State& state) {

@@ -275,6 +275,10 @@ inline FrictionRefinement refine_friction(const DiagnosisResult& result,
     if (!out.coulomb.ok) check.message = "a simulation failed: " + out.coulomb.message;
     return out.coulomb.ok;
   };
+  const auto take_coulomb_estimate = [&] {
+    out.estimate = Eigen::VectorXd::Constant(1, out.coulomb.theta[a]);
+    out.std = Eigen::VectorXd::Constant(1, std::sqrt(std::max(0.0, out.coulomb.covariance(a, a))));
+  };
   if (named_stribeck) {
     // The torque-domain tests saw a bump: fit it first, so that the Coulomb fit, which then
     // misfits, need only fix the likelihood ratio to a percent (comparison_cost).
@@ -310,8 +314,7 @@ inline FrictionRefinement refine_friction(const DiagnosisResult& result,
       check.chosen = coulomb_id;
       check.statistic = check.p_value = std::numeric_limits<double>::quiet_NaN();
       out.ok = true;
-      out.estimate = Eigen::VectorXd::Constant(1, out.coulomb.theta[a]);
-      out.std = Eigen::VectorXd::Constant(1, std::sqrt(std::max(0.0, out.coulomb.covariance(a, a))));
+      take_coulomb_estimate();
       return out;
     }
     if (std::isfinite(check.score_velocity))
@@ -344,8 +347,7 @@ inline FrictionRefinement refine_friction(const DiagnosisResult& result,
                               std::sqrt(std::max(0.0, c(a, a) + c(a + 1, a + 1) + 2.0 * c(a, a + 1))),
                               std::sqrt(std::max(0.0, c(s, s))));
   } else {
-    out.estimate = Eigen::VectorXd::Constant(1, out.coulomb.theta[a]);
-    out.std = Eigen::VectorXd::Constant(1, std::sqrt(std::max(0.0, out.coulomb.covariance(a, a))));
+    take_coulomb_estimate();
   }
   return out;
 }
