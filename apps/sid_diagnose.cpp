@@ -1,6 +1,9 @@
 // sid_diagnose: find where the identified two-link arm model and measured data disagree, name
 // the missing physical effect from sid's effect library, add it and show the gap shrink.
 
+// First: shows that the header compiles on its own (tests/CMakeLists.txt counts on it).
+#include <sid/diagnose.hpp>
+
 #include <cmath>
 #include <cstdio>
 #include <iostream>

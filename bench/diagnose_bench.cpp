@@ -3,6 +3,9 @@
 // confusion matrix of the naming over every effect id x 2 seeds x 2 excitations, printed as a
 // table for the README.
 
+// First: shows that the header compiles on its own (tests/CMakeLists.txt counts on it).
+#include <sid/cvode/friction_refinement.hpp>
+
 #include <benchmark/benchmark.h>
 
 #include <sid/cvode/diagnose.hpp>
@@ -13,6 +16,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <random>
 #include <stdexcept>
@@ -34,7 +38,7 @@ constexpr double kSigmaTau2 = 1e-2;  // [(N m)^2]
 
 template <typename Input>
 sid::Trajectory<double> measured_data(const std::vector<sid::EffectSpec>& effects, const Input& input,
-                                      unsigned seed) {
+                                      unsigned seed, double sigma_q2 = kSigmaQ2) {
   const sid::EffectfulArm arm = sid::effectful_arm(sid::paper_arm_parameters(), effects);
   auto fd = [&arm](const sid::Vector2<double>& q, const sid::Vector2<double>& qd, const sid::Vector2<double>& tau) {
     return arm.model.forward_dynamics(arm.theta, q, qd, tau);
@@ -47,14 +51,15 @@ sid::Trajectory<double> measured_data(const std::vector<sid::EffectSpec>& effect
     truth.q.col(j).array() -= arm.angle_offset[j];
   }
   std::mt19937_64 rng(seed);
-  return sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{kSigmaQ2, kSigmaTau2}, rng);
+  return sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{sigma_q2, kSigmaTau2}, rng);
 }
 
-sid::Trajectory<double> data_set(const std::string& effect, bool multisine, unsigned seed) {
+sid::Trajectory<double> data_set(const std::string& effect, bool multisine, unsigned seed,
+                                 double sigma_q2 = kSigmaQ2) {
   std::vector<sid::EffectSpec> effects;
   if (!effect.empty()) effects.push_back(sid::parse_effect(effect));
-  return multisine ? measured_data(effects, MultisineInput(), seed)
-                   : measured_data(effects, sid::PaperInput(), seed);
+  return multisine ? measured_data(effects, MultisineInput(), seed, sigma_q2)
+                   : measured_data(effects, sid::PaperInput(), seed, sigma_q2);
 }
 
 void BM_DiagnoseWithSimulation(benchmark::State& state) {
@@ -226,5 +231,64 @@ void BM_ConfusionMatrix(benchmark::State& state) {
   state.counters["data_sets"] = total;
 }
 BENCHMARK(BM_ConfusionMatrix)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+// Runs once: the false alarms of the whole check on effect-free data, seeds 1-10 x excitations
+// {paper, multisine} x sigma_q2 {1e-6, 1e-4} (40 data sets): how often an effect is named, how
+// many of the nominal model's simulation windows are flagged, and the largest window ratio (RMS
+// error / what the noise alone gives) per joint, against SimulationCheckOptions::threshold.
+void BM_EffectFreeFalseAlarms(benchmark::State& state) {
+  const sid::SimulationCheckOptions check;
+  sid::SimulationCheckOptions every_window = check;  // ratios of all windows, flagged or not
+  every_window.threshold = std::numeric_limits<double>::min();
+  every_window.min_error = 0.0;
+  int data_sets = 0, named = 0;
+  long windows = 0, flagged = 0;
+  double seconds = 0.0, worst_seconds = 0.0;
+  std::string table;
+  for (auto _ : state) {
+    table.clear();
+    data_sets = named = 0;
+    windows = flagged = 0;
+    char line[256];
+    for (const bool multisine : {false, true})
+      for (const double sigma_q2 : {1e-6, 1e-4}) {
+        int row_named = 0;
+        long row_windows = 0, row_flagged = 0;
+        sid::Vector2<double> worst_ratio = sid::Vector2<double>::Zero();
+        for (unsigned seed = 1; seed <= 10; ++seed) {
+          const sid::Trajectory<double> data = data_set("", multisine, seed, sigma_q2);
+          sid::SimulationCheck details;
+          const sid::DiagnosisResult r = sid::diagnose_with_simulation(data, {}, {}, check, &details);
+          seconds += r.seconds;
+          worst_seconds = std::max(worst_seconds, r.seconds);
+          row_named += r.effects.empty() ? 0 : 1;
+          row_flagged += static_cast<long>(r.nominal.sim_windows.size());
+          const sid::MatrixX2<double> expected_ms = details.noise_rms.cwiseAbs2();
+          const double window_length = sid::DiagnoseOptions().window_length;
+          for (const auto& w : sid::simulation_windows(details.nominal, expected_ms, window_length, every_window)) {
+            ++row_windows;
+            worst_ratio[w.joint - 1] = std::max(worst_ratio[w.joint - 1], w.ratio);
+          }
+          ++data_sets;
+        }
+        named += row_named;
+        windows += row_windows;
+        flagged += row_flagged;
+        std::snprintf(line, sizeof line, "%-9s  %.0e   %2d/10    %3ld/%-4ld        %4.1f    %4.1f\n",
+                      multisine ? "multisine" : "paper", sigma_q2, row_named, row_flagged, row_windows,
+                      worst_ratio[0], worst_ratio[1]);
+        table += line;
+      }
+  }
+  std::printf("\nFalse alarms on effect-free data (seeds 1-10, sigma_tau2 = 1e-2; window threshold %.1f)\n"
+              "excitation sigma_q2 named  flagged/windows  worst ratio j1  j2\n%s"
+              "named on %d of %d data sets; %ld of %ld windows flagged; whole check mean %.3f s, worst %.3f s\n\n",
+              check.threshold, table.c_str(), named, data_sets, flagged, windows,
+              seconds / std::max(data_sets, 1), worst_seconds);
+  state.counters["named"] = named;
+  state.counters["flagged"] = static_cast<double>(flagged);
+  state.counters["windows"] = static_cast<double>(windows);
+}
+BENCHMARK(BM_EffectFreeFalseAlarms)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 }  // namespace
