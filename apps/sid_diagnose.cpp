@@ -4,6 +4,7 @@
 // First: shows that the header compiles on its own (tests/CMakeLists.txt counts on it).
 #include <sid/diagnose.hpp>
 
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <iostream>

@@ -2,6 +2,7 @@
 // angles and torques (derivatives by raw differences, filtered differences or the smoothing
 // spline, then least squares) and print the estimate with its statistics.
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

@@ -2,6 +2,7 @@
 // the two-link arm once, then for every noise level and run adds measurement noise, estimates
 // the parameters by each method and reports sample means and variances beside the paper's.
 
+#include <CLI/CLI.hpp>
 #include <unistd.h>
 
 #include <algorithm>

@@ -3,6 +3,7 @@
 // the paper's model leaves out (friction, sensor offsets, ...) can be hidden in the data, so that
 // a diagnosis can be tested against a known answer.
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <charconv>
 #include <cmath>

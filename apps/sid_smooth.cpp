@@ -1,6 +1,7 @@
 // sid_smooth: smooth CSV columns with the Reinsch smoothing spline and write the value, first and
 // second derivative of each at the input times.
 
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <iostream>

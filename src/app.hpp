@@ -3,7 +3,6 @@
 /// @brief Plumbing every sid app shares: option parsing and error reporting around main,
 /// refusing to overwrite outputs, parsing lists of numbers, writing JSON.
 
-#include <CLI/CLI.hpp>
 #include <Eigen/Core>
 #include <cstddef>
 #include <functional>
@@ -12,6 +11,12 @@
 #include <vector>
 
 #include "csv.hpp"  // InputError
+
+// Declared, not included: CLI11 costs 8 s of compile time per file, and the report files that
+// include this header for its JSON helpers need none of it. Callers of run_app include it.
+namespace CLI {
+class App;
+}
 
 namespace sid::app {
 

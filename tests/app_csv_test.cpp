@@ -1,6 +1,7 @@
 // Tests of the app-support layer in src/: CSV reading and writing, option helpers, output
 // safety, JSON, the gnuplot bridge and run_app's error-to-exit-code mapping.
 
+#include <CLI/CLI.hpp>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
