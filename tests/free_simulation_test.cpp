@@ -269,6 +269,41 @@ TEST(FreeSimulation, SegmentStartsFollowTheClockAndSkipGaps) {
 
 // simulation_windows (sid/cvode/diagnose.hpp) is the CVODE layer's window check; it has no
 // CVODE of its own, so it is tested here on a hand-made error profile.
+// The C2 torque (the natural interpolating spline) against independent facts: it passes
+// through every sample, reproduces a straight line exactly, is O(h^4) accurate inside a smooth
+// curve (the C1 Hermite only O(h^3)), and its second derivative has no jumps at the samples.
+TEST(TorqueInterpolator, C2JoinsInterpolateReproduceLinesAndAreFourthOrderInside) {
+  const Eigen::Index n = 201;
+  const double h = 0.01;
+  const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(n, 0.0, h * static_cast<double>(n - 1));
+  sid::MatrixX2<double> tau(n, 2);
+  tau.col(0) = (1.3 * t.array()).sin();
+  tau.col(1) = 0.5 - 2.0 * t.array();
+  const sid::detail::TorqueInterpolator c2(t, tau, sid::detail::TorqueJoins::C2);
+  const sid::detail::TorqueInterpolator c1(t, tau, sid::detail::TorqueJoins::C1);
+  double knot_error = 0.0, line_error = 0.0, inner_c2 = 0.0, inner_c1 = 0.0, curvature_jump = 0.0;
+  for (Eigen::Index i = 0; i + 1 < n; ++i) {
+    knot_error = std::max(knot_error, (c2(t[i]) - tau.row(i).transpose()).cwiseAbs().maxCoeff());
+    const double middle = t[i] + 0.37 * h;
+    line_error = std::max(line_error, std::fabs(c2(middle)[1] - (0.5 - 2.0 * middle)));
+    if (i >= 50 && i < n - 50) {  // away from the natural ends, whose zero curvature is not sin's
+      inner_c2 = std::max(inner_c2, std::fabs(c2(middle)[0] - std::sin(1.3 * middle)));
+      inner_c1 = std::max(inner_c1, std::fabs(c1(middle)[0] - std::sin(1.3 * middle)));
+      // Second differences just left and right of the sample t[i].
+      const double e = 1e-3 * h;
+      const auto second = [&](double at) { return (c2(at + e)[0] - 2.0 * c2(at)[0] + c2(at - e)[0]) / (e * e); };
+      curvature_jump = std::max(curvature_jump, std::fabs(second(t[i] - 2 * e) - second(t[i] + 2 * e)));
+    }
+  }
+  EXPECT_LT(knot_error, 1e-14);
+  EXPECT_LT(line_error, 1e-13);
+  // The spline's error bound inside: 5/384 h^4 max|f^(4)| = 5/384 1e-8 1.3^4 = 3.7e-10.
+  EXPECT_LT(inner_c2, 3.7e-10);
+  EXPECT_GT(inner_c1, 10.0 * inner_c2);
+  // One interval changes f'' by |f'''| h = 0.022: a jump at the samples would be of that order.
+  EXPECT_LT(curvature_jump, 1e-3);
+}
+
 TEST(SimulationWindows, FlagsExactlyTheWindowsBeyondThresholdTimesTheNoise) {
   sid::FreeSimulation sim;
   const Eigen::Index n = 400;  // t = 0 .. 3.99 s, windows of 1 s
