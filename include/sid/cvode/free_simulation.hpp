@@ -107,30 +107,30 @@ class TorqueInterpolator {
  public:
   TorqueInterpolator(const Eigen::Ref<const Eigen::VectorXd>& t,
                      const Eigen::Ref<const MatrixX2<double>>& tau, TorqueJoins joins = TorqueJoins::C1)
-      : t_(t), tau_(tau), joins_(joins), slope_(MatrixX2<double>::Zero(t.size(), 2)) {
+      : t_(t), tau_(tau), joins_(joins), derivative_(MatrixX2<double>::Zero(t.size(), 2)) {
     const Eigen::Index n = t.size();
     if (joins == TorqueJoins::C1) {
       for (Eigen::Index i = 0; i < n; ++i) {
         const Eigen::Index a = i > 0 ? i - 1 : 0, b = i + 1 < n ? i + 1 : n - 1;
-        slope_.row(i) = (tau.row(b) - tau.row(a)) / (t[b] - t[a]);
+        derivative_.row(i) = (tau.row(b) - tau.row(a)) / (t[b] - t[a]);
       }
       return;
     }
-    // C2: second derivatives m (in slope_), m = 0 at the ends, from the tridiagonal system
+    // C2: second derivatives m (in derivative_), m = 0 at the ends, from the tridiagonal system
     // h[i-1] m[i-1] + 2 (h[i-1] + h[i]) m[i] + h[i] m[i+1] = 6 (d[i] - d[i-1]), d the chord
     // slopes; forward elimination, then back substitution (diagonally dominant: no pivoting).
+    // Row 0 of the elimination and m[n-1] are zero, so neither sweep needs a special case.
     if (n < 3) return;
-    Eigen::VectorXd upper(n);
-    MatrixX2<double> rhs(n, 2);
+    Eigen::VectorXd upper = Eigen::VectorXd::Zero(n);
+    MatrixX2<double> rhs = MatrixX2<double>::Zero(n, 2);
     for (Eigen::Index i = 1; i + 1 < n; ++i) {
       const double h0 = t[i] - t[i - 1], h1 = t[i + 1] - t[i];
-      const Vector2<double> d = 6.0 * ((tau.row(i + 1) - tau.row(i)) / h1 - (tau.row(i) - tau.row(i - 1)) / h0).transpose();
-      const double pivot = 2.0 * (h0 + h1) - (i > 1 ? h0 * upper[i - 1] : 0.0);
+      const double pivot = 2.0 * (h0 + h1) - h0 * upper[i - 1];
       upper[i] = h1 / pivot;
-      rhs.row(i) = (d.transpose() - (i > 1 ? Eigen::RowVector2d(h0 * rhs.row(i - 1)) : Eigen::RowVector2d::Zero())) / pivot;
+      rhs.row(i) = (6.0 * ((tau.row(i + 1) - tau.row(i)) / h1 - (tau.row(i) - tau.row(i - 1)) / h0) -
+                    h0 * rhs.row(i - 1)) / pivot;
     }
-    for (Eigen::Index i = n - 2; i >= 1; --i)
-      slope_.row(i) = rhs.row(i) - (i + 2 < n ? Eigen::RowVector2d(upper[i] * slope_.row(i + 1)) : Eigen::RowVector2d::Zero());
+    for (Eigen::Index i = n - 2; i >= 1; --i) derivative_.row(i) = rhs.row(i) - upper[i] * derivative_.row(i + 1);
   }
 
   Vector2<double> operator()(double time) const {
@@ -152,15 +152,15 @@ class TorqueInterpolator {
     if (joins_ == TorqueJoins::C2) {
       const double b = (time - t_[i]) / h, a = 1.0 - b;
       return (a * tau_.row(i) + b * tau_.row(i + 1) +
-              ((a * a * a - a) * slope_.row(i) + (b * b * b - b) * slope_.row(i + 1)) * (h * h / 6.0))
+              ((a * a * a - a) * derivative_.row(i) + (b * b * b - b) * derivative_.row(i + 1)) * (h * h / 6.0))
           .transpose();
     }
     const double s = (time - t_[i]) / h;
     const double s2 = s * s, s3 = s2 * s;
     const double h00 = 2.0 * s3 - 3.0 * s2 + 1.0, h10 = s3 - 2.0 * s2 + s;
     const double h01 = -2.0 * s3 + 3.0 * s2, h11 = s3 - s2;
-    return (h00 * tau_.row(i) + h10 * h * slope_.row(i) + h01 * tau_.row(i + 1) +
-            h11 * h * slope_.row(i + 1))
+    return (h00 * tau_.row(i) + h10 * h * derivative_.row(i) + h01 * tau_.row(i + 1) +
+            h11 * h * derivative_.row(i + 1))
         .transpose();
   }
 
@@ -169,7 +169,7 @@ class TorqueInterpolator {
   Eigen::VectorXd t_;
   MatrixX2<double> tau_;
   TorqueJoins joins_;
-  MatrixX2<double> slope_;  // C1: slopes at the samples; C2: second derivatives
+  MatrixX2<double> derivative_;  // at the samples: C1 the first, C2 the second
   mutable Eigen::Index hint_ = 0;
 };
 
