@@ -99,6 +99,56 @@ TEST(OutputError, RecoversFrictionAndStatesFromExactAngles) {
   EXPECT_EQ(fit.covariance(0, 0), 0.0) << "a fixed parameter has no variance";
 }
 
+// The Jacobian the fit steps with: forward sensitivities of one window against central
+// differences of its simulation, for the free parameters, log vs and the window's own unknowns.
+TEST(OutputError, WindowSensitivitiesMatchCentralDifferencesOfTheSimulation) {
+  const ExactRun run;
+  const sid::OutputErrorProblem p = exact_problem(run);
+  const sid::OutputErrorWindow& w = p.windows[1];
+  const sid::detail::TorqueInterpolator torque(p.t, p.tau);
+  sid::SimulatorOptions tight = sid::OutputErrorOptions().simulator;
+  tight.rtol = 1e-11;
+  tight.atol = 1e-12;
+  const Eigen::VectorXd theta = p.theta0;
+  const sid::Model<double> model = model_at(kVs);
+  const double log_step = 1e-6;
+  const sid::Model<double> larger = model_at(kVs * std::exp(log_step));
+  sid::detail::WindowParameters parameters;
+  parameters.theta = {6, 7, 8};
+  parameters.model_at_larger_s = &larger;
+  parameters.log_step = log_step;
+  const Eigen::Vector2d offset(0.01, -0.02), slope(0.05, 0.03);
+  Eigen::MatrixXd jacobian;
+  ASSERT_TRUE(sid::detail::window_jacobian(model, theta, parameters, torque, p.t, w, w.q0, w.qd0, offset, slope,
+                                           p.sigma_q, tight, jacobian));
+  const Eigen::Index m = w.end - w.begin;
+  ASSERT_EQ(jacobian.rows(), 2 * m);
+  ASSERT_EQ(jacobian.cols(), 3 + 1 + 8);
+  // Unknown c moved by ±h: (theta, vs, q0, qd0, offset, slope).
+  const auto simulated = [&](Eigen::Index c, double h) {
+    Eigen::VectorXd th = theta;
+    double vs = kVs;
+    Eigen::Matrix<double, 8, 1> local;
+    local << w.q0, w.qd0, offset, slope;
+    if (c < 3) th[6 + c] += h;
+    else if (c == 3) vs *= std::exp(h);
+    else local[c - 4] += h;
+    Eigen::MatrixXd q;
+    EXPECT_TRUE(sid::detail::simulate_window(model_at(vs), th, torque, p.t, w, local.segment<2>(0), local.segment<2>(2),
+                                             local.segment<2>(4), local.segment<2>(6), tight, q));
+    Eigen::VectorXd stacked(2 * m);
+    stacked << q.col(0) / p.sigma_q[0], q.col(1) / p.sigma_q[1];
+    return stacked;
+  };
+  for (Eigen::Index c = 0; c < jacobian.cols(); ++c) {
+    const double h = c < 3 ? 1e-4 * std::max(std::fabs(theta[6 + c]), 1e-2) : 1e-4;
+    const Eigen::VectorXd difference = (simulated(c, h) - simulated(c, -h)) / (2 * h);
+    const double scale = difference.cwiseAbs().maxCoeff();
+    ASSERT_GT(scale, 0.0) << "column " << c;
+    EXPECT_LT((jacobian.col(c) - difference).cwiseAbs().maxCoeff(), 1e-4 * scale) << "column " << c;
+  }
+}
+
 TEST(OutputError, AbsorbsAConstantTorqueErrorInTheWindowOffsets) {
   // The applied torque is known only up to a smooth error (the caller smooths a noisy one):
   // the windows' offsets and slopes take it, not the friction.

@@ -47,8 +47,8 @@ struct FrictionRefinementOptions {
   double after = 0.25;   ///< [s] and ends this long after it
   /// [s] a window that the previous one cuts shorter than this is not used.
   double min_window = 0.2;
-  /// At most this many windows, spread evenly over the reversals (each costs a dozen short
-  /// simulations per finite-difference Jacobian and one per Levenberg–Marquardt step).
+  /// At most this many windows, spread evenly over the reversals (each costs a sensitivity
+  /// simulation per Jacobian and one simulation per Levenberg–Marquardt step).
   int max_windows = 8;
   /// Level of the likelihood-ratio test (Stribeck against Coulomb). Not 0.01: the angle
   /// residuals are not independent (what the smoothed torque leaves varies smoothly), so the

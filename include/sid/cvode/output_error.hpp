@@ -12,6 +12,7 @@
 /// 0.3 % on joint 2, where the torque-domain fit leaves it 20–40 % low.
 
 #include <sid/cvode/free_simulation.hpp>
+#include <sid/cvode/sensitivity.hpp>
 #include <sid/cvode/simulator.hpp>
 #include <sid/detail/parallel.hpp>
 #include <sid/model/model.hpp>
@@ -50,12 +51,12 @@ struct OutputErrorOptions {
   /// the test that is not the answer.
   double comparison_cost = -std::numeric_limits<double>::infinity();
   double comparison_tolerance = 1e-2;
-  /// CVODE settings of the simulations. BDF: a friction term Fc tanh(q̇/ε) is stiff near a
-  /// reversal. 1e-9 keeps the finite-difference Jacobian (steps of 1e-4 relative) accurate to
-  /// about 1e-5.
   /// Threads over the windows (each window's simulations are independent); 0: the hardware's.
   /// The result does not depend on it.
   int threads = 0;
+  /// CVODE settings of the simulations whose angles enter the cost. BDF: a friction term
+  /// Fc tanh(q̇/ε) is stiff near a reversal. rtol 1e-8 keeps the integration error (~1e-8
+  /// rad) far below σq, so the cost is smooth in the unknowns to well within the tolerances.
   SimulatorOptions simulator = [] {
     SimulatorOptions s;
     s.method = IntegrationMethod::Bdf;
@@ -64,6 +65,12 @@ struct OutputErrorOptions {
     s.max_steps = 20000;
     return s;
   }();
+  /// Relative tolerance of the sensitivity simulations that give the Jacobian (absolute: a
+  /// tenth of it), > 0. A Gauss–Newton step needs the Jacobian to a few digits, not to the
+  /// cost's accuracy: at 1e-6 a window takes about half the steps it takes at 1e-8, and the
+  /// fits' steps, minima and standard deviations on the Stribeck test cases did not change in
+  /// their shown digits.
+  double sensitivity_rtol = 1e-6;
 };
 
 /// @brief One multiple-shooting window: rows [begin, end) of the data, simulated from a free
@@ -83,8 +90,8 @@ struct OutputErrorWindow {
 struct OutputErrorProblem {
   std::function<Model<double>(double)> model_at;
   Eigen::VectorXd theta0;  ///< start of the model's parameters
-  /// Indices into theta0 of parameters held at their start values (each costs one simulation
-  /// per window and finite-difference Jacobian when free).
+  /// Indices into theta0 of parameters held at their start values (each free one adds a
+  /// sensitivity to every window's Jacobian).
   std::vector<Eigen::Index> fixed_parameters;
   double s0 = 1.0;         ///< start of the nonlinear scalar (> 0)
   /// Bounds the estimate of s is kept within (where its bump vanishes, s has no gradient and
@@ -157,6 +164,78 @@ inline bool simulate_window(const Model<double>& model, const Eigen::VectorXd& t
   return true;
 }
 
+/// What window_jacobian() differentiates by, besides the window's own unknowns.
+struct WindowParameters {
+  std::vector<Eigen::Index> theta;   ///< indices into theta, in column order
+  /// The nonlinear scalar's column (after theta's) if not null: the model at s e^log_step.
+  const Model<double>* model_at_larger_s = nullptr;
+  double log_step = 0;
+};
+
+/// d(q_sim)/du over window w by forward sensitivities, u = (the parameters, then the window's
+/// q0, qd0, torque offset and torque slope), divided by σq: rows as normalised_residual's.
+/// false if CVODES failed.
+///
+/// The sensitivity of q̈ = D⁻¹(τ − h) follows from inverse dynamics ID(q, q̇, q̈; θ) = τ:
+/// D ∂q̈/∂u = ∂τ/∂u − ∂ID/∂q s_q − ∂ID/∂q̇ s_q̇ − ∂ID/∂u, with ∂ID/∂θ_i the regressor's column
+/// i. ∂ID/∂q and ∂ID/∂q̇ are forward differences (step 1e-7: relative error ~1e-5 at the tanh
+/// friction's curvature, as the difference Jacobian it replaces).
+inline bool window_jacobian(const Model<double>& model, const Eigen::VectorXd& theta,
+                            const WindowParameters& parameters, const TorqueInterpolator& torque,
+                            const Eigen::VectorXd& t, const OutputErrorWindow& w,
+                            const Vector2<double>& q0, const Vector2<double>& qd0,
+                            const Vector2<double>& torque_offset, const Vector2<double>& torque_slope,
+                            const Vector2<double>& sigma_q, const SimulatorOptions& options,
+                            Eigen::MatrixXd& jacobian) {
+  const double middle = 0.5 * (t[w.begin] + t[w.end - 1]);
+  const auto thetas = static_cast<Eigen::Index>(parameters.theta.size());
+  const Eigen::Index globals = thetas + (parameters.model_at_larger_s ? 1 : 0);
+  const Eigen::Index columns = globals + 8;
+  auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x, Eigen::Map<Eigen::VectorXd>& xdot) {
+    if (!x.allFinite() || x.cwiseAbs().maxCoeff() > 1e4) throw std::runtime_error("blow-up");
+    const Vector2<double> q = x.head<2>(), qd = x.tail<2>();
+    xdot.head<2>() = qd;
+    xdot.tail<2>() = model.forward_dynamics(theta, q, qd, torque(time) + torque_offset + (time - middle) * torque_slope);
+  };
+  Eigen::Matrix<double, 2, Eigen::Dynamic> forcing(2, columns);
+  auto sensitivity_rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
+                             const Eigen::Map<const Eigen::VectorXd>& xdot, const Eigen::MatrixXd& s,
+                             Eigen::MatrixXd& sdot) {
+    constexpr double kStep = 1e-7;
+    const Vector2<double> q = x.head<2>(), qd = x.tail<2>(), qdd = xdot.tail<2>();
+    const ModelRegressor<double> z = model.regressor(q, qd, qdd);
+    const Vector2<double> id = z * theta;
+    Matrix2<double> mass, by_q, by_qd;
+    for (int j = 0; j < 2; ++j) {
+      const Vector2<double> e = Vector2<double>::Unit(j);
+      mass.col(j) = model.inverse_dynamics(theta, q, qd, qdd + e) - id;  // exact: ID is linear in q̈
+      by_q.col(j) = (model.inverse_dynamics(theta, q + kStep * e, qd, qdd) - id) / kStep;
+      by_qd.col(j) = (model.inverse_dynamics(theta, q, qd + kStep * e, qdd) - id) / kStep;
+    }
+    forcing.setZero();
+    for (Eigen::Index c = 0; c < thetas; ++c) forcing.col(c) = -z.col(parameters.theta[static_cast<std::size_t>(c)]);
+    if (parameters.model_at_larger_s)
+      forcing.col(thetas) = -(parameters.model_at_larger_s->inverse_dynamics(theta, q, qd, qdd) - id) / parameters.log_step;
+    forcing.block<2, 2>(0, globals + 4).setIdentity();
+    forcing.block<2, 2>(0, globals + 6) = (time - middle) * Matrix2<double>::Identity();
+    sdot.topRows(2) = s.bottomRows(2);
+    sdot.bottomRows(2) = mass.inverse() * (forcing - by_q * s.topRows(2) - by_qd * s.bottomRows(2));
+  };
+  Eigen::VectorXd x0(4);
+  x0 << q0, qd0;
+  Eigen::MatrixXd s0 = Eigen::MatrixXd::Zero(4, columns);
+  s0.block<4, 4>(0, globals).setIdentity();
+  const SensitivityResult sim =
+      simulate_with_sensitivities(rhs, sensitivity_rhs, x0, s0, t.segment(w.begin, w.end - w.begin), options);
+  if (!sim.ok()) return false;
+  const Eigen::Index m = w.end - w.begin;
+  jacobian.resize(2 * m, columns);
+  for (Eigen::Index k = 0; k < m; ++k)
+    for (Eigen::Index c = 0; c < columns; ++c)
+      for (int j = 0; j < 2; ++j) jacobian(j * m + k, c) = sim.sensitivities(k, 4 * c + j) / sigma_q[j];
+  return true;
+}
+
 /// (measured − simulated q)/σq of window w, joint 1's samples then joint 2's.
 inline Eigen::VectorXd normalised_residual(const OutputErrorProblem& problem, const OutputErrorWindow& w,
                                            const Eigen::MatrixXd& q_simulated) {
@@ -177,8 +256,8 @@ inline int output_error_threads(const OutputErrorOptions& options, Eigen::Index 
 
 /// @brief Levenberg–Marquardt on the normalised angle errors of every window, over the model's
 /// parameters, log s (if estimated) and each window's initial state and torque correction, with
-/// a forward-difference Jacobian (one simulation per column and window) kept current between
-/// evaluations by Broyden updates.
+/// a Jacobian from forward sensitivities (one CVODES simulation per window, sid/cvode/
+/// sensitivity.hpp) kept current between evaluations by Broyden updates.
 /// @throws std::invalid_argument on inconsistent sizes or settings.
 inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
                                        const OutputErrorOptions& options = {}) {
@@ -204,15 +283,12 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
     throw std::invalid_argument(who + "prior_mean and prior_std need one entry per parameter, "
                                       "finite means and stds > 0");
   if (options.max_iterations < 1) throw std::invalid_argument(who + "max_iterations must be >= 1");
+  if (!(options.sensitivity_rtol > 0.0) || !std::isfinite(options.sensitivity_rtol))
+    throw std::invalid_argument(who + "sensitivity_rtol must be finite and > 0");
   if (!(options.comparison_tolerance >= 0.0) || !(options.comparison_tolerance < 1.0) ||
       std::isnan(options.comparison_cost) || options.comparison_cost == std::numeric_limits<double>::infinity())
     throw std::invalid_argument(who + "need 0 <= comparison_tolerance < 1 and comparison_cost < inf (or -inf: none)");
 
-  // Forward-difference steps: large enough that CVODE's error (rtol 1e-8) stays ~1e-4 of the
-  // difference, small enough that q's response is linear (σq ~ 1e-3 rad).
-  constexpr double kParameterStep = 1e-3;  // relative, at least 1e-5 absolute
-  constexpr double kStateStep = 1e-4;      // [rad], [rad/s]
-  constexpr double kTorqueStep = 1e-4;     // [N m]; the slope's step is 10x [N m/s]
   constexpr Eigen::Index kLocalUnknowns = 8;  // q0, qd0, torque offset and slope of a window
   const Eigen::Index p = problem.theta0.size();
   std::vector<bool> is_fixed(static_cast<std::size_t>(p + 1), false);
@@ -308,28 +384,31 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
                : g + local * w + (c - static_cast<Eigen::Index>(free_globals.size()));
   };
   std::vector<Eigen::MatrixXd> jacobian(static_cast<std::size_t>(nw));
-  // Forward differences at x, one task per window and column (an even load on the threads).
-  const auto difference_jacobian = [&]() {
+  // Forward sensitivities at x, one task per window; log s's column from the model at a
+  // slightly larger s.
+  constexpr double kLogStep = 1e-6;
+  const auto sensitivity_jacobian = [&]() {
     const Model<double> model = model_for(x);
-    std::vector<char> ok(static_cast<std::size_t>(nw * columns), 1);
-    for (Eigen::Index w = 0; w < nw; ++w)
-      jacobian[static_cast<std::size_t>(w)].resize(residual[static_cast<std::size_t>(w)].size(), columns);
-    detail::for_each_index(nw * columns, threads, [&](Eigen::Index task, int thread) {
-      const Eigen::Index w = task / columns, c = task % columns;
-      const Eigen::Index u = column_unknown(w, c);
-      const Eigen::Index role = (u - g) % local;  // for a window's own unknowns
-      const double h = u >= g ? (role < 4 ? kStateStep : role < 6 ? kTorqueStep : 10 * kTorqueStep)
-                              : kParameterStep * std::max(std::fabs(x[u]), 1e-2);
-      Eigen::VectorXd v = x;
-      v[u] += h;
-      Eigen::VectorXd r1;
-      const bool changes_model = problem.estimate_nonlinear && u == p;
-      if (!(changes_model ? window_residual(model_for(v), v, w, thread, r1)
-                          : window_residual(model, v, w, thread, r1))) {
-        ok[static_cast<std::size_t>(task)] = 0;
-        return;
-      }
-      jacobian[static_cast<std::size_t>(w)].col(c) = (residual[static_cast<std::size_t>(w)] - r1) / h;
+    detail::WindowParameters parameters;
+    for (Eigen::Index u : free_globals)
+      if (u < p) parameters.theta.push_back(u);
+    Model<double> larger_s;
+    if (problem.estimate_nonlinear && !is_fixed[static_cast<std::size_t>(p)]) {
+      larger_s = problem.model_at(std::exp(x[p] + kLogStep));
+      parameters.model_at_larger_s = &larger_s;
+      parameters.log_step = kLogStep;
+    }
+    SimulatorOptions loose = options.simulator;
+    loose.rtol = options.sensitivity_rtol;
+    loose.atol = 0.1 * options.sensitivity_rtol;
+    std::vector<char> ok(static_cast<std::size_t>(nw), 1);
+    detail::for_each_index(nw, threads, [&](Eigen::Index w, int thread) {
+      const auto& win = problem.windows[static_cast<std::size_t>(w)];
+      const Eigen::Index o = g + local * w;
+      ok[static_cast<std::size_t>(w)] = detail::window_jacobian(
+          model, x.head(p), parameters, torques[static_cast<std::size_t>(thread)], problem.t, win,
+          x.segment<2>(o), x.segment<2>(o + 2), x.segment<2>(o + 4), x.segment<2>(o + 6), problem.sigma_q,
+          loose, jacobian[static_cast<std::size_t>(w)]);
     });
     return std::all_of(ok.begin(), ok.end(), [](char o) { return o != 0; });
   };
@@ -363,9 +442,10 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
     }
   };
 
-  // Levenberg–Marquardt. The finite-difference Jacobian costs a simulation per column and
-  // window; between them a Broyden update from each accepted step's residuals keeps it current
-  // (the windows are nearly linear in their own unknowns), so most iterations cost one
+  // Levenberg–Marquardt. The sensitivity Jacobian costs several simulations' time per window
+  // (a dozen unknowns ride along); between them a Broyden update from each accepted step's
+  // residuals keeps it current (the windows are nearly linear in their own unknowns), so most
+  // iterations cost one
   // simulation per window. Convergence is only declared on a fresh Jacobian, so the minimum
   // and the covariance are those of the full Gauss–Newton method (a compared fit, see
   // OutputErrorOptions::comparison_cost, excepted).
@@ -376,7 +456,7 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   };
   double mu = 1e-3;
   bool confirming = false;
-  bool fresh = difference_jacobian();
+  bool fresh = sensitivity_jacobian();
   bool failed = !fresh;
   if (failed) fit.message = "a simulation failed while forming the Jacobian at the start";
   std::vector<Eigen::VectorXd> trial;
@@ -439,12 +519,12 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
     }
     // The updated Jacobian may have misled the step or made it poor: go on with a fresh one.
     confirming = accepted && small;
-    fresh = difference_jacobian();
+    fresh = sensitivity_jacobian();
     failed = !fresh;
     if (failed)
       fit.message = "a simulation failed while forming the Jacobian at iteration " + std::to_string(it + 1);
   }
-  if (!failed && !fresh && !(compared && fit.converged)) failed = !difference_jacobian();  // for the covariance
+  if (!failed && !fresh && !(compared && fit.converged)) failed = !sensitivity_jacobian();  // for the covariance
   if (!fit.converged && fit.message.empty())
     fit.message = failed ? "a simulation failed while forming the final Jacobian"
                          : "not converged in " + std::to_string(options.max_iterations) + " iterations";

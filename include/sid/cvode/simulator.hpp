@@ -2,11 +2,13 @@
 /// @file
 /// @brief Simulation of a state-space model xdot = f(t, x) with SUNDIALS CVODE, sampled on a
 /// given time grid. This header and the others under sid/cvode/ are the only ones that include
-/// SUNDIALS (shared/ARCHITECTURE.md), so Eigen-only users never need it.
+/// SUNDIALS (shared/ARCHITECTURE.md), so Eigen-only users never need it. They use CVODES, CVODE
+/// with forward sensitivities (sid/cvode/sensitivity.hpp): the same solver and calls, and one
+/// library, since the two define the same symbols.
 
 #include <Eigen/Core>
 
-#include <cvode/cvode.h>
+#include <cvodes/cvodes.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
 #include <sundials/sundials_types.h>
@@ -189,6 +191,16 @@ struct RhsContext {
   std::string rhs_error;     // text of the exception the RHS threw
   std::string nonfinite;     // where the RHS produced a non-finite derivative
   std::string cvode_error;   // CVODE's last error message
+  void* extension = nullptr; // what an extension of the run (sensitivities) needs in callbacks
+};
+
+/// The run of simulate() without extension: nothing attached, nothing recorded.
+struct NoExtension {
+  template <typename Context>
+  int attach(void* /*cvode_mem*/, N_Vector /*y*/, SUNContext /*ctx*/, Context& /*context*/) {
+    return 0;
+  }
+  void record(void* /*cvode_mem*/, Eigen::Index /*k*/) {}
 };
 
 template <typename Rhs>
@@ -299,28 +311,14 @@ inline void validate_simulation_input(const Eigen::Ref<const Eigen::VectorXd>& x
 
 }  // namespace detail
 
-/// @brief Integrates xdot = f(t, x) from x(t[0]) = x0 and returns x at every time of t.
-///
-/// CVODE (Hindmarsh et al., ACM TOMS 31(3), 2005) steps with its own step size and interpolates
-/// to each output time (CV_NORMAL mode); the stop time is set to t.back(), so the right-hand
-/// side is never evaluated past the grid. An input u(t) is folded into rhs by the caller.
-///
-/// @tparam Rhs callable as `rhs(t, x, xdot)` writing the derivative into xdot (preferred: no
-///   allocation), or as `xdot = rhs(t, x)` returning an Eigen vector. x is passed as
-///   `const Eigen::Map<const Eigen::VectorXd>&`, xdot as `Eigen::Map<Eigen::VectorXd>&`; lambdas
-///   taking `const Eigen::Ref<const Eigen::VectorXd>&` / `Eigen::Ref<Eigen::VectorXd>` or
-///   `const auto&` / `auto&` work too. It may throw: the exception is caught at the C boundary
-///   and reported as SimulationStatus::RhsFailure with its what() in the message.
-/// @param[in] rhs right-hand side f(t [s], x) [state units / s].
-/// @param[in] x0 initial state at t[0], finite, not empty.
-/// @param[in] t output times [s], finite and strictly increasing; t[0] is the initial time.
-/// @param[in] options tolerances, method and step limits.
-/// @return the states (row k = x(t[k]), row 0 = x0), status, CVODE flag name and statistics.
-/// @throws std::invalid_argument if x0, t or options are invalid (message names the argument).
-template <typename Rhs>
-SimulationResult simulate(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorXd>& x0,
-                          const Eigen::Ref<const Eigen::VectorXd>& t,
-                          const SimulatorOptions& options = SimulatorOptions()) {
+namespace detail {
+
+/// simulate(), with `extension` attached after the solver's setup (attach returns what must
+/// live as long as the solver) and told of each output time reached (record).
+template <typename Rhs, typename Extension>
+SimulationResult run_cvode(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorXd>& x0,
+                           const Eigen::Ref<const Eigen::VectorXd>& t,
+                           const SimulatorOptions& options, Extension& extension) {
   detail::validate_simulation_input(x0, t, options);
   const Eigen::Index n = x0.size();
   const Eigen::Index n_times = t.size();
@@ -334,7 +332,7 @@ SimulationResult simulate(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorXd
   result.flag_name = detail::cvode_flag_name(CV_SUCCESS);
   if (n_times == 1) return result;
 
-  detail::RhsContext<Rhs> context{&rhs, n, {}, {}, {}};
+  detail::RhsContext<Rhs> context{&rhs, n, {}, {}, {}, nullptr};
 
   SUNContext raw_ctx = nullptr;
   detail::check_setup(SUNContext_Create(nullptr, &raw_ctx), "SUNContext_Create");
@@ -343,6 +341,9 @@ SimulationResult simulate(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorXd
   const detail::NVectorPtr y(N_VNew_Serial(static_cast<sunindextype>(n), ctx.get()));
   if (!y) throw std::bad_alloc();
   Eigen::Map<Eigen::VectorXd>(N_VGetArrayPointer(y.get()), n) = x0;
+  // Fused vector operations: one call per linear combination instead of one per term. The
+  // arm's state has 4 entries, so CVODE's time goes into calls, not arithmetic.
+  detail::check_setup(N_VEnableFusedOps_Serial(y.get(), SUNTRUE), "N_VEnableFusedOps_Serial");
 
   const bool newton = options.method != IntegrationMethod::AdamsFixedPoint;
   detail::SunMatrixPtr jacobian;
@@ -381,6 +382,7 @@ SimulationResult simulate(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorXd
     detail::check_setup(CVodeSetNonlinearSolver(cv, fixed_point.get()),
                         "CVodeSetNonlinearSolver");
   }
+  [[maybe_unused]] const auto attachment = extension.attach(cv, y.get(), ctx.get(), context);
 
   int flag = CV_SUCCESS;
   const Eigen::Map<const Eigen::VectorXd> y_view(N_VGetArrayPointer(y.get()), n);
@@ -399,6 +401,7 @@ SimulationResult simulate(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorXd
       break;
     }
     result.states.row(k) = y_view.transpose();
+    extension.record(cv, k);
     result.completed = k + 1;
   }
   result.flag_name = detail::cvode_flag_name(flag);
@@ -424,6 +427,34 @@ SimulationResult simulate(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorXd
     if (CVodeGetNumLinRhsEvals(cv, &count) == CV_SUCCESS) stats.rhs_evaluations += count;
   }
   return result;
+}
+
+}  // namespace detail
+
+/// @brief Integrates xdot = f(t, x) from x(t[0]) = x0 and returns x at every time of t.
+///
+/// CVODE (Hindmarsh et al., ACM TOMS 31(3), 2005) steps with its own step size and interpolates
+/// to each output time (CV_NORMAL mode); the stop time is set to t.back(), so the right-hand
+/// side is never evaluated past the grid. An input u(t) is folded into rhs by the caller.
+///
+/// @tparam Rhs callable as `rhs(t, x, xdot)` writing the derivative into xdot (preferred: no
+///   allocation), or as `xdot = rhs(t, x)` returning an Eigen vector. x is passed as
+///   `const Eigen::Map<const Eigen::VectorXd>&`, xdot as `Eigen::Map<Eigen::VectorXd>&`; lambdas
+///   taking `const Eigen::Ref<const Eigen::VectorXd>&` / `Eigen::Ref<Eigen::VectorXd>` or
+///   `const auto&` / `auto&` work too. It may throw: the exception is caught at the C boundary
+///   and reported as SimulationStatus::RhsFailure with its what() in the message.
+/// @param[in] rhs right-hand side f(t [s], x) [state units / s].
+/// @param[in] x0 initial state at t[0], finite, not empty.
+/// @param[in] t output times [s], finite and strictly increasing; t[0] is the initial time.
+/// @param[in] options tolerances, method and step limits.
+/// @return the states (row k = x(t[k]), row 0 = x0), status, CVODE flag name and statistics.
+/// @throws std::invalid_argument if x0, t or options are invalid (message names the argument).
+template <typename Rhs>
+SimulationResult simulate(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorXd>& x0,
+                          const Eigen::Ref<const Eigen::VectorXd>& t,
+                          const SimulatorOptions& options = SimulatorOptions()) {
+  detail::NoExtension none;
+  return detail::run_cvode(rhs, x0, t, options, none);
 }
 
 }  // namespace sid
