@@ -137,6 +137,24 @@ struct OutputErrorFit {
 
 namespace detail {
 
+/// The middle of window w [s]: its torque slope acts about it.
+inline double window_middle(const Eigen::VectorXd& t, const OutputErrorWindow& w) {
+  return 0.5 * (t[w.begin] + t[w.end - 1]);
+}
+
+/// The window's state equation: the model driven by the applied torque plus the window's offset
+/// and slope. Throws on a blow-up (the simulation then fails).
+inline auto window_rhs(const Model<double>& model, const Eigen::VectorXd& theta, const TorqueInterpolator& torque,
+                       double middle, const Vector2<double>& torque_offset, const Vector2<double>& torque_slope) {
+  return [&model, &theta, &torque, middle, &torque_offset, &torque_slope](
+             double time, const Eigen::Map<const Eigen::VectorXd>& x, Eigen::Map<Eigen::VectorXd>& xdot) {
+    if (!x.allFinite() || x.cwiseAbs().maxCoeff() > 1e4) throw std::runtime_error("blow-up");
+    const Vector2<double> q = x.head<2>(), qd = x.tail<2>();
+    xdot.head<2>() = qd;
+    xdot.tail<2>() = model.forward_dynamics(theta, q, qd, torque(time) + torque_offset + (time - middle) * torque_slope);
+  };
+}
+
 /// Simulated angles of one window with parameters theta, or false if CVODE failed.
 inline bool simulate_window(const Model<double>& model, const Eigen::VectorXd& theta,
                             const TorqueInterpolator& torque, const Eigen::VectorXd& t,
@@ -145,17 +163,7 @@ inline bool simulate_window(const Model<double>& model, const Eigen::VectorXd& t
                             const Vector2<double>& torque_slope,
                             const SimulatorOptions& options,
                             Eigen::MatrixXd& q_out) {
-  const double middle = 0.5 * (t[w.begin] + t[w.end - 1]);
-  auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
-                 Eigen::Map<Eigen::VectorXd>& xdot) {
-    if (!x.allFinite() || x.cwiseAbs().maxCoeff() > 1e4)
-      throw std::runtime_error("blow-up");
-    const Vector2<double> q = x.head<2>();
-    const Vector2<double> qd = x.tail<2>();
-    xdot.head<2>() = qd;
-    xdot.tail<2>() = model.forward_dynamics(theta, q, qd, torque(time) + torque_offset +
-                                                          (time - middle) * torque_slope);
-  };
+  const auto rhs = window_rhs(model, theta, torque, window_middle(t, w), torque_offset, torque_slope);
   Eigen::VectorXd x0(4);
   x0 << q0, qd0;
   const SimulationResult sim = simulate(rhs, x0, t.segment(w.begin, w.end - w.begin), options);
@@ -187,16 +195,11 @@ inline bool window_jacobian(const Model<double>& model, const Eigen::VectorXd& t
                             const Vector2<double>& torque_offset, const Vector2<double>& torque_slope,
                             const Vector2<double>& sigma_q, const SimulatorOptions& options,
                             Eigen::MatrixXd& jacobian) {
-  const double middle = 0.5 * (t[w.begin] + t[w.end - 1]);
+  const double middle = window_middle(t, w);
   const auto thetas = static_cast<Eigen::Index>(parameters.theta.size());
   const Eigen::Index globals = thetas + (parameters.model_at_larger_s ? 1 : 0);
   const Eigen::Index columns = globals + 8;
-  auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x, Eigen::Map<Eigen::VectorXd>& xdot) {
-    if (!x.allFinite() || x.cwiseAbs().maxCoeff() > 1e4) throw std::runtime_error("blow-up");
-    const Vector2<double> q = x.head<2>(), qd = x.tail<2>();
-    xdot.head<2>() = qd;
-    xdot.tail<2>() = model.forward_dynamics(theta, q, qd, torque(time) + torque_offset + (time - middle) * torque_slope);
-  };
+  const auto rhs = window_rhs(model, theta, torque, middle, torque_offset, torque_slope);
   Eigen::Matrix<double, 2, Eigen::Dynamic> forcing(2, columns);
   auto sensitivity_rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
                              const Eigen::Map<const Eigen::VectorXd>& xdot, const Eigen::MatrixXd& s,
