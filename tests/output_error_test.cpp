@@ -175,6 +175,13 @@ sid::OutputErrorProblem coulomb_problem(const ExactRun& run) {
   return p;
 }
 
+/// The score test at a Coulomb fit of a Stribeck bump at the true vs.
+sid::OutputErrorScore bump_score(const sid::OutputErrorProblem& coulomb, const sid::OutputErrorFit& fit) {
+  Eigen::VectorXd with_bump(9);
+  with_bump << fit.theta, 0.0;
+  return sid::output_error_score_test(coulomb, fit, model_at(kVs), with_bump, 8, 0.005);
+}
+
 // The score test at the Coulomb fit against the refit it stands for: to first order, its
 // statistic is the cost drop that fitting a Stribeck bump (at the true vs) gives.
 TEST(OutputError, ScoreTestPredictsTheCostDropOfARefitWithTheAddedParameter) {
@@ -192,10 +199,7 @@ TEST(OutputError, ScoreTestPredictsTheCostDropOfARefitWithTheAddedParameter) {
   const double drop = null_fit.cost - full_fit.cost;
   ASSERT_GT(drop, 10.0) << "the bump must matter for the comparison to mean something";
 
-  Eigen::VectorXd with_bump(9);
-  with_bump << null_fit.theta, 0.0;
-  const sid::OutputErrorScore score =
-      sid::output_error_score_test(coulomb, null_fit, model_at(kVs), with_bump, 8, 0.005);
+  const sid::OutputErrorScore score = bump_score(coulomb, null_fit);
   ASSERT_TRUE(score.ok);
   EXPECT_GT(score.direction, 0.0) << "a positive bump lowers the cost";
   EXPECT_NEAR(score.statistic, drop, 0.2 * drop);
@@ -205,18 +209,33 @@ TEST(OutputError, ScoreTestPredictsTheCostDropOfARefitWithTheAddedParameter) {
   const sid::OutputErrorProblem exact_coulomb = coulomb_problem(plain);
   const sid::OutputErrorFit exact_fit = sid::fit_output_error(exact_coulomb);
   ASSERT_TRUE(exact_fit.ok) << exact_fit.message;
-  Eigen::VectorXd zero_bump(9);
-  zero_bump << exact_fit.theta, 0.0;
-  const sid::OutputErrorScore none =
-      sid::output_error_score_test(exact_coulomb, exact_fit, model_at(kVs), zero_bump, 8, 0.005);
+  const sid::OutputErrorScore none = bump_score(exact_coulomb, exact_fit);
   ASSERT_TRUE(none.ok);
   EXPECT_LT(none.statistic, 1e-2 * drop);
 
-  auto wrong = with_bump;
-  wrong.conservativeResize(12);
+  Eigen::VectorXd wrong = Eigen::VectorXd::Zero(12);
   sid_test::expect_invalid_argument(
       [&] { (void)sid::output_error_score_test(coulomb, null_fit, model_at(kVs), wrong, 8, 0.005); },
       "sid::output_error_score_test: ", "plus one");
+}
+
+// The efficient score removes the part of the gradient the fit left: a fit stopped short of its
+// minimum by a loose tolerance scores the added bump as the converged fit does. (Without that
+// part, jᵀr alone, the early fit here scored 110 against 30.)
+TEST(OutputError, ScoreTestDoesNotDependOnWhereTheFitStopped) {
+  const ExactRun run("stribeck_j2:0.1,0.15,0.2");
+  const sid::OutputErrorProblem coulomb = coulomb_problem(run);
+  const sid::OutputErrorFit converged = sid::fit_output_error(coulomb);
+  ASSERT_TRUE(converged.ok && converged.converged) << converged.message;
+  sid::OutputErrorOptions loose;
+  loose.absolute_tolerance = 10.0;
+  const sid::OutputErrorFit early = sid::fit_output_error(coulomb, loose);
+  ASSERT_TRUE(early.ok) << early.message;
+  const sid::OutputErrorScore at_minimum_score = bump_score(coulomb, converged), at_stop_score = bump_score(coulomb, early);
+  ASSERT_TRUE(at_minimum_score.ok && at_stop_score.ok);
+  const double at_minimum = at_minimum_score.statistic, at_stop = at_stop_score.statistic;
+  ASSERT_GT(early.cost - converged.cost, 0.1 * at_minimum) << "the early fit must stop short for the test to mean something";
+  EXPECT_NEAR(at_stop, at_minimum, 0.02 * at_minimum);
 }
 
 // The worse side of a likelihood ratio need only be known to a fraction of the gap: the Coulomb

@@ -133,6 +133,9 @@ struct OutputErrorFit {
   std::vector<Eigen::MatrixXd> window_jacobians;
   std::vector<std::vector<Eigen::Index>> window_columns;
   Eigen::MatrixXd normal;
+  /// The gradient Jᵀr − prior pull the fit stopped at, over all unknowns (zero for the fixed
+  /// ones): what is left of it is the part of the cost the fit did not take.
+  Eigen::VectorXd gradient;
 };
 
 namespace detail {
@@ -453,9 +456,16 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   // and the covariance are those of the full Gauss–Newton method (a compared fit, see
   // OutputErrorOptions::comparison_cost, excepted).
   const bool compared = std::isfinite(options.comparison_cost);
+  const auto below_tolerances = [&](double drop, double at_cost) {
+    return drop < options.relative_tolerance * at_cost || drop < options.absolute_tolerance;
+  };
   const auto negligible = [&](double drop, double at_cost) {
-    return drop < options.relative_tolerance * at_cost || drop < options.absolute_tolerance ||
+    return below_tolerances(drop, at_cost) ||
            (compared && drop < options.comparison_tolerance * (at_cost - options.comparison_cost));
+  };
+  // The cost drop the Gauss–Newton model predicts for a step.
+  const auto predicted_drop = [&](const Eigen::VectorXd& step) {
+    return step.dot(2.0 * gradient - normal * step);
   };
   double mu = 1e-3;
   bool confirming = false;
@@ -479,8 +489,7 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
       // flat to within their accuracy (24 of the 37 evaluations of seed 11's Stribeck fit, joint
       // 2 of the multisine excitation, ramped the damping to 1e22 without a gain). Not the
       // compared fit's looser stop: a step it calls negligible may still settle its test.
-      const double predicted = step.dot(2.0 * gradient - normal * step);
-      if (predicted < options.relative_tolerance * cost || predicted < options.absolute_tolerance) break;
+      if (below_tolerances(predicted_drop(step), cost)) break;
       Eigen::VectorXd candidate = x + step;
       if (problem.estimate_nonlinear)
         candidate[p] = std::clamp(candidate[p], std::log(problem.s_min), std::log(problem.s_max));
@@ -500,10 +509,7 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
           jac += (change - jac * d) * (d.transpose() / dd);
         }
         const double cost_drop = cost - c;
-        // The drop the Gauss–Newton model predicted for the step taken.
-        const Eigen::VectorXd taken = candidate - x;
-        const double predicted = taken.dot(2.0 * gradient - normal * taken);
-        poor = cost_drop < 0.25 * predicted;
+        poor = cost_drop < 0.25 * predicted_drop(candidate - x);  // not step: s may have hit a bound
         mu = std::max(mu / 10.0, 1e-9);
         small = negligible(cost_drop, cost);
         x = candidate;
@@ -578,6 +584,7 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
     fit.window_columns.push_back(std::move(cols));
   }
   fit.normal = normal;
+  fit.gradient = gradient;
   return fit;
 }
 
@@ -611,7 +618,8 @@ inline OutputErrorScore output_error_score_test(const OutputErrorProblem& proble
   if (problem.windows.size() != fit.windows.size())
     throw std::invalid_argument(who + "the fit is not one of this problem (its windows differ)");
   OutputErrorScore out;
-  if (static_cast<Eigen::Index>(fit.window_jacobians.size()) != nw || nw == 0 || fit.normal.rows() == 0)
+  if (static_cast<Eigen::Index>(fit.window_jacobians.size()) != nw || nw == 0 || fit.normal.rows() == 0 ||
+      fit.gradient.size() != fit.normal.rows())
     return out;  // the fit failed: nothing to test at
   if (!(step != 0.0) || !std::isfinite(step)) throw std::invalid_argument(who + "step must be finite and != 0");
   const int threads = detail::output_error_threads(options, nw);
@@ -632,33 +640,26 @@ inline OutputErrorScore output_error_score_test(const OutputErrorProblem& proble
     ok[static_cast<std::size_t>(w)] = 1;
   });
   if (!std::all_of(ok.begin(), ok.end(), [](char o) { return o != 0; })) return out;
-  // Efficient score s = jᵀr − cᵀ N⁻¹ g with c = Jᵀj and g the gradient the fit left (Jᵀr and
-  // the prior's pull), and its information d − cᵀ N⁻¹ c (the other unknowns re-adjusting).
+  // Efficient score s = jᵀr − cᵀ N⁻¹ g with c = Jᵀj and g the gradient the fit left, and its
+  // information d − cᵀ N⁻¹ c (the other unknowns re-adjusting).
   // Without −cᵀ N⁻¹ g the score depends on how close to its minimum the fit stopped: on Coulomb
   // data (joint 2, multisine, seed 12) that term was a quarter to a half of jᵀr, and a fit that
   // stopped within 0.1 of the same cost moved the statistic from 2.1 to 5.0, across the screen.
   double score = 0, information = 0;
   Eigen::VectorXd cross = Eigen::VectorXd::Zero(fit.normal.rows());
-  Eigen::VectorXd left_gradient = Eigen::VectorXd::Zero(fit.normal.rows());
   for (Eigen::Index w = 0; w < nw; ++w) {
     const Eigen::VectorXd& j = derivative[static_cast<std::size_t>(w)];
     const Eigen::VectorXd& r = fit.window_residuals[static_cast<std::size_t>(w)];
     const Eigen::MatrixXd& jacobian = fit.window_jacobians[static_cast<std::size_t>(w)];
     score += j.dot(r);
     information += j.squaredNorm();
-    const Eigen::VectorXd c = jacobian.transpose() * j, g = jacobian.transpose() * r;
+    const Eigen::VectorXd c = jacobian.transpose() * j;
     const auto& cols = fit.window_columns[static_cast<std::size_t>(w)];
-    for (std::size_t a = 0; a < cols.size(); ++a) {
-      cross[cols[a]] += c[static_cast<Eigen::Index>(a)];
-      left_gradient[cols[a]] += g[static_cast<Eigen::Index>(a)];
-    }
+    for (std::size_t a = 0; a < cols.size(); ++a) cross[cols[a]] += c[static_cast<Eigen::Index>(a)];
   }
-  if (problem.prior_mean.size() == fit.theta.size())
-    left_gradient.head(fit.theta.size()) -=
-        (fit.theta - problem.prior_mean).cwiseQuotient(problem.prior_std.cwiseAbs2());
-  for (Eigen::Index u : problem.fixed_parameters) cross[u] = left_gradient[u] = 0.0;
+  for (Eigen::Index u : problem.fixed_parameters) cross[u] = 0.0;
   const Eigen::LDLT<Eigen::MatrixXd> normal(fit.normal);
-  score -= cross.dot(normal.solve(left_gradient));
+  score -= cross.dot(normal.solve(fit.gradient));
   information -= cross.dot(normal.solve(cross));
   const double dof = std::max<double>(1.0, static_cast<double>(fit.residuals - fit.free_unknowns));
   const double scale = std::max(1.0, fit.data_cost / dof);
