@@ -285,7 +285,11 @@ inline FrictionRefinement refine_friction(const DiagnosisResult& result,
     if (!fit_stribeck()) return out;
     OutputErrorOptions against = options.fit;
     against.comparison_cost = out.stribeck.cost;
-    coulomb.windows = out.stribeck.windows;  // the initial states and torque corrections: a warm start
+    // Start from the Stribeck fit with the bump dropped and the rest re-adjusted to first
+    // order: with the bump merely dropped the fit began at 50 times its final cost.
+    const OutputErrorStart start = nested_start(out.stribeck, {a + 1}, Eigen::VectorXd::Zero(1));
+    coulomb.theta0 << start.theta.head(a + 1), start.theta.tail(tail);
+    coulomb.windows = start.windows;
     if (!fit_coulomb(against)) return out;
   } else {
     if (!fit_coulomb(options.fit)) return out;

@@ -588,6 +588,69 @@ inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   return fit;
 }
 
+/// @brief Where the fit of a nested model (`fit`'s with some parameters held at given values)
+/// starts: `fit`'s parameters and windows with the held ones moved and every other free unknown
+/// re-adjusted to first order, the minimiser of the cost linearised at `fit` (the nonlinear
+/// scalar held too: the held values are to remove what it shapes).
+struct OutputErrorStart {
+  Eigen::VectorXd theta;                   ///< fit.theta with the held values and the re-adjustment
+  std::vector<OutputErrorWindow> windows;  ///< fit.windows, re-adjusted
+};
+
+/// @brief The first-order start (see OutputErrorStart) of a fit with parameters `held` (indices
+/// into fit.theta) at `values`, from a fit that converged or stopped with its Jacobian.
+/// @throws std::invalid_argument if the fit holds no normal matrix and gradient, or `held` and
+///   `values` differ in size or name a parameter that does not exist.
+inline OutputErrorStart nested_start(const OutputErrorFit& fit, const std::vector<Eigen::Index>& held,
+                                     const Eigen::Ref<const Eigen::VectorXd>& values) {
+  const std::string who = "sid::nested_start: ";
+  const Eigen::Index p = fit.theta.size(), g = p + (std::isnan(fit.s) ? 0 : 1);
+  const auto nw = static_cast<Eigen::Index>(fit.windows.size());
+  constexpr Eigen::Index kLocal = 8;
+  const Eigen::Index unknowns = g + kLocal * nw;
+  if (nw == 0 || fit.normal.rows() != unknowns || fit.normal.cols() != unknowns || fit.gradient.size() != unknowns)
+    throw std::invalid_argument(who + "the fit holds no normal matrix and gradient over its unknowns (did it fail?)");
+  if (static_cast<Eigen::Index>(held.size()) != values.size())
+    throw std::invalid_argument(who + "held and values differ in size");
+  Eigen::VectorXd delta = Eigen::VectorXd::Zero(unknowns);
+  std::vector<char> is_held(static_cast<std::size_t>(unknowns), 0);
+  for (std::size_t k = 0; k < held.size(); ++k) {
+    const Eigen::Index u = held[k];
+    if (u < 0 || u >= p) throw std::invalid_argument(who + "a held index is not one of the fit's parameters");
+    is_held[static_cast<std::size_t>(u)] = 1;
+    delta[u] = values[static_cast<Eigen::Index>(k)] - fit.theta[u];
+  }
+  if (g > p) is_held[static_cast<std::size_t>(p)] = 1;
+  std::vector<Eigen::Index> free;
+  for (Eigen::Index u = 0; u < unknowns; ++u)
+    if (!is_held[static_cast<std::size_t>(u)]) free.push_back(u);
+  // N_FF δ_F = g_F − N_FH δ_H: the fit's own step equation with the held entries moved to the
+  // right. A parameter the fit held has an identity row and a zero gradient, so it stays.
+  const Eigen::VectorXd pulled = fit.normal * delta;
+  const auto nf = static_cast<Eigen::Index>(free.size());
+  Eigen::MatrixXd normal_free(nf, nf);
+  Eigen::VectorXd rhs(nf);
+  for (Eigen::Index a = 0; a < nf; ++a) {
+    rhs[a] = fit.gradient[free[static_cast<std::size_t>(a)]] - pulled[free[static_cast<std::size_t>(a)]];
+    for (Eigen::Index b = 0; b < nf; ++b)
+      normal_free(a, b) = fit.normal(free[static_cast<std::size_t>(a)], free[static_cast<std::size_t>(b)]);
+  }
+  const Eigen::VectorXd step = normal_free.ldlt().solve(rhs);
+  for (Eigen::Index a = 0; a < nf; ++a) delta[free[static_cast<std::size_t>(a)]] = step[a];
+  OutputErrorStart start;
+  start.theta = fit.theta + delta.head(p);
+  start.windows = fit.windows;
+  for (Eigen::Index w = 0; w < nw; ++w) {
+    OutputErrorWindow& win = start.windows[static_cast<std::size_t>(w)];
+    const auto d = delta.segment<kLocal>(g + kLocal * w);
+    win.q0 += d.segment<2>(0);
+    win.qd0 += d.segment<2>(2);
+    win.torque_offset += d.segment<2>(4);
+    win.torque_slope += d.segment<2>(6);
+  }
+  return start;
+}
+
 /// @brief The score (Lagrange multiplier) test of one parameter added to a fitted model: does
 /// moving it away from its null value lower the cost, once the fit's own unknowns re-adjust?
 struct OutputErrorScore {
