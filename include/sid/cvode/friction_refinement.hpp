@@ -286,10 +286,15 @@ inline FrictionRefinement refine_friction(const DiagnosisResult& result,
     OutputErrorOptions against = options.fit;
     against.comparison_cost = out.stribeck.cost;
     // Start from the Stribeck fit with the bump dropped and the rest re-adjusted to first
-    // order: with the bump merely dropped the fit began at 50 times its final cost.
-    const OutputErrorStart start = nested_start(out.stribeck, {a + 1}, Eigen::VectorXd::Zero(1));
-    coulomb.theta0 << start.theta.head(a + 1), start.theta.tail(tail);
-    coulomb.windows = start.windows;
+    // order: with the bump merely dropped the fit began at 50 times its final cost. A fit whose
+    // last Jacobian failed has no normal matrix to do that with: its windows are still a start.
+    if (out.stribeck.normal.size() > 0) {
+      const OutputErrorStart start = nested_start(out.stribeck, {a + 1}, Eigen::VectorXd::Zero(1));
+      coulomb.theta0 << start.theta.head(a + 1), start.theta.tail(tail);
+      coulomb.windows = start.windows;
+    } else {
+      coulomb.windows = out.stribeck.windows;
+    }
     if (!fit_coulomb(against)) return out;
   } else {
     if (!fit_coulomb(options.fit)) return out;
