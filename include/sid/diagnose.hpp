@@ -29,9 +29,13 @@
 
 namespace sid {
 
+// The functions here are templates on an unused parameter, so that a file compiles only those
+// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
+
 namespace detail {
 /// The identification defaults of a diagnosis: CSS with GCV smoothing (the noise level of q is
 /// not known), the start transient and the natural spline's last samples dropped.
+template <typename = void>
 inline IdentifyOptions diagnose_identify_defaults() {
   IdentifyOptions o;
   o.method = DerivativeMethod::SmoothingSpline;
@@ -93,6 +97,7 @@ struct DiagnoseOptions {
 namespace detail {
 
 /// The remark a report must make next to a named effect that has a physical look-alike.
+template <typename = void>
 inline std::string effect_note(const std::string& id) {
   if (id == "torque_offset_j1") return "a constant load torque on joint 1 looks the same";
   if (id == "torque_offset_j2") return "a constant load torque on joint 2 looks the same";
@@ -100,11 +105,13 @@ inline std::string effect_note(const std::string& id) {
   return "";
 }
 
+template <typename = void>
 inline bool starts_with(const std::string& s, const char* prefix) {
   return s.rfind(prefix, 0) == 0;
 }
 
 /// The named effect an effect's term contains (a Stribeck term holds the Coulomb column).
+template <typename = void>
 inline std::string superseded_effect(const std::string& id) {
   if (starts_with(id, "stribeck_j")) return "coulomb_j" + id.substr(id.size() - 1);
   return "";
@@ -113,6 +120,7 @@ inline std::string superseded_effect(const std::string& id) {
 /// How the term's coefficients grow with a unit change of the effect's main physical value
 /// (Fc, Fs − Fc, b, δ for small δ, Ia, k), given the current θ1..θ7: used to turn the Wald test's
 /// covariance into a detection limit in physical units.
+template <typename = void>
 inline Eigen::VectorXd effect_signature(const std::string& id,
                                         const Eigen::Ref<const Eigen::VectorXd>& theta) {
   if (starts_with(id, "stribeck_j")) return Eigen::Vector2d(0.0, 1.0);
@@ -122,6 +130,7 @@ inline Eigen::VectorXd effect_signature(const std::string& id,
 }
 
 /// The stacked columns (2n x size) of one term over the kinematics.
+template <typename = void>
 inline Eigen::MatrixXd stack_term(const Term<double>& term, const Kinematics<double>& k) {
   Model<double> model;
   model.add(term);
@@ -133,6 +142,7 @@ inline Eigen::MatrixXd stack_term(const Term<double>& term, const Kinematics<dou
 /// The integral form of stacked equations (joint 1's n rows, then joint 2's): each joint's rows
 /// are integrated over consecutive windows of `window` samples by the trapezoidal rule (the
 /// samples left over at the end are dropped). window <= 1 returns the rows unchanged.
+template <typename = void>
 inline Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::MatrixXd>& rows,
                                          const Eigen::Ref<const Eigen::VectorXd>& t, int window) {
   if (window <= 1) return rows;
@@ -148,6 +158,7 @@ inline Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::MatrixXd>
 
 /// The same with equations left out (row_weight 0 instead of 1): a window that contains one of
 /// them is left out as a whole (its integral would miss a piece of the equation).
+template <typename = void>
 inline Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::MatrixXd>& rows,
                                          const Eigen::Ref<const Eigen::VectorXd>& t, int window,
                                          const Eigen::VectorXd& row_weight) {
@@ -163,6 +174,7 @@ inline Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::MatrixXd>
 
 /// Per-time scores g_t = x_t e_t + x_{n+t} e_{n+t}: the two joints' rows of one instant are one
 /// observation, so a correlation between the joints' residuals is covered too.
+template <typename = void>
 inline Eigen::MatrixXd time_scores(const Eigen::Ref<const Eigen::MatrixXd>& x,
                                    const Eigen::Ref<const Eigen::VectorXd>& e) {
   const Eigen::Index n = x.rows() / 2;
@@ -177,6 +189,7 @@ struct HacFit {
   Vector2<double> rss = Vector2<double>::Zero();
 };
 
+template <typename = void>
 inline HacFit hac_fit(const Eigen::Ref<const Eigen::MatrixXd>& x,
                       const Eigen::Ref<const Eigen::VectorXd>& y) {
   const Eigen::Index n = x.rows() / 2, p = x.cols();
@@ -203,6 +216,7 @@ inline HacFit hac_fit(const Eigen::Ref<const Eigen::MatrixXd>& x,
 /// joints' rows of a time stay together); each block is predicted from a fit on the others. The
 /// per-block normal equations make every fold a p x p solve.
 /// @return the summed squared prediction error [N² m²].
+template <typename = void>
 inline double blocked_cv_error(const Eigen::Ref<const Eigen::MatrixXd>& x,
                                const Eigen::Ref<const Eigen::VectorXd>& y, int blocks) {
   const Eigen::Index n = x.rows() / 2, p = x.cols();
@@ -270,6 +284,7 @@ struct CandidateTest {
 
 /// The columns of z the current model does not explain: column c is dropped when its residual on
 /// the model's columns and on the kept columns before it keeps less than 1 − r2 of its norm².
+template <typename = void>
 inline std::vector<Eigen::Index> separable_columns(const Eigen::Ref<const Eigen::MatrixXd>& z,
                                                    const Eigen::Ref<const Eigen::MatrixXd>& z_resid,
                                                    double r2, double* max_r2) {
@@ -290,6 +305,7 @@ inline std::vector<Eigen::Index> separable_columns(const Eigen::Ref<const Eigen:
   return kept;
 }
 
+template <typename = void>
 inline Eigen::MatrixXd select_columns(const Eigen::Ref<const Eigen::MatrixXd>& z,
                                       const std::vector<Eigen::Index>& cols) {
   Eigen::MatrixXd out(z.rows(), static_cast<Eigen::Index>(cols.size()));
@@ -302,6 +318,7 @@ inline Eigen::MatrixXd select_columns(const Eigen::Ref<const Eigen::MatrixXd>& z
 /// model's residual r (Frisch–Waugh–Lovell: regressing r on the residualized columns gives the
 /// coefficients and residual of the augmented fit, and the HAC sandwich of that small problem is
 /// the candidate block of the augmented fit's sandwich).
+template <typename = void>
 inline void wald_test(CandidateTest& t, const Eigen::MatrixXd& z_resid_kept,
                       const Eigen::Ref<const Eigen::VectorXd>& r, const Vector2<double>& rss_old) {
   const Eigen::Index n = r.size() / 2, m = z_resid_kept.cols();
@@ -320,6 +337,7 @@ inline void wald_test(CandidateTest& t, const Eigen::MatrixXd& z_resid_kept,
       static_cast<double>(m) * std::log(2.0 * static_cast<double>(n));
 }
 
+template <typename = void>
 inline std::vector<double> default_stribeck_grid() {
   std::vector<double> grid;
   for (int i = 0; i <= 8; ++i) grid.push_back(0.05 * std::pow(20.0, i / 8.0));  // 0.05 .. 1 rad/s
@@ -329,6 +347,7 @@ inline std::vector<double> default_stribeck_grid() {
 /// 1 for each equation (joint 1's samples, then joint 2's) the fits use, 0 where that joint is at
 /// rest (|q̇| < rest_velocity, or q̇ changes sign next to the sample) or within margin [s] of
 /// such a sample. rest_velocity = 0 keeps every equation.
+template <typename = void>
 inline Eigen::VectorXd moving_rows(const Kinematics<double>& k, double rest_velocity,
                                    double margin) {
   const Eigen::Index n = k.size();
@@ -352,6 +371,7 @@ inline Eigen::VectorXd moving_rows(const Kinematics<double>& k, double rest_velo
 
 /// Samples of joint `joint` (0-based) that the fit keeps and at which a Stribeck bump of width vs
 /// is above half its height (|q̇| < 0.83 vs): what the data say about that bump.
+template <typename = void>
 inline Eigen::Index stribeck_support(int joint, double vs, const Kinematics<double>& k,
                                      const Eigen::VectorXd& row_weight) {
   const Eigen::Index n = k.size();
@@ -366,6 +386,7 @@ inline Eigen::Index stribeck_support(int joint, double vs, const Kinematics<doub
 /// golden-section search in log vs between the best point's neighbours. Only widths whose bump
 /// the kept samples resolve (min_support of them within its half height) are tried; NaN when
 /// there is none.
+template <typename = void>
 inline double best_stribeck_velocity(const std::string& id, const EffectSettings& base,
                                      const std::vector<double>& grid, const Kinematics<double>& k,
                                      int integration_window, const Eigen::VectorXd& row_weight,
@@ -422,6 +443,7 @@ inline double best_stribeck_velocity(const std::string& id, const EffectSettings
 /// Windows of `length` seconds in which a joint's residual RMS exceeds the floor by more than
 /// white noise would (chi-square at level alpha / (number of windows) per joint) and by at
 /// least 10 % (smaller excesses are within what smoothing errors add).
+template <typename = void>
 inline std::vector<FlaggedWindow> flag_windows(const Eigen::Ref<const Eigen::VectorXd>& t,
                                                const Eigen::Ref<const Eigen::VectorXd>& residual,
                                                const Vector2<double>& floor, double length,
@@ -456,6 +478,7 @@ inline std::vector<FlaggedWindow> flag_windows(const Eigen::Ref<const Eigen::Vec
   return out;
 }
 
+template <typename = void>
 inline void check_diagnose_options(const DiagnoseOptions& o) {
   const std::string who = "sid::diagnose: ";
   if (!(o.family_alpha > 0.0 && o.family_alpha < 1.0))
@@ -504,6 +527,7 @@ struct SelectedTerm {
   Eigen::MatrixXd z;
 };
 
+template <typename = void>
 inline Eigen::MatrixXd assemble_columns(const Eigen::MatrixXd& x0,
                                         const std::vector<SelectedTerm>& terms) {
   Eigen::Index p = x0.cols();
@@ -518,6 +542,7 @@ inline Eigen::MatrixXd assemble_columns(const Eigen::MatrixXd& x0,
   return x;
 }
 
+template <typename = void>
 inline Model<double> assemble_model(double g, const std::vector<SelectedTerm>& terms) {
   Model<double> model = two_link_arm_model<double>(g);
   for (const auto& t : terms) model.add(effect_term(t.id, t.settings));
@@ -525,6 +550,7 @@ inline Model<double> assemble_model(double g, const std::vector<SelectedTerm>& t
 }
 
 /// Admissibility of an effect's physical values (Fc > 0, Fs > Fc, Ia > 0, k > 0, |δ| < π/2).
+template <typename = void>
 inline std::string inadmissibility(const EffectEstimate& e) {
   const auto& v = e.value;
   const auto text = [](double x) { return format_value(x); };
@@ -542,6 +568,7 @@ inline std::string inadmissibility(const EffectEstimate& e) {
 
 /// The report of a fit; residuals per sample from the per-sample equations (x_samples θ =
 /// y_samples) whatever form the fit used.
+template <typename = void>
 inline void fill_report(ModelReport& report, const HacFit& fit,
                         const std::vector<std::string>& names, const Kinematics<double>& k,
                         const Eigen::Ref<const Eigen::MatrixXd>& x_samples,
@@ -568,6 +595,7 @@ inline void fill_report(ModelReport& report, const HacFit& fit,
 /// The final model of a diagnosis (the nominal model plus `selected`) fitted to the equations,
 /// its report, the estimates of result.effects (in `selected`'s order) and, with a reference
 /// θ, the drift of θ1..θ7.
+template <typename = void>
 inline void fit_final_model(DiagnosisResult& result, const std::vector<SelectedTerm>& selected,
                             const Eigen::MatrixXd& x0, const Eigen::VectorXd& y,
                             const Eigen::MatrixXd& x0_samples, const Eigen::VectorXd& y_samples,
@@ -647,8 +675,9 @@ inline void fit_final_model(DiagnosisResult& result, const std::vector<SelectedT
 ///    would have detected (at level family_alpha / candidates). With reference_theta, θ1..θ7 of
 ///    the final model are compared with it (z with the HAC std, significant if |z| > 3).
 /// @throws std::invalid_argument on bad data/options (names the problem).
-inline DiagnosisResult diagnose(const Trajectory<double>& data,
-                                const DiagnoseOptions& options = {}) {
+template <typename = void>
+DiagnosisResult diagnose(const Trajectory<double>& data,
+                         const DiagnoseOptions& options = {}) {
   const auto start = std::chrono::steady_clock::now();
   constexpr const char* who = "sid::diagnose";
   detail::check_diagnose_options(options);
@@ -895,6 +924,7 @@ inline DiagnosisResult diagnose(const Trajectory<double>& data,
 /// velocity it estimated).
 /// @param options the options the diagnosis ran with.
 /// @throws std::invalid_argument if result.effects and result.final_settings differ in size.
+template <typename = void>
 inline void refit_final_model(DiagnosisResult& result, const DiagnoseOptions& options) {
   if (result.effects.size() != result.final_settings.size())
     throw std::invalid_argument("sid::refit_final_model: result.effects has " +
@@ -918,5 +948,10 @@ inline void refit_final_model(DiagnosisResult& result, const DiagnoseOptions& op
       (result.noise_floor.array().square() + result.kinematic_floor.array().square()).sqrt();
   detail::fit_final_model(result, selected, x0, y, nominal.X, nominal.y, floor, options);
 }
+
+#ifdef SID_PRECOMPILED
+// Compiled once, in src/precompiled/pipeline.cpp, for the programs that link it.
+extern template DiagnosisResult diagnose<>(const Trajectory<double>&, const DiagnoseOptions&);
+#endif
 
 }  // namespace sid

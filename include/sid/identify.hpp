@@ -22,6 +22,9 @@
 
 namespace sid {
 
+// The functions here are templates on an unused parameter, so that a file compiles only those
+// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
+
 /// @brief How q̇ and q̈ are obtained from the measured q.
 enum class DerivativeMethod {
   ForwardDifference,   ///< "raw": q̇ᵢ = (qᵢ₊₁ − qᵢ)/Ts, q̈ likewise from q̇ (paper eq. 47–48)
@@ -30,6 +33,7 @@ enum class DerivativeMethod {
 };
 
 /// @brief The method's short name as used by the apps and reports.
+template <typename = void>
 inline const char* method_name(DerivativeMethod method) {
   switch (method) {
     case DerivativeMethod::ForwardDifference: return "raw";
@@ -40,6 +44,7 @@ inline const char* method_name(DerivativeMethod method) {
 }
 
 /// @brief Parses "raw", "filtered" or "css". @throws std::invalid_argument otherwise.
+template <typename = void>
 inline DerivativeMethod parse_derivative_method(const std::string& name) {
   if (name == "raw") return DerivativeMethod::ForwardDifference;
   if (name == "filtered") return DerivativeMethod::FilteredDifference;
@@ -56,6 +61,7 @@ enum class SmoothingMode {
   Lambda,       ///< a given λ (penalty form, weights 1/δq²)
 };
 
+template <typename = void>
 inline const char* smoothing_mode_name(SmoothingMode mode) {
   switch (mode) {
     case SmoothingMode::SConstraint: return "s-constraint";
@@ -67,6 +73,7 @@ inline const char* smoothing_mode_name(SmoothingMode mode) {
 }
 
 /// @throws std::invalid_argument for a name other than s-constraint, gcv, cv, lambda.
+template <typename = void>
 inline SmoothingMode parse_smoothing_mode(const std::string& name) {
   for (SmoothingMode m : {SmoothingMode::SConstraint, SmoothingMode::Gcv, SmoothingMode::Cv, SmoothingMode::Lambda})
     if (name == smoothing_mode_name(m)) return m;
@@ -152,6 +159,7 @@ struct Identification {
 namespace detail {
 
 /// Sampling period of a uniform grid. @throws std::invalid_argument if t is not uniform.
+template <typename = void>
 inline double uniform_period(const VectorX<double>& t, const char* who) {
   const Eigen::Index n = t.size();
   const double ts = (t[n - 1] - t[0]) / static_cast<double>(n - 1);
@@ -165,6 +173,7 @@ inline double uniform_period(const VectorX<double>& t, const char* who) {
   return ts;
 }
 
+template <typename = void>
 inline Kinematics<double> rows_of(const Trajectory<double>& data, Eigen::Index begin, Eigen::Index count) {
   Kinematics<double> k;
   k.t = data.t.segment(begin, count);
@@ -180,6 +189,7 @@ inline Kinematics<double> rows_of(const Trajectory<double>& data, Eigen::Index b
 /// filtered signals. Smoothing parameters p are written to *p_out when given.
 /// @throws std::invalid_argument on an invalid trajectory, too few samples, non-uniform sampling
 /// for the difference methods, or δq <= 0.
+template <typename = void>
 inline Kinematics<double> estimate_kinematics(const Trajectory<double>& data, const IdentifyOptions& options,
                                               SmoothingReport* report = nullptr) {
   const char* who = "sid::estimate_kinematics";
@@ -276,6 +286,7 @@ inline Kinematics<double> estimate_kinematics(const Trajectory<double>& data, co
 
 /// @brief The samples with t_from <= t <= t_to (a small tolerance keeps a sample that sits on a
 /// bound despite rounding, e.g. 100 · 0.0025).
+template <typename = void>
 inline Kinematics<double> window(const Kinematics<double>& k, double t_from,
                                  double t_to = std::numeric_limits<double>::infinity()) {
   const double tol_from = 1e-9 * (1.0 + std::abs(t_from));
@@ -294,6 +305,7 @@ inline Kinematics<double> window(const Kinematics<double>& k, double t_from,
 }
 
 /// @brief The paper's 7 parameter names, "theta1".."theta7".
+template <typename = void>
 inline std::vector<std::string> two_link_parameter_names() {
   std::vector<std::string> names;
   for (int k = 1; k <= 7; ++k) names.push_back("theta" + std::to_string(k));
@@ -302,6 +314,7 @@ inline std::vector<std::string> two_link_parameter_names() {
 
 /// @brief Least squares of the two-link arm on given kinematics (joint 1's rows, then joint 2's).
 /// @throws std::invalid_argument if there are not more equations than parameters.
+template <typename = void>
 inline LeastSquaresResult<double> fit_two_link(const Kinematics<double>& k, double gravity,
                                                LeastSquaresOptions options = {}) {
   if (2 * k.size() <= 7)
@@ -316,6 +329,7 @@ inline LeastSquaresResult<double> fit_two_link(const Kinematics<double>& k, doub
 /// 1/σ̂ⱼ² from that fit's per-joint residual variance, so a joint with noisier torques counts
 /// less. The result's covariance is then σ̂²(XᵀWX)⁻¹ with σ̂² ≈ 1, and its relative standard
 /// deviations are the ones Gautier reports. A rank-deficient first fit is returned as it is.
+template <typename = void>
 inline LeastSquaresResult<double> fit_two_link_weighted(const Kinematics<double>& k, double gravity,
                                                         LeastSquaresOptions options = {}) {
   const LeastSquaresResult<double> first = fit_two_link(k, gravity, options);
@@ -333,7 +347,8 @@ inline LeastSquaresResult<double> fit_two_link_weighted(const Kinematics<double>
 /// A rank-deficient regressor is reported in result.fit.status (not thrown).
 /// @throws std::invalid_argument on bad input (see estimate_kinematics) or when the window
 /// leaves too few samples.
-inline Identification identify(const Trajectory<double>& data, const IdentifyOptions& options = {}) {
+template <typename = void>
+Identification identify(const Trajectory<double>& data, const IdentifyOptions& options = {}) {
   Identification result;
   result.method = options.method;
   const Kinematics<double> all = estimate_kinematics(data, options, &result.smoothing);
@@ -352,5 +367,10 @@ inline Identification identify(const Trajectory<double>& data, const IdentifyOpt
                                 : fit_two_link(result.kinematics, options.gravity, options.least_squares);
   return result;
 }
+
+#ifdef SID_PRECOMPILED
+// Compiled once, in src/precompiled/pipeline.cpp, for the programs that link it.
+extern template Identification identify<>(const Trajectory<double>&, const IdentifyOptions&);
+#endif
 
 }  // namespace sid

@@ -28,6 +28,9 @@
 
 namespace sid {
 
+// The functions here are templates on an unused parameter, so that a file compiles only those
+// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
+
 /// @brief How simulation windows are judged.
 ///
 /// An open-loop simulation driven by a noisy torque drifts even with the exact model (a random
@@ -76,6 +79,7 @@ struct SimulationCheckOptions {
 namespace detail {
 
 /// Mean square per sample over the noise-alone runs (NaN entries of failed runs left out).
+template <typename = void>
 inline MatrixX2<double> mean_square(const std::vector<MatrixX2<double>>& runs, Eigen::Index n) {
   MatrixX2<double> ms = MatrixX2<double>::Zero(n, 2);
   for (Eigen::Index i = 0; i < n; ++i)
@@ -99,6 +103,7 @@ inline MatrixX2<double> mean_square(const std::vector<MatrixX2<double>>& runs, E
 /// square per sample and joint. ratio = window RMS / expected RMS (infinite when that is 0).
 /// NaN errors (a failed simulation) are left out; a window needs 2 finite samples.
 /// @throws std::invalid_argument for sizes that differ or a window_length that is not > 0.
+template <typename = void>
 inline std::vector<FlaggedWindow> simulation_windows(const FreeSimulation& sim,
                                                      const Eigen::Ref<const MatrixX2<double>>& expected_ms,
                                                      double window_length,
@@ -153,11 +158,12 @@ inline std::vector<FlaggedWindow> simulation_windows(const FreeSimulation& sim,
 /// @param[out] details when not null, the simulations and the noise calibration.
 /// @throws std::invalid_argument as diagnose() does, for bad simulation options, or for bad
 ///   check options (noise_runs < 1, threshold or min_error not > 0 / >= 0).
-inline DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
-                                                const DiagnoseOptions& options = {},
-                                                const FreeSimulationOptions& sim = {},
-                                                const SimulationCheckOptions& check = {},
-                                                SimulationCheck* details = nullptr) {
+template <typename = void>
+DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
+                                         const DiagnoseOptions& options = {},
+                                         const FreeSimulationOptions& sim = {},
+                                         const SimulationCheckOptions& check = {},
+                                         SimulationCheck* details = nullptr) {
   const std::string who = "sid::diagnose_with_simulation: ";
   if (check.noise_runs < 1) throw std::invalid_argument(who + "check.noise_runs must be >= 1");
   if (!(check.threshold > 0.0) || !std::isfinite(check.threshold))
@@ -222,5 +228,12 @@ inline DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
   if (details) *details = std::move(check_result);
   return result;
 }
+
+#ifdef SID_PRECOMPILED
+// Compiled once, in src/precompiled/pipeline.cpp, for the programs that link it.
+extern template DiagnosisResult diagnose_with_simulation<>(const Trajectory<double>&, const DiagnoseOptions&,
+                                                         const FreeSimulationOptions&, const SimulationCheckOptions&,
+                                                         SimulationCheck*);
+#endif
 
 }  // namespace sid

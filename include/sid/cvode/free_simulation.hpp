@@ -20,6 +20,9 @@
 
 namespace sid {
 
+// The functions here are templates on an unused parameter, so that a file compiles only those
+// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
+
 namespace detail {
 
 /// Tolerances of the free simulation. The reference it is compared with is a smoothed angle
@@ -28,6 +31,7 @@ namespace detail {
 /// (1e-8 gives 8e-7, too close to the 1e-6 of tests/free_simulation_test.cpp). BDF because a fitted Coulomb
 /// term Fc tanh(qd/eps) adds a damping Fc/eps (20 N m s/rad at Fc = 0.2, eps = 0.01) over the
 /// small link-2 inertia near every velocity reversal, and Adams methods would crawl there.
+template <typename = void>
 inline SimulatorOptions free_simulation_simulator_defaults() {
   SimulatorOptions options;
   options.rtol = 1e-9;
@@ -173,6 +177,7 @@ class TorqueInterpolator {
   mutable Eigen::Index hint_ = 0;
 };
 
+template <typename = void>
 inline void validate_free_simulation(const Model<double>& model,
                                      const Eigen::Ref<const Eigen::VectorXd>& theta,
                                      const Kinematics<double>& k,
@@ -211,6 +216,7 @@ inline void validate_free_simulation(const Model<double>& model,
 
 /// The torque that drives the simulation: k.tau low-passed when FreeSimulationOptions asks for
 /// it and the grid is uniform (a Butterworth filter needs one), else k.tau itself.
+template <typename = void>
 inline MatrixX2<double> driving_torque(const Kinematics<double>& k, double bandwidth, bool& filtered) {
   filtered = false;
   constexpr int kOrder = 2;
@@ -239,6 +245,7 @@ inline MatrixX2<double> driving_torque(const Kinematics<double>& k, double bandw
 
 /// Row indices where the segments start: the first sample with t >= t0 + m * segment, but never
 /// the last sample (a one-sample segment simulates nothing).
+template <typename = void>
 inline std::vector<Eigen::Index> segment_starts(const Eigen::Ref<const Eigen::VectorXd>& t,
                                                 double segment) {
   std::vector<Eigen::Index> starts{0};
@@ -281,10 +288,11 @@ inline std::vector<Eigen::Index> segment_starts(const Eigen::Ref<const Eigen::Ve
 ///   segments) and tau [N m] (the input); at least 2 samples; qdd is not used.
 /// @param[in] options segment length, blow-up limit, CVODE settings.
 /// @throws std::invalid_argument on wrongly sized or non-finite input or bad options.
-inline FreeSimulation free_simulation(const Model<double>& model,
-                                      const Eigen::Ref<const Eigen::VectorXd>& theta,
-                                      const Kinematics<double>& k,
-                                      const FreeSimulationOptions& options = {}) {
+template <typename = void>
+FreeSimulation free_simulation(const Model<double>& model,
+                               const Eigen::Ref<const Eigen::VectorXd>& theta,
+                               const Kinematics<double>& k,
+                               const FreeSimulationOptions& options = {}) {
   detail::validate_free_simulation(model, theta, k, options);
   const Eigen::Index n = k.size();
   FreeSimulation result;
@@ -349,5 +357,11 @@ inline FreeSimulation free_simulation(const Model<double>& model,
   }
   return result;
 }
+
+#ifdef SID_PRECOMPILED
+// Compiled once, in src/precompiled/pipeline.cpp, for the programs that link it.
+extern template FreeSimulation free_simulation<>(const Model<double>&, const Eigen::Ref<const Eigen::VectorXd>&,
+                                                  const Kinematics<double>&, const FreeSimulationOptions&);
+#endif
 
 }  // namespace sid

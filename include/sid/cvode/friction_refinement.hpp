@@ -41,6 +41,9 @@
 
 namespace sid {
 
+// The functions here are templates on an unused parameter, so that a file compiles only those
+// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
+
 /// @brief Settings of refine_friction().
 struct FrictionRefinementOptions {
   double before = 0.15;  ///< [s] a window starts this long before a reversal of the joint
@@ -98,6 +101,7 @@ namespace detail {
 /// to after the last. Windows do not overlap: one starts where the previous ends at the
 /// earliest and is dropped if that leaves less than min_window. At most max_windows, evenly
 /// spread over the events.
+template <typename = void>
 inline std::vector<OutputErrorWindow> reversal_windows(const Kinematics<double>& k, int joint,
                                                        const FrictionRefinementOptions& o) {
   const Eigen::Index n = k.size();
@@ -149,9 +153,10 @@ inline std::vector<OutputErrorWindow> reversal_windows(const Kinematics<double>&
 /// @param joint 1 or 2.
 /// @throws std::invalid_argument if joint is not 1 or 2, no friction of that joint is named, or
 ///   data does not hold the diagnosis's samples.
-inline FrictionRefinement refine_friction(const DiagnosisResult& result,
-                                          const Trajectory<double>& data, int joint,
-                                          const FrictionRefinementOptions& options = {}) {
+template <typename = void>
+FrictionRefinement refine_friction(const DiagnosisResult& result,
+                                   const Trajectory<double>& data, int joint,
+                                   const FrictionRefinementOptions& options = {}) {
   const std::string who = "sid::refine_friction: ";
   if (joint != 1 && joint != 2) throw std::invalid_argument(who + "joint must be 1 or 2");
   const std::string j = std::to_string(joint);
@@ -367,9 +372,10 @@ inline FrictionRefinement refine_friction(const DiagnosisResult& result,
 /// and the torque-domain final fit at the chosen curve (refit_final_model). `options` are the
 /// diagnosis's. A joint whose fits fail keeps what the diagnosis named (its check says why).
 /// @throws std::invalid_argument as refine_friction() does.
-inline void refine_named_friction(DiagnosisResult& result, const Trajectory<double>& data,
-                                      const DiagnoseOptions& options,
-                                      FrictionRefinementOptions friction = {}) {
+template <typename = void>
+void refine_named_friction(DiagnosisResult& result, const Trajectory<double>& data,
+                               const DiagnoseOptions& options,
+                               FrictionRefinementOptions friction = {}) {
   friction.gravity = options.identify.gravity;
   std::vector<FrictionRefinement> refinements;
   for (int joint = 1; joint <= 2; ++joint) {
@@ -425,5 +431,13 @@ inline void refine_named_friction(DiagnosisResult& result, const Trajectory<doub
     }
   }
 }
+
+#ifdef SID_PRECOMPILED
+// Compiled once, in src/precompiled/pipeline.cpp, for the programs that link it.
+extern template FrictionRefinement refine_friction<>(const DiagnosisResult&, const Trajectory<double>&, int,
+                                                      const FrictionRefinementOptions&);
+extern template void refine_named_friction<>(DiagnosisResult&, const Trajectory<double>&, const DiagnoseOptions&,
+                                              FrictionRefinementOptions);
+#endif
 
 }  // namespace sid

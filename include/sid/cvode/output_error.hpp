@@ -32,6 +32,9 @@
 
 namespace sid {
 
+// The functions here are templates on an unused parameter, so that a file compiles only those
+// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
+
 /// @brief Settings of fit_output_error().
 struct OutputErrorOptions {
   /// Levenberg–Marquardt steps, >= 1. Most cost one simulation per window (the Jacobian is
@@ -141,12 +144,14 @@ struct OutputErrorFit {
 namespace detail {
 
 /// The middle of window w [s]: its torque slope acts about it.
+template <typename = void>
 inline double window_middle(const Eigen::VectorXd& t, const OutputErrorWindow& w) {
   return 0.5 * (t[w.begin] + t[w.end - 1]);
 }
 
 /// The window's state equation: the model driven by the applied torque plus the window's offset
 /// and slope. Throws on a blow-up (the simulation then fails).
+template <typename = void>
 inline auto window_rhs(const Model<double>& model, const Eigen::VectorXd& theta, const TorqueInterpolator& torque,
                        double middle, const Vector2<double>& torque_offset, const Vector2<double>& torque_slope) {
   return [&model, &theta, &torque, middle, &torque_offset, &torque_slope](
@@ -159,6 +164,7 @@ inline auto window_rhs(const Model<double>& model, const Eigen::VectorXd& theta,
 }
 
 /// Simulated angles of one window with parameters theta, or false if CVODE failed.
+template <typename = void>
 inline bool simulate_window(const Model<double>& model, const Eigen::VectorXd& theta,
                             const TorqueInterpolator& torque, const Eigen::VectorXd& t,
                             const OutputErrorWindow& w, const Vector2<double>& q0,
@@ -191,6 +197,7 @@ struct WindowParameters {
 /// D ∂q̈/∂u = ∂τ/∂u − ∂ID/∂q s_q − ∂ID/∂q̇ s_q̇ − ∂ID/∂u, with ∂ID/∂θ_i the regressor's column
 /// i. ∂ID/∂q and ∂ID/∂q̇ are forward differences (step 1e-7: relative error ~1e-5 at the tanh
 /// friction's curvature, as the difference Jacobian it replaces).
+template <typename = void>
 inline bool window_jacobian(const Model<double>& model, const Eigen::VectorXd& theta,
                             const WindowParameters& parameters, const TorqueInterpolator& torque,
                             const Eigen::VectorXd& t, const OutputErrorWindow& w,
@@ -243,6 +250,7 @@ inline bool window_jacobian(const Model<double>& model, const Eigen::VectorXd& t
 }
 
 /// (measured − simulated q)/σq of window w, joint 1's samples then joint 2's.
+template <typename = void>
 inline Eigen::VectorXd normalised_residual(const OutputErrorProblem& problem, const OutputErrorWindow& w,
                                            const Eigen::MatrixXd& q_simulated) {
   const Eigen::Index m = w.end - w.begin;
@@ -253,6 +261,7 @@ inline Eigen::VectorXd normalised_residual(const OutputErrorProblem& problem, co
 }
 
 /// Threads for `windows` windows: options.threads, or the hardware's when 0.
+template <typename = void>
 inline int output_error_threads(const OutputErrorOptions& options, Eigen::Index windows) {
   return static_cast<int>(std::min<Eigen::Index>(
       windows, options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency())));
@@ -265,8 +274,9 @@ inline int output_error_threads(const OutputErrorOptions& options, Eigen::Index 
 /// a Jacobian from forward sensitivities (one CVODES simulation per window, sid/cvode/
 /// sensitivity.hpp) kept current between evaluations by Broyden updates.
 /// @throws std::invalid_argument on inconsistent sizes or settings.
-inline OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
-                                       const OutputErrorOptions& options = {}) {
+template <typename = void>
+OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
+                                const OutputErrorOptions& options = {}) {
   const std::string who = "sid::fit_output_error: ";
   const Eigen::Index n = problem.t.size();
   if (problem.q_measured.rows() != n || problem.tau.rows() != n)
@@ -601,6 +611,7 @@ struct OutputErrorStart {
 /// into fit.theta) at `values`, from a fit that converged or stopped with its Jacobian.
 /// @throws std::invalid_argument if the fit holds no normal matrix and gradient, or `held` and
 ///   `values` differ in size or name a parameter that does not exist.
+template <typename = void>
 inline OutputErrorStart nested_start(const OutputErrorFit& fit, const std::vector<Eigen::Index>& held,
                                      const Eigen::Ref<const Eigen::VectorXd>& values) {
   const std::string who = "sid::nested_start: ";
@@ -668,12 +679,13 @@ struct OutputErrorScore {
 /// (where `extended` is the fitted model). Costs one simulation per window, with the added
 /// parameter moved by `step`.
 /// @throws std::invalid_argument if the sizes do not match the fit's.
-inline OutputErrorScore output_error_score_test(const OutputErrorProblem& problem,
-                                                const OutputErrorFit& fit,
-                                                const Model<double>& extended,
-                                                const Eigen::VectorXd& theta_extended,
-                                                Eigen::Index added, double step,
-                                                const OutputErrorOptions& options = {}) {
+template <typename = void>
+OutputErrorScore output_error_score_test(const OutputErrorProblem& problem,
+                                         const OutputErrorFit& fit,
+                                         const Model<double>& extended,
+                                         const Eigen::VectorXd& theta_extended,
+                                         Eigen::Index added, double step,
+                                         const OutputErrorOptions& options = {}) {
   const std::string who = "sid::output_error_score_test: ";
   const auto nw = static_cast<Eigen::Index>(fit.windows.size());
   if (theta_extended.size() != fit.theta.size() + 1 || added < 0 || added >= theta_extended.size())
@@ -731,5 +743,13 @@ inline OutputErrorScore output_error_score_test(const OutputErrorProblem& proble
   out.statistic = information > 0.0 ? score * score / information / scale : 0.0;
   return out;
 }
+
+#ifdef SID_PRECOMPILED
+// Compiled once, in src/precompiled/pipeline.cpp, for the programs that link it.
+extern template OutputErrorFit fit_output_error<>(const OutputErrorProblem&, const OutputErrorOptions&);
+extern template OutputErrorScore output_error_score_test<>(const OutputErrorProblem&, const OutputErrorFit&, const Model<double>&,
+                                                            const Eigen::VectorXd&, Eigen::Index, double,
+                                                            const OutputErrorOptions&);
+#endif
 
 }  // namespace sid

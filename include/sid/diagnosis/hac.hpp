@@ -17,9 +17,13 @@
 
 namespace sid {
 
+// The functions here are templates on an unused parameter, so that a file compiles only those
+// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
+
 namespace detail {
 
 /// Regularized lower incomplete gamma P(a, x) by its series (converges fast for x < a + 1).
+template <typename = void>
 inline double gamma_p_series(double a, double x) {
   double term = 1.0 / a, sum = term;
   for (int k = 1; k < 1000; ++k) {
@@ -31,6 +35,7 @@ inline double gamma_p_series(double a, double x) {
 }
 
 /// Regularized upper incomplete gamma Q(a, x) by Lentz's continued fraction (x >= a + 1).
+template <typename = void>
 inline double gamma_q_continued_fraction(double a, double x) {
   constexpr double tiny = 1e-300;
   double b = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / b, h = d;
@@ -54,6 +59,7 @@ inline double gamma_q_continued_fraction(double a, double x) {
 /// @brief Regularized upper incomplete gamma function Q(a, x) = Γ(a, x)/Γ(a) (Numerical Recipes
 /// §6.2: series below a + 1, continued fraction above).
 /// @throws std::invalid_argument for a <= 0 or x < 0 (or NaN).
+template <typename = void>
 inline double regularized_gamma_q(double a, double x) {
   if (!(a > 0.0) || !std::isfinite(a))
     throw std::invalid_argument("sid::regularized_gamma_q: a must be finite and > 0");
@@ -66,6 +72,7 @@ inline double regularized_gamma_q(double a, double x) {
 
 /// @brief P(χ²_df > x), the chi-square tail probability (p-value of a statistic x).
 /// @throws std::invalid_argument for df <= 0 or x < 0.
+template <typename = void>
 inline double chi_square_tail(double x, double df) {
   if (!(df > 0.0)) throw std::invalid_argument("sid::chi_square_tail: df must be > 0");
   if (!(x >= 0.0)) throw std::invalid_argument("sid::chi_square_tail: x must be >= 0");
@@ -75,6 +82,7 @@ inline double chi_square_tail(double x, double df) {
 /// @brief The x with P(χ²_df > x) = alpha (the critical value of a level-alpha test), by
 /// bisection on the monotone tail (to 1e-12 relative).
 /// @throws std::invalid_argument for alpha outside (0, 1) or df <= 0.
+template <typename = void>
 inline double chi_square_critical(double alpha, double df) {
   if (!(alpha > 0.0 && alpha < 1.0))
     throw std::invalid_argument("sid::chi_square_critical: alpha must be in (0, 1)");
@@ -93,6 +101,7 @@ inline double chi_square_critical(double alpha, double df) {
 /// α̂ = Σ_a 4ρ_a²σ_a⁴/((1−ρ_a)⁶(1+ρ_a)²) / Σ_a σ_a⁴/(1−ρ_a)⁴ from an AR(1) fit per column.
 /// ρ is clipped to [-0.97, 0.97] (a unit root has no long-run variance) and L to [1, n/4].
 /// @return the truncation lag L (the Bartlett weights are 1 − l/(L + 1)).
+template <typename = void>
 inline int newey_west_bandwidth(const Eigen::Ref<const Eigen::MatrixXd>& scores) {
   const Eigen::Index n = scores.rows();
   if (n < 8) return 1;
@@ -119,6 +128,7 @@ inline int newey_west_bandwidth(const Eigen::Ref<const Eigen::MatrixXd>& scores)
 /// the score rows g_t (scores n x k). For OLS scores g_t = x_t e_t the HAC covariance of θ̂ is
 /// (XᵀX)⁻¹ S (XᵀX)⁻¹. The scores are used as they are (not centred: OLS scores sum to zero).
 /// @throws std::invalid_argument for lag < 0.
+template <typename = void>
 inline Eigen::MatrixXd newey_west_sum(const Eigen::Ref<const Eigen::MatrixXd>& scores, int lag) {
   if (lag < 0) throw std::invalid_argument("sid::newey_west_sum: lag must be >= 0");
   const Eigen::Index n = scores.rows();
@@ -139,6 +149,7 @@ inline Eigen::MatrixXd newey_west_sum(const Eigen::Ref<const Eigen::MatrixXd>& s
 /// the residuals of fits on smoothed kinematics are that strongly correlated.
 /// Scaled by n/(n − 1) for the sample the whitening loses. Falls back to plain Newey–West for
 /// fewer than 3 k + 8 rows.
+template <typename = void>
 inline Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::MatrixXd>& scores) {
   const Eigen::Index n = scores.rows(), k = scores.cols();
   if (n < 3 * k + 8) return newey_west_sum(scores, newey_west_bandwidth(scores));
@@ -164,6 +175,7 @@ inline Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::MatrixXd>&
 }
 
 /// @brief Wald statistic γ̂ᵀ V⁻¹ γ̂ (V symmetric positive definite; pseudo-inverse otherwise).
+template <typename = void>
 inline double wald_statistic(const Eigen::Ref<const Eigen::VectorXd>& gamma,
                              const Eigen::Ref<const Eigen::MatrixXd>& covariance) {
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(covariance);

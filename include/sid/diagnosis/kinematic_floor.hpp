@@ -19,6 +19,9 @@
 
 namespace sid {
 
+// The functions here are templates on an unused parameter, so that a file compiles only those
+// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
+
 /// @brief RMS per joint of the torque error that angle noise of σ_q[j] causes through a penalty
 /// smoothing spline with Reinsch multipliers p[j] (SmoothingReport), by Monte Carlo: `runs`
 /// draws of white noise (std::mt19937_64(seed)), each smoothed on the spline's knots, and the
@@ -28,6 +31,7 @@ namespace sid {
 /// @param first, count the rows the residual is judged on; weight (2 count: joint 1's rows, then
 ///   joint 2's) 1 for a row that counts, 0 for one that does not.
 /// @throws std::invalid_argument on bad sizes, σ_q or p not finite and > 0, runs < 1.
+template <typename = void>
 inline Vector2<double> kinematic_noise_rms(const Model<double>& model,
                                            const Eigen::Ref<const Eigen::VectorXd>& theta,
                                            const Kinematics<double>& knots_kinematics,

@@ -12,10 +12,14 @@
 
 namespace sid {
 
+// The functions here are templates on an unused parameter, so that a file compiles only those
+// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
+
 /// @brief σ of white noise on a smooth signal from second differences:
 /// E[(y_{i+1} − 2y_i + y_{i−1})²] = 6σ² + O(Ts⁴ (y'''')²). Cheap, but only 51 % efficient
 /// (its variance is 35/18 times that of the mean of the true squared noise).
 /// @throws std::invalid_argument for fewer than 3 samples or non-finite y.
+template <typename = void>
 inline double noise_sigma_second_differences(const Eigen::Ref<const Eigen::VectorXd>& y) {
   const Eigen::Index n = y.size();
   if (n < 3)
@@ -37,6 +41,7 @@ inline double noise_sigma_second_differences(const Eigen::Ref<const Eigen::Vecto
 /// residual RMS is compared with) far more closely than a difference estimator.
 /// @param t strictly increasing times [s]; y the signal (n >= 4).
 /// @throws std::invalid_argument as SmoothingSpline does (too few samples, bad t, non-finite y).
+template <typename = void>
 inline double noise_sigma_gcv(const Eigen::Ref<const Eigen::VectorXd>& t,
                               const Eigen::Ref<const Eigen::VectorXd>& y) {
   const SmoothingSpline<double> spline(t);

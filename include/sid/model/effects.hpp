@@ -34,6 +34,9 @@
 
 namespace sid {
 
+// The functions here are templates on an unused parameter, so that a file compiles only those
+// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
+
 /// @brief Hyper-parameters shared by the effect terms (fixed, not estimated).
 struct EffectSettings {
   /// epsilon of tanh(qd / epsilon), the smooth stand-in for sign(qd) [rad/s], finite and > 0.
@@ -48,6 +51,7 @@ struct EffectSettings {
 
 /// @brief The effect ids in a fixed order. armature_j1 is included so that a diagnosis can report
 /// it as not separable from theta1.
+template <typename = void>
 inline const std::vector<std::string>& effect_ids() {
   static const std::vector<std::string> ids{
       "coulomb_j1",       "coulomb_j2",       "stribeck_j1",    "stribeck_j2",
@@ -57,6 +61,7 @@ inline const std::vector<std::string>& effect_ids() {
 }
 
 /// @brief True if id is one of effect_ids().
+template <typename = void>
 inline bool is_effect_id(const std::string& id) {
   for (const auto& known : effect_ids())
     if (known == id) return true;
@@ -72,6 +77,7 @@ struct EffectInfo {
   int joint;  ///< 0 = joint 1 / q1, 1 = joint 2 / q2
 };
 
+template <typename = void>
 inline std::string effect_id_list() {
   std::string list;
   for (const auto& id : effect_ids()) list += (list.empty() ? "" : ", ") + id;
@@ -79,6 +85,7 @@ inline std::string effect_id_list() {
 }
 
 /// @throws std::invalid_argument (message starts with who) for an unknown id, listing the valid.
+template <typename = void>
 inline EffectInfo effect_info(const std::string& id, const char* who) {
   const auto ends_with_joint = [&id](const std::string& stem, const char* letter) -> int {
     if (id == stem + "_" + letter + "1") return 0;
@@ -104,6 +111,7 @@ inline EffectInfo effect_info(const std::string& id, const char* who) {
                               "' (valid ids: " + effect_id_list() + ")");
 }
 
+template <typename = void>
 inline void check_effect_settings(const EffectSettings& settings, const char* who) {
   using std::isfinite;
   if (!(settings.coulomb_epsilon > 0.0) || !isfinite(settings.coulomb_epsilon))
@@ -118,14 +126,17 @@ inline void check_effect_settings(const EffectSettings& settings, const char* wh
 
 /// exp(-(v / vs)^2), 0 beyond |v / vs| = 40 (where it underflows anyway), so that huge or
 /// infinite velocities give 0 instead of a NaN from inf * 0 later on.
+template <typename = void>
 inline double stribeck_bump(double v, double vs) noexcept {
   const double x = v / vs;
   if (!(std::fabs(x) < 40.0)) return std::isnan(x) ? x : 0.0;
   return std::exp(-x * x);
 }
 
+template <typename = void>
 inline std::string joint_text(int joint) { return joint == 0 ? "1" : "2"; }
 
+template <typename = void>
 inline std::string format_value(double v) {
   std::ostringstream out;
   out.precision(6);
@@ -138,6 +149,7 @@ inline std::string format_value(double v) {
 /// @brief Words for reports, e.g. "Coulomb friction on joint 2", "torque sensor offset on joint 1
 /// (or a constant load: indistinguishable)".
 /// @throws std::invalid_argument for an unknown id.
+template <typename = void>
 inline std::string effect_name(const std::string& id) {
   const detail::EffectInfo info = detail::effect_info(id, "sid::effect_name");
   const std::string j = detail::joint_text(info.joint);
@@ -167,6 +179,7 @@ inline std::string effect_name(const std::string& id) {
 /// {"Fc", "Fs", "vs"} [N m, N m, rad/s], {"b"} [N m], {"delta"} [rad], {"Ia"} [kg m^2],
 /// {"k"} [N m/rad].
 /// @throws std::invalid_argument for an unknown id.
+template <typename = void>
 inline std::vector<std::string> effect_value_names(const std::string& id) {
   switch (detail::effect_info(id, "sid::effect_value_names").kind) {
     case detail::EffectKind::Coulomb:
@@ -187,6 +200,7 @@ inline std::vector<std::string> effect_value_names(const std::string& id) {
 
 /// @brief Units of effect_value_names(id), e.g. {"N m", "N m", "rad/s"} for a Stribeck effect.
 /// @throws std::invalid_argument for an unknown id.
+template <typename = void>
 inline std::vector<std::string> effect_value_units(const std::string& id) {
   switch (detail::effect_info(id, "sid::effect_value_units").kind) {
     case detail::EffectKind::Coulomb:
@@ -208,6 +222,7 @@ inline std::vector<std::string> effect_value_units(const std::string& id) {
 /// @brief True for effects that change the motion (coulomb, stribeck, armature, spring), false for
 /// those that change only the recorded signals (torque and angle offsets).
 /// @throws std::invalid_argument for an unknown id.
+template <typename = void>
 inline bool is_dynamic_effect(const std::string& id) {
   const detail::EffectKind kind = detail::effect_info(id, "sid::is_dynamic_effect").kind;
   return kind != detail::EffectKind::TorqueOffset && kind != detail::EffectKind::AngleOffset;
@@ -231,6 +246,7 @@ inline bool is_dynamic_effect(const std::string& id) {
 /// - spring_jX: q_j on joint j's row; "<id>.k".
 /// @throws std::invalid_argument for an unknown id (the message lists the valid ids) or bad
 ///         settings.
+template <typename = void>
 inline Term<double> effect_term(const std::string& id, const EffectSettings& settings = {}) {
   constexpr const char* who = "sid::effect_term";
   const detail::EffectInfo info = detail::effect_info(id, who);
@@ -312,6 +328,7 @@ struct EffectEstimate {
 /// @param theta_full the fitted parameters of model; covariance_full their covariance (p x p).
 /// @throws std::invalid_argument for an unknown id, a model without the term (or, for angle
 ///         offsets, without "rigid_body"), or wrongly sized theta/covariance.
+template <typename = void>
 inline EffectEstimate effect_estimate(const std::string& id,
                                       const Eigen::Ref<const Eigen::VectorXd>& theta_full,
                                       const Eigen::Ref<const Eigen::MatrixXd>& covariance_full,
@@ -389,6 +406,7 @@ struct EffectSpec {
 /// @brief Checks an effect's values: the right number, finite, and physically admissible
 /// (Fc > 0, Fs > Fc, vs > 0, Ia > 0, k > 0; b any; |delta| < pi/2).
 /// @throws std::invalid_argument (message starts with who) naming the problem.
+template <typename = void>
 inline void validate_effect(const EffectSpec& spec, const char* who = "sid::validate_effect") {
   const detail::EffectInfo info = detail::effect_info(spec.id, who);
   const std::vector<std::string> names = effect_value_names(spec.id);
@@ -443,6 +461,7 @@ inline void validate_effect(const EffectSpec& spec, const char* who = "sid::vali
 /// @throws std::invalid_argument naming the problem: unknown id (listing the valid ones), missing
 ///         ':', a value that is not a number, the wrong number of values, a non-finite or
 ///         inadmissible value.
+template <typename = void>
 inline EffectSpec parse_effect(const std::string& text) {
   constexpr const char* who = "sid::parse_effect";
   const auto colon = text.find(':');
@@ -494,6 +513,7 @@ struct EffectfulArm {
 ///        settings give g and epsilon (vs comes from each Stribeck spec).
 /// @throws std::invalid_argument for an invalid spec, an id given twice, non-finite theta or bad
 ///         settings.
+template <typename = void>
 inline EffectfulArm effectful_arm(const TwoLinkParameters<double>& theta,
                                   const std::vector<EffectSpec>& effects,
                                   const EffectSettings& settings = {}) {
