@@ -143,6 +143,23 @@ struct OutputErrorFit {
 
 namespace detail {
 
+/// A window's own unknowns in the fit's order: q0, qd0, torque offset, torque slope.
+constexpr Eigen::Index kWindowUnknowns = 8;
+using WindowUnknowns = Eigen::Matrix<double, kWindowUnknowns, 1>;
+
+inline WindowUnknowns window_unknowns(const OutputErrorWindow& w) {
+  WindowUnknowns u;
+  u << w.q0, w.qd0, w.torque_offset, w.torque_slope;
+  return u;
+}
+
+inline void set_window_unknowns(OutputErrorWindow& w, const Eigen::Ref<const WindowUnknowns>& u) {
+  w.q0 = u.segment<2>(0);
+  w.qd0 = u.segment<2>(2);
+  w.torque_offset = u.segment<2>(4);
+  w.torque_slope = u.segment<2>(6);
+}
+
 /// The middle of window w [s]: its torque slope acts about it.
 template <typename = void>
 inline double window_middle(const Eigen::VectorXd& t, const OutputErrorWindow& w) {
@@ -208,7 +225,7 @@ inline bool window_jacobian(const Model<double>& model, const Eigen::VectorXd& t
   const double middle = window_middle(t, w);
   const auto thetas = static_cast<Eigen::Index>(parameters.theta.size());
   const Eigen::Index globals = thetas + (parameters.model_at_larger_s ? 1 : 0);
-  const Eigen::Index columns = globals + 8;
+  const Eigen::Index columns = globals + kWindowUnknowns;
   const auto rhs = window_rhs(model, theta, torque, middle, torque_offset, torque_slope);
   Eigen::Matrix<double, 2, Eigen::Dynamic> forcing(2, columns);
   auto sensitivity_rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
@@ -305,7 +322,6 @@ OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
       std::isnan(options.comparison_cost) || options.comparison_cost == std::numeric_limits<double>::infinity())
     throw std::invalid_argument(who + "need 0 <= comparison_tolerance < 1 and comparison_cost < inf (or -inf: none)");
 
-  constexpr Eigen::Index kLocalUnknowns = 8;  // q0, qd0, torque offset and slope of a window
   const Eigen::Index p = problem.theta0.size();
   std::vector<bool> is_fixed(static_cast<std::size_t>(p + 1), false);
   for (Eigen::Index u : problem.fixed_parameters) {
@@ -314,7 +330,7 @@ OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   }
   const Eigen::Index g = p + (problem.estimate_nonlinear ? 1 : 0);  // global unknowns
   const auto nw = static_cast<Eigen::Index>(problem.windows.size());
-  const Eigen::Index local = kLocalUnknowns;
+  const Eigen::Index local = detail::kWindowUnknowns;
   const Eigen::Index unknowns = g + local * nw;
   const int threads = detail::output_error_threads(options, nw);
   // One interpolator per thread: it caches the interval of its last call.
@@ -329,7 +345,7 @@ OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   if (problem.estimate_nonlinear) x[p] = std::log(problem.s0);
   for (Eigen::Index w = 0; w < nw; ++w) {
     const auto& win = problem.windows[static_cast<std::size_t>(w)];
-    x.segment(g + local * w, local) << win.q0, win.qd0, win.torque_offset, win.torque_slope;
+    x.segment<detail::kWindowUnknowns>(g + local * w) = detail::window_unknowns(win);
   }
   Eigen::Index residual_count = 0;
   for (const auto& w : problem.windows) residual_count += 2 * (w.end - w.begin);
@@ -561,10 +577,7 @@ OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   if (problem.estimate_nonlinear) fit.s = std::exp(x[p]);
   fit.windows = problem.windows;
   for (Eigen::Index w = 0; w < nw; ++w) {
-    fit.windows[static_cast<std::size_t>(w)].q0 = x.segment<2>(g + local * w);
-    fit.windows[static_cast<std::size_t>(w)].qd0 = x.segment<2>(g + local * w + 2);
-    fit.windows[static_cast<std::size_t>(w)].torque_offset = x.segment<2>(g + local * w + 4);
-    fit.windows[static_cast<std::size_t>(w)].torque_slope = x.segment<2>(g + local * w + 6);
+    detail::set_window_unknowns(fit.windows[static_cast<std::size_t>(w)], x.segment<detail::kWindowUnknowns>(g + local * w));
   }
   // Covariance of the globals: the inverse normal matrix's global block, scaled by the mean
   // square residual; s by the delta method from log s.
@@ -617,7 +630,7 @@ inline OutputErrorStart nested_start(const OutputErrorFit& fit, const std::vecto
   const std::string who = "sid::nested_start: ";
   const Eigen::Index p = fit.theta.size(), g = p + (std::isnan(fit.s) ? 0 : 1);
   const auto nw = static_cast<Eigen::Index>(fit.windows.size());
-  constexpr Eigen::Index kLocal = 8;
+  constexpr Eigen::Index kLocal = detail::kWindowUnknowns;
   const Eigen::Index unknowns = g + kLocal * nw;
   if (nw == 0 || fit.normal.rows() != unknowns || fit.normal.cols() != unknowns || fit.gradient.size() != unknowns)
     throw std::invalid_argument(who + "the fit holds no normal matrix and gradient over its unknowns (did it fail?)");
@@ -653,11 +666,7 @@ inline OutputErrorStart nested_start(const OutputErrorFit& fit, const std::vecto
   start.windows = fit.windows;
   for (Eigen::Index w = 0; w < nw; ++w) {
     OutputErrorWindow& win = start.windows[static_cast<std::size_t>(w)];
-    const auto d = delta.segment<kLocal>(g + kLocal * w);
-    win.q0 += d.segment<2>(0);
-    win.qd0 += d.segment<2>(2);
-    win.torque_offset += d.segment<2>(4);
-    win.torque_slope += d.segment<2>(6);
+    detail::set_window_unknowns(win, detail::window_unknowns(win) + delta.segment<kLocal>(g + kLocal * w));
   }
   return start;
 }
