@@ -135,6 +135,15 @@ inline std::vector<OutputErrorWindow> reversal_windows(const Kinematics<double>&
   return spread;
 }
 
+/// Whether the diagnosis names Coulomb or Stribeck friction of `joint` (1 or 2): what
+/// refine_named_friction tests.
+template <typename = void>
+inline bool names_friction_of(const DiagnosisResult& result, int joint) {
+  const std::string j = std::to_string(joint);
+  return std::any_of(result.effects.begin(), result.effects.end(),
+                     [&](const auto& e) { return e.id == "coulomb_j" + j || e.id == "stribeck_j" + j; });
+}
+
 }  // namespace detail
 
 /// @brief The output-error test of joint `joint`'s friction in a diagnosis that named Coulomb
@@ -378,13 +387,8 @@ void refine_named_friction(DiagnosisResult& result, const Trajectory<double>& da
                                FrictionRefinementOptions friction = {}) {
   friction.gravity = options.identify.gravity;
   std::vector<FrictionRefinement> refinements;
-  for (int joint = 1; joint <= 2; ++joint) {
-    const std::string j = std::to_string(joint);
-    const bool named = std::any_of(result.effects.begin(), result.effects.end(), [&](const auto& e) {
-      return e.id == "coulomb_j" + j || e.id == "stribeck_j" + j;
-    });
-    if (named) refinements.push_back(refine_friction(result, data, joint, friction));
-  }
+  for (int joint = 1; joint <= 2; ++joint)
+    if (detail::names_friction_of(result, joint)) refinements.push_back(refine_friction(result, data, joint, friction));
   bool changed = false;
   for (const auto& r : refinements) {
     result.friction_checks.push_back(r.check);
