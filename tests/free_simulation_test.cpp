@@ -367,4 +367,31 @@ TEST(DiagnoseWithSimulation, JudgesTheWindowsOfAHiddenSpringAgainstTheFinalModel
   EXPECT_TRUE(r.final.sim_windows.empty()) << r.final.sim_windows.size() << " windows flagged";
 }
 
+// Where friction is named, the nominal model's simulation runs beside the friction test, which
+// rewrites the result: it must still be the nominal model's, at the checked tolerance, as if
+// run on its own.
+TEST(DiagnoseWithSimulation, SimulatesTheNominalModelBesideTheFrictionTestAsOnItsOwn) {
+  const sid::Trajectory<double> data =
+      sid::test::simulate({sid::parse_effect("coulomb_j2:0.2")}, sid::test::Excitation::Paper, 1);
+  const sid::SimulationCheckOptions check;
+  sid::SimulationCheck details;
+  const sid::DiagnosisResult r = sid::diagnose_with_simulation(data, {}, {}, check, &details);
+  ASSERT_EQ(r.effects.size(), 1u);
+  EXPECT_EQ(r.effects[0].id, "coulomb_j2");
+  ASSERT_EQ(r.friction_checks.size(), 1u);  // the friction test ran
+  EXPECT_EQ(r.friction_checks[0].joint, 2);
+
+  const sid::DiagnosisResult alone = sid::diagnose(data);
+  sid::FreeSimulationOptions checked;
+  checked.simulator.rtol = checked.simulator.atol = check.checked_tolerance;
+  const sid::FreeSimulation nominal =
+      sid::free_simulation(alone.nominal_model, alone.nominal.theta, alone.kinematics, checked);
+  ASSERT_EQ(details.nominal.q.rows(), nominal.q.rows());
+  EXPECT_EQ((details.nominal.q - nominal.q).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(details.nominal.statistics.steps, nominal.statistics.steps);
+  for (int j = 0; j < 2; ++j) EXPECT_EQ(r.nominal.sim_error_rms[j], nominal.error_rms[j]) << "joint " << j + 1;
+  // And the final model's simulation is another one: it fits where the nominal one drifts.
+  EXPECT_LT(r.final.sim_error_rms[1], 0.5 * r.nominal.sim_error_rms[1]);
+}
+
 }  // namespace
