@@ -10,6 +10,9 @@
 #include <optional>
 #include <sid/cvode/instrumental_variables.hpp>
 #include <sid/identify.hpp>
+#include <sid/identify_runs.hpp>
+#include <sid/model/effects.hpp>
+#include <sid/physical_consistency.hpp>
 #include <sid/model/two_link_arm.hpp>
 #include <sstream>
 #include <stdexcept>
@@ -18,22 +21,51 @@
 
 #include "app.hpp"
 #include "csv.hpp"
+#include "runs_report.hpp"
 
 namespace {
 
 constexpr const char* kName = "sid_identify";
 
 constexpr const char* kDescription =
-    "Identify the parameters theta1..theta7 of the two-link arm from measured joint angles and\n"
-    "torques: estimate the joint velocities and accelerations (raw differences, filtered\n"
-    "differences or the cubic smoothing spline), then solve tau = Z(q, qd, qdd) theta by least\n"
-    "squares, and print the estimate with standard deviations and fit statistics.\n";
+    "Identify the parameters theta1..theta7 of the two-link arm (and, on request, effect terms\n"
+    "such as Coulomb friction) from measured joint angles and torques of one or several runs:\n"
+    "estimate the joint velocities and accelerations (cubic smoothing spline, or raw or filtered\n"
+    "differences), then solve tau = Z(q, qd, qdd) theta by least squares, and print the estimate\n"
+    "with standard deviations, fit statistics, its physical plausibility and, for runs kept\n"
+    "aside (--validate), how well it predicts their torques.\n";
 
 constexpr const char* kFooter = R"(
-Input: a CSV file with a header row and the columns t [s], q1, q2 [rad], tau1, tau2 [N m] in
-any order (other columns are ignored); lines starting with '#' are comments. t must be strictly
-increasing; every cell a finite number. The raw and filtered methods need uniform sampling.
-q1 is measured from the downward vertical, q2 relative to link 1 (the sid_simulate convention).
+Input: CSV files (one per run) with a header row and the columns t [s], q1, q2 [rad], tau1,
+tau2 [N m] in any order (other columns are ignored; --columns maps other names, e.g.
+--columns t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2); lines starting with
+'#' are comments. t must be strictly increasing (the grid may be non-uniform for css); every cell
+a finite number. The raw and filtered methods need uniform sampling. q1 is measured from the
+downward vertical, q2 relative to link 1 (the sid_simulate convention).
+
+Several runs (torque-cv, the default): each run is smoothed on its own time grid, and the
+equations of all runs are stacked into one least-squares fit. One cutoff frequency serves all
+runs and joints: the spline's penalty lambda = 1 / (h (2 pi f_c)^4), h the run's mean sampling
+period, halves a sinusoid at f_c. Without --cutoff, f_c is the one (on a grid of 4 per octave
+over 0.25..64 Hz) whose estimate best predicts torques it was not fitted on: each run is cut
+into 5 contiguous blocks, each block is predicted by the fit of all the others, and the RMS of
+those held-out residuals is minimised. Unlike gcv it needs no independent angle noise, so it
+does not interpolate quantised encoder angles. Samples within 0.1 s of each end of a run
+(--skip for the start) are not used: the natural spline's ends distort qdd.
+  --effects ID,...   adds effect terms to the model: coulomb_jX, stribeck_jX,
+                     torque_offset_jX, angle_offset_qX, armature_jX, spring_jX (X = 1, 2)
+  --validate RUN     predicts the torques of a run not used in the fit (same cutoff and skips)
+                     and prints the RMS error per joint (repeatable)
+  --reference-theta  prints the same errors for a given parameter vector (e.g. a published
+                     model), on the fitted and the validation runs
+  --gear-ratio       with armature_j2: the rotor of drive 2, carried by link 1, adds
+                     (gr^2+1) Ir, -gr Ir, gr^2 Ir to M11, M12, M22; with theta1 and theta2 free
+                     this is exactly an armature Ia = (gr^2 + gr) Ir on joint 2, so
+                     Ir = Ia / (gr^2 + gr) is reported with its standard deviation.
+The physical plausibility of the estimate is always checked: the mass matrix positive definite
+for every q2 (on a 1-degree grid) and theta4..theta7, Coulomb levels and armatures >= 0. If it
+fails, the nearest physically consistent estimate (least squares under those constraints) is
+printed as well, labelled as such.
 
 Methods (--method):
   raw       forward differences qd_i = (q_{i+1} - q_i)/Ts, qdd likewise (the last 2 samples
@@ -45,7 +77,9 @@ Methods (--method):
             much it smooths is chosen by --smoothing (below).
 
 Smoothing of css (--smoothing):
-  gcv           (default without --sigma-q and --S) the penalty form
+  torque-cv     (default without --sigma-q, --S, --lambda and with --estimator ls) the cutoff
+                chosen by cross-validating the torque prediction; see "Several runs" above.
+  gcv           (default with --estimator wls or iv) the penalty form
                 sum((g(t_i) - q_i)^2) + lambda * integral(g''^2) with lambda chosen from the
                 data by minimising generalized cross-validation, so no noise level is needed;
                 the residuals then estimate the angle noise: sigma_hat = sqrt(F / (n - tr A))
@@ -80,8 +114,8 @@ Estimator (--estimator):
        with 0.25 x the lambda they choose: less smoothing bias, more noise, which IV removes.
        Standard deviations from sigma^2 (W^T X)^-1 W^T W (X^T W)^-1.
 
-Window: samples with t < t_0 + --skip are not used (the start transient). Default 0.25 s,
-for the filtered method 1.7475 s (filter start-up).
+Window: samples with t < t_0 + --skip are not used (the start transient). Default 0.25 s
+(torque-cv: 0.1 s), for the filtered method 1.7475 s (filter start-up).
 
 Output (standard output): per parameter the estimate, its standard deviation (from the residual
 variance and (X^T X)^-1), the relative standard deviation in %, the unit and, with --true, the
@@ -99,12 +133,23 @@ unless s-constraint), smoothing (null unless css): {mode, lambda, trace, sigma_h
 cross_validation_skip}, each but mode a [joint 1, joint 2] array (null where not computed:
 sigma_hat outside gcv/cv), and with --true also true and error_pct.
 
+With torque-cv the JSON has: input (the files), names, units, theta, std, rel_std_pct,
+residual_rms, condition_number, ill_conditioned, warning, samples_used, skip, skip_end,
+smoothing {mode, cutoff_hz, chosen, folds_per_run, grid_hz, cross_validation_rms, lambda (per
+run)}, runs [{file, samples_total, samples_used, lambda, residual_rms [, reference_residual_rms]}],
+validation [{file, samples, residual_rms, nominal_residual_rms [, reference_residual_rms]}],
+physical {plausible, mass_matrix_positive_definite, min_mass_eigenvalue, min_mass_eigenvalue_q2,
+negative_parameters, consistent_theta (null when plausible), ...}, reference_theta and, with
+--gear-ratio, rotor {gear_ratio, Ir, Ir_std, supported}.
+
 Exit codes: 0 success, 2 bad input or options, or a regressor whose columns are linearly
 dependent (the data do not excite every parameter; the message names the columns), 1 internal
 error.
 
 Examples:
   sid_identify log.csv
+  sid_identify --columns t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2 \
+      --effects coulomb_j1,coulomb_j2 --validate run3.csv run1.csv run2.csv
   sid_identify --sigma-q 1e-3 log.csv
   sid_identify --smoothing cv --json result.json log.csv
   sid_identify --method filtered --json result.json log.csv
@@ -116,7 +161,13 @@ const char* const kUnits[7] = {"kg m^2", "kg m^2", "kg m^2", "kg m", "kg m", "N 
                                "N m s/rad"};
 
 struct Options {
-  std::string input;
+  std::vector<std::string> inputs;
+  std::string columns;
+  std::vector<std::string> validate;
+  std::optional<double> cutoff;
+  std::string effects;
+  std::string reference_theta;
+  std::string gear_ratio;
   std::string method = "css";
   std::string sigma_q;
   std::optional<double> S;
@@ -131,7 +182,28 @@ struct Options {
 
 void define_options(CLI::App& cli, Options& o) {
   cli.footer(kFooter);
-  cli.add_option("INPUT", o.input, "input CSV file ('-' reads standard input)")->required();
+  cli.add_option("RUN", o.inputs,
+                 "input CSV file(s), one per measured run ('-' reads standard input); several runs "
+                 "are fitted together")
+      ->required();
+  cli.add_option("--columns", o.columns,
+                 "map sid's columns to the file's names, e.g. "
+                 "t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2");
+  cli.add_option("--validate", o.validate,
+                 "a run not used in the fit: report how well the estimate predicts its torques "
+                 "(repeatable)")
+      ->allow_extra_args(false);
+  cli.add_option("--cutoff", o.cutoff,
+                 "torque-cv: smooth at this cutoff [Hz] instead of choosing it by cross-validation");
+  cli.add_option("--effects", o.effects,
+                 "torque-cv: effect terms added to the model, comma-separated (e.g. "
+                 "coulomb_j1,coulomb_j2,torque_offset_j1,torque_offset_j2,armature_j2)");
+  cli.add_option("--reference-theta", o.reference_theta,
+                 "torque-cv: a reference parameter vector (one value per model parameter, "
+                 "comma-separated): its torque prediction errors are shown beside the estimate's");
+  cli.add_option("--gear-ratio", o.gear_ratio,
+                 "torque-cv with armature_j2: gear ratios gr1,gr2 (or one for both); reports the "
+                 "rotor inertia of drive 2 carried by link 1, Ir = Ia / (gr2^2 + gr2)");
   cli.add_option("-m,--method", o.method, "derivative method: raw, filtered or css")
       ->capture_default_str();
   cli.add_option("--sigma-q", o.sigma_q,
@@ -141,8 +213,9 @@ void define_options(CLI::App& cli, Options& o) {
                  "css s-constraint: sum(((g - q)/dq)^2) <= S, S >= 0 (default: number of "
                  "samples)");
   cli.add_option("--smoothing", o.smoothing,
-                 "css: s-constraint, gcv, cv or lambda (default: s-constraint with --sigma-q or "
-                 "--S, lambda with --lambda, otherwise gcv)");
+                 "css: torque-cv, s-constraint, gcv, cv or lambda (default: s-constraint with "
+                 "--sigma-q or --S, lambda with --lambda, gcv with --estimator wls or iv, "
+                 "otherwise torque-cv)");
   cli.add_option("--lambda", o.lambda,
                  "css lambda mode: penalty weight lambda > 0 with weights 1/dq^2 (needs "
                  "--sigma-q)");
@@ -204,7 +277,7 @@ sid::IdentifyOptions make_options(const Options& o) {
       mode = sid::parse_smoothing_mode(o.smoothing);
     } catch (const std::invalid_argument&) {
       throw sid::app::InputError("--smoothing: unknown mode '" + o.smoothing +
-                                 "' (expected s-constraint, gcv, cv or lambda)");
+                                 "' (expected torque-cv, s-constraint, gcv, cv or lambda)");
     }
   } else if (o.lambda) {
     mode = sid::SmoothingMode::Lambda;
@@ -326,7 +399,7 @@ struct Report {
 Report make_report(const sid::IdentifyOptions& options,
                    const sid::app::CsvTable& table, const sid::Identification& id,
                    const std::optional<sid::TwoLinkParameters<double>>& truth,
-                   const std::string& estimator, const IvOutcome& iv) {
+                   const std::string& estimator, const IvOutcome& iv, double t_start) {
   const auto& fit = id.fit;
   const std::string input = table.source == "-" ? "<stdin>" : table.source;
   const std::vector<std::string> names = sid::two_link_parameter_names();
@@ -394,7 +467,7 @@ Report make_report(const sid::IdentifyOptions& options,
         out << " (lambda chosen by "
             << (options.smoothing == sid::SmoothingMode::Gcv ? "generalized" : "leave-one-out")
             << " cross-validation on t >= "
-            << short_number(table.column("t")[0] + options.cross_validation_skip) << " s)";
+            << short_number(t_start + options.cross_validation_skip) << " s)";
         break;
       case sid::SmoothingMode::Lambda:
         out << " (lambda = " << short_number(options.lambda) << ", sigma_q = "
@@ -465,8 +538,139 @@ Report make_report(const sid::IdentifyOptions& options,
   return {out.str(), j};
 }
 
+// torque-cv is the default where the user gave nothing that asks for another smoothing: the
+// estimators wls and iv were tuned with gcv, and the difference methods do not smooth.
+bool uses_torque_cv(const Options& o) {
+  if (o.smoothing == "torque-cv" || o.cutoff) return true;
+  if (!o.smoothing.empty()) return false;
+  return o.method == "css" && o.estimator == "ls" && o.sigma_q.empty() && !o.S && !o.lambda;
+}
+
+sid::app::RunFile read_run(const std::string& file, const sid::app::TrajectoryColumns& columns) {
+  const sid::app::CsvTable table = sid::app::read_csv(file);
+  sid::app::RunFile run{table.source == "-" ? "<stdin>" : table.source,
+                        sid::app::trajectory_from_table(table, columns)};
+  sid::app::require(run.data.size() >= 3, run.file + ": a run needs at least 3 data rows, got " +
+                                              std::to_string(run.data.size()));
+  return run;
+}
+
+sid::Model<double> runs_model(const Options& o) {
+  sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
+  if (o.effects.empty()) return model;
+  for (const std::string& id : sid::app::parse_name_list(o.effects, "--effects", "effect id", "effects",
+                                                         sid::detail::effect_id_list())) {
+    sid::app::require(sid::is_effect_id(id),
+                      "--effects: unknown effect '" + id + "' (expected " + sid::detail::effect_id_list() + ")");
+    model.add(sid::effect_term(id));
+  }
+  return model;
+}
+
+sid::RunsIdentifyOptions runs_options(const Options& o) {
+  using sid::app::require;
+  require(o.method == "css", "--smoothing torque-cv smooths with the spline: it needs --method css");
+  require(o.estimator == "ls", "--smoothing torque-cv supports --estimator ls only (wls and iv use gcv)");
+  require(o.sigma_q.empty() && !o.S && !o.lambda,
+          "--sigma-q, --S and --lambda do not apply to --smoothing torque-cv (it chooses the "
+          "smoothing by how well it predicts torques)");
+  require(o.truth.empty(), "--true applies to the single-run smoothing modes; with torque-cv use "
+                           "--reference-theta");
+  sid::RunsIdentifyOptions options;
+  if (o.skip) {
+    require(std::isfinite(*o.skip) && *o.skip >= 0.0,
+            "--skip must be a finite number >= 0 [s], got " + short_number(*o.skip));
+    options.skip = *o.skip;
+  }
+  if (o.cutoff) {
+    require(std::isfinite(*o.cutoff) && *o.cutoff > 0.0,
+            "--cutoff must be a finite number > 0 [Hz], got " + short_number(*o.cutoff));
+    options.cutoff_hz = *o.cutoff;
+  }
+  return options;
+}
+
+int identify_from_runs(const Options& o) {
+  using sid::app::require;
+  sid::app::RunsReportInput in;
+  in.program = kName;
+  in.options = runs_options(o);
+  in.model = runs_model(o);
+  if (!o.reference_theta.empty()) {
+    const std::vector<double> v = sid::app::parse_doubles(
+        o.reference_theta, "--reference-theta", static_cast<std::size_t>(in.model.num_parameters()));
+    in.reference_theta = Eigen::Map<const Eigen::VectorXd>(v.data(), in.model.num_parameters());
+  }
+  if (!o.gear_ratio.empty()) {
+    const std::vector<double> g = sid::app::parse_doubles(o.gear_ratio, "--gear-ratio");
+    require(g.size() == 1 || g.size() == 2, "--gear-ratio needs 1 value or 2 (gr1,gr2), got " +
+                                                std::to_string(g.size()));
+    for (double v : g) require(v > 0.0, "--gear-ratio must be > 0, got " + short_number(v));
+    require(in.model.has_term("armature_j2"),
+            "--gear-ratio needs armature_j2 in --effects: the rotor of drive 2 enters the fit as an "
+            "armature on joint 2");
+    in.gear_ratio = g.back();
+  }
+  const sid::app::TrajectoryColumns columns =
+      o.columns.empty() ? sid::app::TrajectoryColumns{} : sid::app::parse_trajectory_columns(o.columns, "--columns");
+  int stdin_uses = 0;
+  for (const auto& f : o.inputs) stdin_uses += f == "-";
+  for (const auto& f : o.validate) stdin_uses += f == "-";
+  require(stdin_uses <= 1, "standard input ('-') can be read only once");
+  if (!o.json.empty()) sid::app::ensure_writable(o.json, o.force);
+
+  std::vector<sid::Trajectory<double>> data;
+  for (const auto& file : o.inputs) {
+    in.runs.push_back(read_run(file, columns));
+    data.push_back(in.runs.back().data);
+  }
+  std::vector<sid::app::RunFile> held_out;
+  for (const auto& file : o.validate) held_out.push_back(read_run(file, columns));
+  try {
+    in.id = sid::identify_runs(data, in.model, in.options);
+  } catch (const std::invalid_argument& e) {
+    throw sid::app::InputError(e.what());
+  }
+  if (!in.id.fit.ok())
+    throw sid::app::InputError("the parameters cannot be identified from these runs: " + in.id.fit.message);
+  const Eigen::VectorXd& theta = in.id.fit.theta;
+  in.physical = sid::check_physical(in.model, theta, sid::default_physical_constraints(in.model));
+  if (!in.physical.plausible()) {
+    const sid::StackedRegression<double> all = sid::stack_runs(in.model, in.id.kinematics);
+    try {
+      in.consistent = sid::nearest_physical(in.model, all.X, all.y, sid::default_physical_constraints(in.model));
+    } catch (const std::invalid_argument& e) {
+      std::cerr << kName << ": warning: no physically consistent estimate: " << e.what() << "\n";
+    }
+  }
+  for (const auto& run : held_out) {
+    sid::app::ValidationRow row{run.file, {}, std::nullopt};
+    try {
+      row.prediction = sid::predict_torque(run.data, in.model, theta, in.id.cutoff_hz, in.options);
+      if (in.reference_theta)
+        row.reference = sid::predict_torque(run.data, in.model, *in.reference_theta, in.id.cutoff_hz, in.options);
+    } catch (const std::invalid_argument& e) {
+      throw sid::app::InputError(run.file + ": " + e.what());
+    }
+    in.validation.push_back(row);
+  }
+  if (in.reference_theta)
+    for (const auto& run : data)
+      in.reference_on_fitted.push_back(
+          sid::predict_torque(run, in.model, *in.reference_theta, in.id.cutoff_hz, in.options));
+  const sid::app::RunsReport report = sid::app::make_runs_report(in);
+  (o.json == "-" ? std::cerr : std::cout) << report.text << std::flush;
+  if (!o.json.empty()) sid::app::write_json(o.json, report.json);
+  return sid::app::kExitOk;
+}
+
 int identify(const Options& o) {
   using sid::app::require;
+  if (uses_torque_cv(o)) return identify_from_runs(o);
+  require(o.inputs.size() == 1, "several runs are fitted together only with --smoothing torque-cv "
+                                "(the default for --method css without --sigma-q, --S, --lambda)");
+  require(o.validate.empty() && o.effects.empty() && o.reference_theta.empty() && o.gear_ratio.empty(),
+          "--validate, --effects, --reference-theta and --gear-ratio apply to --smoothing torque-cv");
   sid::IdentifyOptions options = make_options(o);
   require(o.estimator == "ls" || o.estimator == "wls" || o.estimator == "iv",
           "--estimator: unknown estimator '" + o.estimator + "' (expected ls, wls or iv)");
@@ -479,8 +683,10 @@ int identify(const Options& o) {
   }
   if (!o.json.empty()) sid::app::ensure_writable(o.json, o.force);
 
-  const sid::app::CsvTable table = sid::app::read_csv(o.input);
-  const sid::Trajectory<double> data = sid::app::trajectory_from_table(table);
+  const sid::app::CsvTable table = sid::app::read_csv(o.inputs.front());
+  const sid::Trajectory<double> data = sid::app::trajectory_from_table(
+      table, o.columns.empty() ? sid::app::TrajectoryColumns{}
+                               : sid::app::parse_trajectory_columns(o.columns, "--columns"));
   require(data.size() >= 3, table.source + ": identification needs at least 3 data rows, got " +
                                 std::to_string(data.size()));
   sid::Identification id;
@@ -505,7 +711,7 @@ int identify(const Options& o) {
     iv.converged = refined.converged;
     if (!refined.converged) std::cerr << kName << ": warning: " << refined.message << "\n";
   }
-  const Report report = make_report(options, table, id, truth, o.estimator, iv);
+  const Report report = make_report(options, table, id, truth, o.estimator, iv, data.t[0]);
   // With the JSON on standard output the table goes to standard error, so each stays parseable.
   (o.json == "-" ? std::cerr : std::cout) << report.text << std::flush;
   if (id.fit.ill_conditioned && o.json != "-")

@@ -1,6 +1,7 @@
 #include "app.hpp"
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -9,6 +10,7 @@
 #include <fstream>
 #include <iostream>
 #include <new>
+#include <utility>
 #include <stdexcept>
 
 #if defined(__GLIBC__)
@@ -220,6 +222,31 @@ void write_json(const std::string& path, const nlohmann::json& value) {
   out << text;
   out.close();
   if (!out) throw std::runtime_error("error while writing '" + path + "' (disk full?)");
+}
+
+TrajectoryColumns parse_trajectory_columns(const std::string& text, const std::string& option) {
+  TrajectoryColumns columns;
+  const std::vector<std::pair<const char*, std::string*>> keys{{"t", &columns.t},
+                                                               {"q1", &columns.q1},
+                                                               {"q2", &columns.q2},
+                                                               {"tau1", &columns.tau1},
+                                                               {"tau2", &columns.tau2}};
+  std::vector<std::string> seen;
+  for (const std::string& item : parse_name_list(text, option, "entry", "columns", "KEY=NAME,...")) {
+    const auto eq = item.find('=');
+    if (eq == std::string::npos)
+      throw InputError(option + ": '" + item + "' is not KEY=NAME (keys: t, q1, q2, tau1, tau2)");
+    const std::string key = item.substr(0, eq), name = item.substr(eq + 1);
+    const auto hit = std::find_if(keys.begin(), keys.end(), [&](const auto& k) { return key == k.first; });
+    if (hit == keys.end())
+      throw InputError(option + ": unknown key '" + key + "' in '" + item + "' (keys: t, q1, q2, tau1, tau2)");
+    if (name.empty()) throw InputError(option + ": no column name after '" + key + "='");
+    if (std::find(seen.begin(), seen.end(), key) != seen.end())
+      throw InputError(option + ": key '" + key + "' is given twice");
+    seen.push_back(key);
+    *hit->second = name;
+  }
+  return columns;
 }
 
 }  // namespace sid::app

@@ -264,7 +264,7 @@ TEST_F(SidIdentify, BadInputExitsTwoWithAClearMessage) {
       {"--sigma-q 1e-3 --skip 5 run.csv", "samples are left after skipping"},
       {"--sigma-q 1e-3 --true 1,2,3 run.csv", "--true needs 7 values, got 3"},
       {"--sigma-q 1e-3 --json no_dir/r.json run.csv", "no_dir"},
-      {"--sigma-q 1e-3", "INPUT"},
+      {"--sigma-q 1e-3", "RUN is required"},
       {"--smoothing fancy run.csv", "--smoothing: unknown mode 'fancy'"},
       {"--smoothing gcv --S 100 run.csv", "--S does not apply to --smoothing gcv"},
       {"--smoothing cv --S 100 run.csv", "--S does not apply to --smoothing cv"},
@@ -321,10 +321,10 @@ TEST_F(SidIdentify, RefusesToOverwriteTheJsonWithoutForce) {
   EXPECT_EQ(nlohmann::json::parse(read(file("r.json")))["samples_used"], 301);
 }
 
-TEST_F(SidIdentify, GcvByDefaultRecoversThetaAndEstimatesTheAngleNoise) {
-  // No --sigma-q: GCV chooses lambda per joint and the residuals estimate sigma_q = 1e-3 rad.
+TEST_F(SidIdentify, GcvRecoversThetaAndEstimatesTheAngleNoise) {
+  // GCV chooses lambda per joint and the residuals estimate sigma_q = 1e-3 rad.
   simulate("run.csv", "--sigma-q2 1e-6");
-  const nlohmann::json j = identify_json("run.csv");
+  const nlohmann::json j = identify_json("--smoothing gcv run.csv");
   ASSERT_TRUE(j.contains("smoothing")) << j.dump();
   const nlohmann::json& s = j["smoothing"];
   EXPECT_EQ(s["mode"], "gcv");
@@ -374,7 +374,7 @@ TEST_F(SidIdentify, CrossValidationModeAgreesWithGcv) {
 
 TEST_F(SidIdentify, TableReportsLambdaDegreesOfFreedomAndNoiseEstimate) {
   simulate("run.csv", "--T 2");
-  const AppRun gcv = identify("run.csv");
+  const AppRun gcv = identify("--smoothing gcv run.csv");
   ASSERT_EQ(gcv.exit_code, 0) << gcv.err;
   for (const char* word : {"smoothing (css): gcv", "generalized cross-validation", "lambda",
                            "tr A (dof)", "sigma_hat [rad]"})
@@ -426,7 +426,8 @@ TEST_F(SidIdentify, NonSplineMethodsHaveNoSmoothingReport) {
 TEST_F(SidIdentify, EstimatorsWlsAndIvRunAndReportThemselves) {
   simulate("run.csv", "--sigma-q2 1e-6");
   const sid::TwoLinkParameters<double> truth = sid::paper_arm_parameters();
-  const nlohmann::json ls = identify_json("run.csv");
+  // The same smoothing for all three (wls and iv default to gcv).
+  const nlohmann::json ls = identify_json("--smoothing gcv run.csv");
   EXPECT_EQ(ls["estimator"], "ls");
   EXPECT_TRUE(ls["iv_iterations"].is_null());
   const nlohmann::json wls = identify_json("--estimator wls run.csv");

@@ -1,0 +1,271 @@
+#include <sid/identify_runs.hpp>
+
+#include <gtest/gtest.h>
+
+#include <sid/model/effects.hpp>
+#include <sid/model/two_link_arm.hpp>
+#include <sid/physical_consistency.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The measured runs in tests/data/dfki_double_pendulum (time, pos_meas1, pos_meas2, tau_meas1,
+// tau_meas2, in that order).
+sid::Trajectory<double> load_run(const std::string& id) {
+  const std::string path = std::string(SID_TEST_DATA_DIR) + "/dfki_double_pendulum/trajectory_" + id + ".csv";
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open " + path);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    std::stringstream cells(line);
+    std::string cell;
+    std::vector<double> row;
+    while (std::getline(cells, cell, ',')) row.push_back(std::stod(cell));
+    if (row.size() != 5) throw std::runtime_error(path + ": expected 5 columns");
+    rows.push_back(row);
+  }
+  sid::Trajectory<double> run;
+  const auto n = static_cast<Eigen::Index>(rows.size());
+  run.t.resize(n);
+  run.q.resize(n, 2);
+  run.tau.resize(n, 2);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto& r = rows[static_cast<std::size_t>(i)];
+    run.t[i] = r[0];
+    run.q.row(i) << r[1], r[2];
+    run.tau.row(i) << r[3], r[4];
+  }
+  return run;
+}
+
+// A run of the paper's arm driven along a known smooth motion: τ from the model's inverse
+// dynamics, so θ is known exactly; the grid is jittered like a logged one.
+sid::Trajectory<double> synthetic_run(double phase, int n, double period, unsigned seed, double quantum = 0.0) {
+  const sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
+  const sid::TwoLinkParameters<double> theta = sid::paper_arm_parameters();
+  sid::Trajectory<double> run;
+  run.t.resize(n);
+  run.q.resize(n, 2);
+  run.tau.resize(n, 2);
+  unsigned state = seed;
+  double t = 0.0;
+  for (int i = 0; i < n; ++i) {
+    state = state * 1664525u + 1013904223u;
+    t += period * (0.7 + 0.6 * (state >> 8) / 16777216.0);
+    const double w1 = 5.0, w2 = 7.0;
+    sid::Vector2<double> q(0.8 * std::sin(w1 * t + phase), 0.6 * std::cos(w2 * t + phase));
+    const sid::Vector2<double> qd(0.8 * w1 * std::cos(w1 * t + phase), -0.6 * w2 * std::sin(w2 * t + phase));
+    const sid::Vector2<double> qdd(-0.8 * w1 * w1 * std::sin(w1 * t + phase), -0.6 * w2 * w2 * std::cos(w2 * t + phase));
+    run.tau.row(i) = model.inverse_dynamics(theta, q, qd, qdd).transpose();
+    if (quantum > 0.0) q = (q / quantum).array().round().matrix() * quantum;
+    run.t[i] = t;
+    run.q.row(i) = q.transpose();
+  }
+  return run;
+}
+
+TEST(SmoothingLambdaForCutoff, HalvesASinusoidAtTheCutoff) {
+  // The smoother's gain at f is 1 / (1 + λ h (2πf)⁴): 1/2 at the cutoff, 1/17 at twice it,
+  // 16/17 at half of it. Checked on dense uniform samples, away from the spline's ends.
+  const double h = 1e-3, f_c = 5.0;
+  const int n = 4001;
+  sid::VectorX<double> t(n);
+  for (int i = 0; i < n; ++i) t[i] = i * h;
+  const double lambda = sid::smoothing_lambda_for_cutoff(f_c, h);
+  const sid::SmoothingSpline<double> spline(t);
+  for (const double ratio : {0.5, 1.0, 2.0}) {
+    const double f = ratio * f_c;
+    const sid::VectorX<double> y = (2.0 * kPi * f * t.array()).sin().matrix();
+    const auto fit = spline.fit_penalized(y, 1.0, 1.0 / lambda);
+    const sid::VectorX<double> g = fit.spline.derivatives_at_knots(0);
+    const double gain = g.segment(1000, 2001).dot(y.segment(1000, 2001)) / y.segment(1000, 2001).squaredNorm();
+    EXPECT_NEAR(gain, 1.0 / (1.0 + std::pow(ratio, 4)), 2e-3) << "f = " << f;
+  }
+}
+
+TEST(KinematicsAtCutoff, ReproducesAStraightLineExactly) {
+  sid::Trajectory<double> run = synthetic_run(0.0, 200, 0.002, 3);
+  run.q.col(0) = 0.3 + 1.5 * run.t.array();
+  run.q.col(1) = -0.2 - 0.5 * run.t.array();
+  const sid::Kinematics<double> k = sid::kinematics_at_cutoff(run, 2.0);
+  EXPECT_LT((k.q - run.q).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((k.qd.col(0).array() - 1.5).abs().maxCoeff(), 1e-9);
+  EXPECT_LT((k.qd.col(1).array() + 0.5).abs().maxCoeff(), 1e-9);
+  EXPECT_LT(k.qdd.cwiseAbs().maxCoeff(), 1e-7);
+}
+
+TEST(IdentifyRuns, StacksRunsAsOneRegressionWhateverTheirOrder) {
+  const sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
+  const sid::Trajectory<double> a = synthetic_run(0.0, 1500, 0.002, 1), b = synthetic_run(1.0, 1200, 0.0025, 2);
+  sid::RunsIdentifyOptions options;
+  options.cutoff_hz = 8.0;
+  const sid::RunsIdentification ab = sid::identify_runs({a, b}, model, options);
+  const sid::RunsIdentification ba = sid::identify_runs({b, a}, model, options);
+  EXPECT_LT((ab.fit.theta - ba.fit.theta).cwiseAbs().maxCoeff(), 1e-12 * ab.fit.theta.norm());
+  // The same fit assembled independently: each run's kinematics windowed by hand.
+  Eigen::MatrixXd X(0, 7);
+  Eigen::VectorXd y(0);
+  for (const auto* run : {&a, &b}) {
+    const sid::Kinematics<double> k = sid::window(sid::kinematics_at_cutoff(*run, 8.0), run->t[0] + 0.1,
+                                                  run->t[run->size() - 1] - 0.1);
+    const auto r = sid::stack_regression(model, k);
+    Eigen::MatrixXd X2(X.rows() + r.X.rows(), 7);
+    X2 << X, r.X;
+    Eigen::VectorXd y2(y.size() + r.y.size());
+    y2 << y, r.y;
+    X.swap(X2);
+    y.swap(y2);
+  }
+  const Eigen::VectorXd theta = X.colPivHouseholderQr().solve(y);
+  EXPECT_LT((ab.fit.theta - theta).cwiseAbs().maxCoeff(), 1e-9 * theta.norm());
+  ASSERT_EQ(ab.kinematics.size(), 2u);
+  EXPECT_EQ(ab.residual_rms.size(), 2u);
+  EXPECT_FALSE(ab.cutoff_chosen);
+}
+
+TEST(IdentifyRuns, RecoversThePaperArmFromQuantisedAnglesOnJitteredGrids) {
+  // Encoder-like angles (steps of 3.81e-4 rad) on jittered 2 ms grids: the chosen cutoff must
+  // give θ within a few percent, where interpolating the steps would not.
+  const sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
+  std::vector<sid::Trajectory<double>> runs;
+  for (int r = 0; r < 3; ++r) runs.push_back(synthetic_run(0.9 * r, 2500, 0.002, 10 + r, 3.81e-4));
+  const sid::RunsIdentification id = sid::identify_runs(runs, model);
+  ASSERT_TRUE(id.fit.ok()) << id.fit.message;
+  EXPECT_TRUE(id.cutoff_chosen);
+  EXPECT_EQ(id.grid_hz.size(), id.cross_validation_rms.size());
+  const sid::TwoLinkParameters<double> truth = sid::paper_arm_parameters();
+  for (int k = 0; k < 7; ++k)
+    EXPECT_LT(std::abs(id.fit.theta[k] - truth[k]), 0.03 * std::abs(truth[k])) << "theta" << k + 1 << " at "
+                                                                                << id.cutoff_hz << " Hz";
+  // Nearly interpolating (the cutoff at the top of the grid) is far worse on the same data.
+  sid::RunsIdentifyOptions rough;
+  rough.cutoff_hz = 64.0;
+  const sid::RunsIdentification interpolating = sid::identify_runs(runs, model, rough);
+  EXPECT_GT((interpolating.fit.theta - truth).cwiseQuotient(truth).cwiseAbs().maxCoeff(),
+            3.0 * (id.fit.theta - truth).cwiseQuotient(truth).cwiseAbs().maxCoeff());
+}
+
+TEST(IdentifyRuns, RejectsBadInput) {
+  const sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
+  const sid::Trajectory<double> run = synthetic_run(0.0, 600, 0.002, 1);
+  EXPECT_THROW((void)sid::identify_runs({}, model), std::invalid_argument);
+  sid::RunsIdentifyOptions bad;
+  bad.cutoff_hz = -1.0;
+  EXPECT_THROW((void)sid::identify_runs({run}, model, bad), std::invalid_argument);
+  bad = {};
+  bad.folds_per_run = 1;
+  EXPECT_THROW((void)sid::identify_runs({run}, model, bad), std::invalid_argument);
+  sid::Trajectory<double> nan_run = run;
+  nan_run.q(10, 1) = std::nan("");
+  EXPECT_THROW((void)sid::identify_runs({run, nan_run}, model), std::invalid_argument);
+  sid::Trajectory<double> backwards = run;
+  backwards.t[20] = backwards.t[19];
+  EXPECT_THROW((void)sid::identify_runs({backwards}, model), std::invalid_argument);
+  const sid::Trajectory<double> short_run = synthetic_run(0.0, 100, 0.002, 1);  // 0.2 s: nothing left
+  EXPECT_THROW((void)sid::identify_runs({short_run}, model), std::invalid_argument);
+  EXPECT_THROW((void)sid::predict_torque(run, model, Eigen::VectorXd::Zero(6), 5.0), std::invalid_argument);
+}
+
+// The lab's own model of the DFKI arm (its published parameters; friction cf atan(100 qd), the
+// rotor of drive 2 on link 1), written out independently of sid's model: the reference sid's
+// estimate must beat on runs it was not fitted on.
+sid::Vector2<double> lab_model_torque(const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
+                                      const sid::Vector2<double>& qdd) {
+  const double I1 = 0.026711, I2 = 0.053878, Ir = 9.937e-5, m1 = 0.64169, m2 = 0.56394, r1 = 0.2,
+               r2 = 0.32127, l1 = 0.2, b = 0.001, cf1 = 0.093, cf2 = 0.078, gr = 6.0, g = 9.81;
+  const double c2 = std::cos(q[1]), s2 = std::sin(q[1]);
+  const double m11 = I1 + I2 + m2 * l1 * l1 + 2 * m2 * l1 * r2 * c2 + (gr * gr + 1) * Ir;
+  const double m12 = I2 + m2 * l1 * r2 * c2 - gr * Ir, m22 = I2 + gr * gr * Ir;
+  const double h = m2 * l1 * r2 * s2;
+  sid::Vector2<double> tau;
+  tau[0] = m11 * qdd[0] + m12 * qdd[1] - 2 * h * qd[1] * qd[0] - h * qd[1] * qd[1] +
+           g * m1 * r1 * std::sin(q[0]) + g * m2 * (l1 * std::sin(q[0]) + r2 * std::sin(q[0] + q[1])) + b * qd[0] +
+           cf1 * std::atan(100 * qd[0]);
+  tau[1] = m12 * qdd[0] + m22 * qdd[1] + h * qd[0] * qd[0] + g * m2 * r2 * std::sin(q[0] + q[1]) + b * qd[1] +
+           cf2 * std::atan(100 * qd[1]);
+  return tau;
+}
+
+class RealRuns : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    for (const char* id : {"00", "01", "02", "03", "05", "12"}) runs_.push_back(load_run(id));
+  }
+  static std::vector<sid::Trajectory<double>> runs_;
+};
+std::vector<sid::Trajectory<double>> RealRuns::runs_;
+
+TEST_F(RealRuns, LeaveOneRunOutPredictsTorquesBetterThanTheLabsModel) {
+  // Each run predicted by the estimate from the other five, no noise level given. The lab's
+  // published errors (derivatives from a local cubic fit) average 0.253 / 0.177 N m; sid must
+  // reach 0.9 x those on each joint. Scored with sid's derivatives, the lab's model (fitted
+  // with friction and rotor terms and its own knowledge of the drives) is about as good as
+  // sid's 7 parameters: most of its published error came from its derivatives. sid must stay
+  // within 3 % of it there.
+  const sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
+  sid::Vector2<double> sid_mean = sid::Vector2<double>::Zero(), lab_mean = sid_mean;
+  const double runs = static_cast<double>(runs_.size());
+  for (std::size_t r = 0; r < runs_.size(); ++r) {
+    std::vector<sid::Trajectory<double>> fitted;
+    for (std::size_t k = 0; k < runs_.size(); ++k)
+      if (k != r) fitted.push_back(runs_[k]);
+    const sid::RunsIdentification id = sid::identify_runs(fitted, model);
+    ASSERT_TRUE(id.fit.ok());
+    EXPECT_GT(id.cutoff_hz, 1.0);
+    EXPECT_LT(id.cutoff_hz, 20.0);
+    const sid::TorquePrediction p = sid::predict_torque(runs_[r], model, id.fit.theta, id.cutoff_hz);
+    sid_mean += p.residual_rms / runs;
+    const sid::Kinematics<double> k =
+        sid::window(sid::kinematics_at_cutoff(runs_[r], id.cutoff_hz), runs_[r].t[0] + 0.1,
+                    runs_[r].t[runs_[r].size() - 1] - 0.1);
+    ASSERT_EQ(k.size(), p.samples);
+    sid::Vector2<double> sse = sid::Vector2<double>::Zero();
+    for (Eigen::Index i = 0; i < k.size(); ++i) {
+      const sid::Vector2<double> e = lab_model_torque(k.q.row(i), k.qd.row(i), k.qdd.row(i)) - k.tau.row(i).transpose();
+      sse += e.cwiseProduct(e);
+    }
+    lab_mean += (sse / static_cast<double>(k.size())).cwiseSqrt() / runs;
+  }
+  RecordProperty("sid_j1", std::to_string(sid_mean[0]));
+  RecordProperty("sid_j2", std::to_string(sid_mean[1]));
+  RecordProperty("lab_j1", std::to_string(lab_mean[0]));
+  RecordProperty("lab_j2", std::to_string(lab_mean[1]));
+  EXPECT_LT(sid_mean[0], 1.03 * lab_mean[0]);
+  EXPECT_LT(sid_mean[1], 1.03 * lab_mean[1]);
+  EXPECT_LT(sid_mean[0], 0.9 * 0.253);
+  EXPECT_LT(sid_mean[1], 0.9 * 0.177);
+}
+
+TEST_F(RealRuns, AllRunsTogetherGiveAPhysicallyPlausibleEstimateNearTheLabs) {
+  const sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
+  const sid::RunsIdentification id = sid::identify_runs(runs_, model);
+  ASSERT_TRUE(id.fit.ok());
+  const sid::PhysicalCheck check = sid::check_physical(model, id.fit.theta, sid::default_physical_constraints(model));
+  EXPECT_TRUE(check.plausible());
+  // The gravity terms are the best-determined physical quantities: m1 r1 + m2 l1 = 0.2411 and
+  // m2 r2 = 0.1812 kg m by the lab's masses; the torques are the drives' own estimates, so a
+  // few percent of scale error is expected, not tens.
+  EXPECT_NEAR(id.fit.theta[3], 0.2411, 0.15 * 0.2411);
+  EXPECT_NEAR(id.fit.theta[4], 0.1812, 0.15 * 0.1812);
+}
+
+TEST_F(RealRuns, GcvOnEncoderAnglesNearlyInterpolates) {
+  // Why the default is not GCV: on quantised angles GCV takes most of the steps for signal.
+  const sid::SmoothingSpline<double> spline(runs_[0].t);
+  const auto fit = spline.fit_cross_validated(runs_[0].q.col(0), 1.0, sid::SmoothingCriterion::Gcv);
+  EXPECT_GT(fit.trace, 0.25 * static_cast<double>(runs_[0].size()));
+  double lambda = 0.0;
+  (void)sid::kinematics_at_cutoff(runs_[0], 5.0, &lambda);
+  EXPECT_GT(lambda / fit.lambda, 1e3);
+}
+
+}  // namespace
