@@ -31,8 +31,13 @@ constexpr const char* kDescription =
 
 constexpr const char* kFooter = R"(
 Input: a CSV file with a header row and the columns t [s], q1, q2 [rad], tau1, tau2 [N m] in
-any order (other columns are ignored; what sid_simulate writes); '#' lines are comments. t
-must be strictly increasing, every cell a finite number.
+any order (other columns are ignored; what sid_simulate writes; --columns maps other names, e.g.
+--columns t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2); '#' lines are
+comments. t must be strictly increasing, every cell a finite number.
+Measured logs: the diagnosis smooths with GCV and takes its noise floors from GCV, which
+assume independent noise; on quantised encoder angles and drive-estimated torques both are far
+too small, so every window is flagged and the named effects are not reliable. Identify such
+logs with sid_identify (several runs, torque-cv smoothing, --effects, --validate).
 
 What it does:
   1. Identifies theta1..theta7 by the cubic smoothing spline (lambda by GCV, no noise level
@@ -92,6 +97,7 @@ Examples:
 struct Options {
   std::string input;
   std::string reference;
+  std::string columns;
   std::string json;
   std::string plots;
   std::string candidates;
@@ -105,6 +111,9 @@ struct Options {
 void define_options(CLI::App& cli, Options& o) {
   cli.footer(kFooter);
   cli.add_option("DATA", o.input, "input CSV file ('-' reads standard input)")->required();
+  cli.add_option("--columns", o.columns,
+                 "map sid's columns to the file's names, e.g. "
+                 "t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2");
   cli.add_option("--reference-theta", o.reference,
                  "theta1..theta7 of a reference identification, comma-separated: report drift");
   cli.add_option("--json", o.json,
@@ -188,7 +197,9 @@ int diagnose(const Options& o) {
     });
 
   const sid::app::CsvTable table = sid::app::read_csv(o.input);
-  const sid::Trajectory<double> data = sid::app::trajectory_from_table(table);
+  const sid::Trajectory<double> data = sid::app::trajectory_from_table(
+      table, o.columns.empty() ? sid::app::TrajectoryColumns{}
+                               : sid::app::parse_trajectory_columns(o.columns, "--columns"));
   const std::string input = table.source == "-" ? "<stdin>" : table.source;
   require(data.size() >= 20,
           input + ": a diagnosis needs at least 20 data rows, got " + std::to_string(data.size()));

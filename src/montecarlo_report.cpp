@@ -80,7 +80,8 @@ int paper_column(sid::StudyMethod m) {
     case sid::StudyMethod::Css: return 2;
     case sid::StudyMethod::CssGcv:
     case sid::StudyMethod::CssWls:
-    case sid::StudyMethod::CssIv: return -1;
+    case sid::StudyMethod::CssIv:
+    case sid::StudyMethod::CssTorqueCv: return -1;
     case sid::StudyMethod::Oracle: return -1;
   }
   return -1;

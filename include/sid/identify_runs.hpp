@@ -240,6 +240,32 @@ inline std::vector<double> cutoff_cross_validation(const std::vector<Trajectory<
   return score;
 }
 
+/// @brief The cutoff the cross-validation chooses, with the criterion over the grid.
+struct CutoffChoice {
+  std::vector<double> grid_hz;
+  std::vector<double> cross_validation_rms;
+  double cutoff_hz = std::nan("");
+};
+
+/// @brief The grid cutoff with the smallest cross-validated torque RMS (see cutoff_grid and
+/// cutoff_cross_validation). @throws std::invalid_argument when every cutoff leaves a fold
+/// whose fit is singular (the runs do not excite every parameter).
+inline CutoffChoice choose_cutoff(const std::vector<Trajectory<double>>& runs, const Model<double>& model,
+                                  const RunsIdentifyOptions& options = {}) {
+  CutoffChoice choice;
+  choice.grid_hz = cutoff_grid(options);
+  choice.cross_validation_rms = cutoff_cross_validation(runs, model, choice.grid_hz, options);
+  std::size_t best = 0;
+  for (std::size_t g = 1; g < choice.grid_hz.size(); ++g)
+    if (choice.cross_validation_rms[g] < choice.cross_validation_rms[best]) best = g;
+  if (!std::isfinite(choice.cross_validation_rms[best]))
+    throw std::invalid_argument(
+        "sid::choose_cutoff: every cutoff leaves a fold whose fit is singular: the runs do not excite "
+        "every parameter of the model");
+  choice.cutoff_hz = choice.grid_hz[best];
+  return choice;
+}
+
 /// @brief Identifies model's θ from all runs together.
 /// @throws std::invalid_argument if there are no runs, a run is invalid (see Trajectory), a run
 ///         has too few samples for its folds after the skips, the options are invalid, or there
@@ -274,16 +300,10 @@ inline RunsIdentification identify_runs(const std::vector<Trajectory<double>>& r
   if (options.cutoff_hz) {
     result.cutoff_hz = *options.cutoff_hz;
   } else {
-    result.grid_hz = cutoff_grid(options);
-    result.cross_validation_rms = cutoff_cross_validation(runs, model, result.grid_hz, options);
-    std::size_t best = 0;
-    for (std::size_t g = 1; g < result.grid_hz.size(); ++g)
-      if (result.cross_validation_rms[g] < result.cross_validation_rms[best]) best = g;
-    if (!std::isfinite(result.cross_validation_rms[best]))
-      throw std::invalid_argument(std::string(who) +
-                                  ": every cutoff leaves a fold whose fit is singular: the runs do not excite "
-                                  "every parameter of the model");
-    result.cutoff_hz = result.grid_hz[best];
+    CutoffChoice choice = choose_cutoff(runs, model, options);
+    result.grid_hz = std::move(choice.grid_hz);
+    result.cross_validation_rms = std::move(choice.cross_validation_rms);
+    result.cutoff_hz = choice.cutoff_hz;
     result.cutoff_chosen = true;
   }
   for (const auto& run : runs) {

@@ -9,6 +9,7 @@
 /// the numbers are the same for any thread count, and runs can be split across machines.
 
 #include <sid/identify.hpp>
+#include <sid/identify_runs.hpp>
 #include <sid/measurement_noise.hpp>
 #include <sid/model/two_link_arm.hpp>
 #include <sid/trajectory.hpp>
@@ -41,6 +42,8 @@ enum class StudyMethod {
   CssWls,    ///< css_gcv kinematics, Gautier's IDIM-WLS (per-joint noise from a first fit)
   CssIv,     ///< GCV's λ × kInstrumentalVariableLambdaScale, LS, then the IDIM-IV step (needs
              ///< MonteCarloOptions::refine)
+  CssTorqueCv,  ///< the spline at the cutoff chosen by cross-validating the torque prediction
+                ///< (sid::choose_cutoff): no noise level needed; the default on measured data
   Oracle,    ///< exact q, q̇, q̈ with the noisy τ: the floor no estimator beats on average
 };
 
@@ -52,19 +55,20 @@ inline const char* study_method_name(StudyMethod method) {
     case StudyMethod::CssGcv: return "css_gcv";
     case StudyMethod::CssWls: return "css_wls";
     case StudyMethod::CssIv: return "css_iv";
+    case StudyMethod::CssTorqueCv: return "css_tcv";
     case StudyMethod::Oracle: return "oracle";
   }
   return "unknown";
 }
 
 /// @throws std::invalid_argument for a name other than raw, filtered, css, css_gcv, css_wls,
-/// css_iv, oracle.
+/// css_iv, css_tcv, oracle.
 inline StudyMethod parse_study_method(const std::string& name) {
   for (StudyMethod m : {StudyMethod::Raw, StudyMethod::Filtered, StudyMethod::Css, StudyMethod::CssGcv,
-                        StudyMethod::CssWls, StudyMethod::CssIv, StudyMethod::Oracle})
+                        StudyMethod::CssWls, StudyMethod::CssIv, StudyMethod::CssTorqueCv, StudyMethod::Oracle})
     if (name == study_method_name(m)) return m;
   throw std::invalid_argument("sid::parse_study_method: unknown method '" + name +
-                              "' (expected raw, filtered, css, css_gcv, css_wls, css_iv or oracle)");
+                              "' (expected raw, filtered, css, css_gcv, css_wls, css_iv, css_tcv or oracle)");
 }
 
 /// @brief A refinement of a first least-squares fit on the windowed kinematics, such as the
@@ -137,6 +141,15 @@ inline Kinematics<double> study_kinematics(StudyMethod method, const Kinematics<
     Kinematics<double> k = truth;
     k.tau = measured.tau;
     return k;
+  }
+  if (method == StudyMethod::CssTorqueCv) {
+    // The study already runs one data set per thread; the cutoff search stays on it.
+    RunsIdentifyOptions choice;
+    choice.skip = base.skip;
+    choice.skip_end = base.skip_end;
+    choice.threads = 1;
+    const std::vector<Trajectory<double>> runs{measured};
+    return kinematics_at_cutoff(measured, choose_cutoff(runs, two_link_arm_model<double>(base.gravity), choice).cutoff_hz);
   }
   IdentifyOptions options = base;
   options.method = method == StudyMethod::Raw        ? DerivativeMethod::ForwardDifference
