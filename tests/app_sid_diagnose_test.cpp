@@ -195,6 +195,11 @@ TEST_F(SidDiagnose, BadInputExitsWithTwoAndAClearMessage) {
   expect_input_error("nocol.csv", "tau2");
   write("short.csv", "t,q1,q2,tau1,tau2\n0,0,0,0,0\n0.0025,0,0,0,0\n");
   expect_input_error("short.csv", "at least 20");
+  // --columns maps the file's own names; a name it does not have is named in the message.
+  write("named.csv", "time,a,b,c,d\n0,0,0,0,0\n0.0025,0,0,0,0\n");
+  expect_input_error("named.csv --columns t=time,q1=a,q2=b,tau1=c,tau2=d", "at least 20");
+  expect_input_error("named.csv --columns t=time,q1=a,q2=b,tau1=c,tau2=e", "no column 'e'");
+  expect_input_error("named.csv --columns t=time,angle=a", "unknown key 'angle'");
   // Option errors are found before the file is read.
   expect_input_error("x.csv --coulomb-epsilon 0", "--coulomb-epsilon");
   expect_input_error("x.csv --coulomb-epsilon -1", "--coulomb-epsilon");
