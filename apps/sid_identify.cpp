@@ -62,6 +62,11 @@ does not interpolate quantised encoder angles. Samples within 0.1 s of each end 
                      (gr^2+1) Ir, -gr Ir, gr^2 Ir to M11, M12, M22; with theta1 and theta2 free
                      this is exactly an armature Ia = (gr^2 + gr) Ir on joint 2, so
                      Ir = Ia / (gr^2 + gr) is reported with its standard deviation.
+Uncertainty: the std column is the HAC standard deviation (Newey-West, prewhitened, per run):
+residuals on smoothed measured data are correlated in time, and the least-squares std
+(ls_std in the JSON) is then several times too small. With three runs or more, each run is
+also left out in turn: the column std (runs) is the jackknife over those fits, and the runs
+table shows how well the others' fit predicts each run (columns "left out").
 The physical plausibility of the estimate is always checked: the mass matrix positive definite
 for every q2 (on a 1-degree grid) and theta4..theta7, Coulomb levels and armatures >= 0. If it
 fails, the nearest physically consistent estimate (least squares under those constraints) is
@@ -133,10 +138,11 @@ unless s-constraint), smoothing (null unless css): {mode, lambda, trace, sigma_h
 cross_validation_skip}, each but mode a [joint 1, joint 2] array (null where not computed:
 sigma_hat outside gcv/cv), and with --true also true and error_pct.
 
-With torque-cv the JSON has: input (the files), names, units, theta, std, rel_std_pct,
-residual_rms, condition_number, ill_conditioned, warning, samples_used, skip, skip_end,
+With torque-cv the JSON has: input (the files), names, units, theta, std (HAC), rel_std_pct,
+ls_std, jackknife_std (null with fewer than 3 runs), residual_rms, condition_number, ill_conditioned, warning, samples_used, skip, skip_end,
 smoothing {mode, cutoff_hz, chosen, folds_per_run, grid_hz, cross_validation_rms, lambda (per
-run)}, runs [{file, samples_total, samples_used, lambda, residual_rms [, reference_residual_rms]}],
+run)}, runs [{file, samples_total, samples_used, lambda, residual_rms, left_out_prediction_rms
+[, reference_residual_rms]}],
 validation [{file, samples, residual_rms, nominal_residual_rms [, reference_residual_rms]}],
 physical {plausible, mass_matrix_positive_definite, min_mass_eigenvalue, min_mass_eigenvalue_q2,
 negative_parameters, consistent_theta (null when plausible), ...}, reference_theta and, with

@@ -129,9 +129,10 @@ void validation_lines(const RunsReportInput& in, std::ostringstream& out, nlohma
 void runs_table(const RunsReportInput& in, std::ostringstream& out, nlohmann::json& j) {
   const int w = file_width(in);
   char line[512];
+  const bool left_out = in.id.left_out_prediction_rms.size() == in.runs.size();
   std::snprintf(line, sizeof line, "  %-*s %8s %8s %12s %10s %10s", w, "run (fitted)", "samples", "used", "lambda",
                 "RMS j1", "RMS j2");
-  out << line << (in.reference_theta ? "   reference: j1, j2" : "") << "\n";
+  out << line << (left_out ? "   left out: j1, j2" : "") << (in.reference_theta ? "   reference: j1, j2" : "") << "\n";
   nlohmann::json runs = nlohmann::json::array();
   for (std::size_t r = 0; r < in.runs.size(); ++r) {
     const auto& rms = in.id.residual_rms[r];
@@ -139,11 +140,17 @@ void runs_table(const RunsReportInput& in, std::ostringstream& out, nlohmann::js
                   static_cast<long>(in.runs[r].data.size()), static_cast<long>(in.id.kinematics[r].size()),
                   in.id.lambda[r], rms[0], rms[1]);
     out << line;
+    if (left_out) {
+      std::snprintf(line, sizeof line, "   %8.4f %8.4f", in.id.left_out_prediction_rms[r][0],
+                    in.id.left_out_prediction_rms[r][1]);
+      out << line;
+    }
     nlohmann::json run{{"file", in.runs[r].file},
                        {"samples_total", in.runs[r].data.size()},
                        {"samples_used", in.id.kinematics[r].size()},
                        {"lambda", in.id.lambda[r]},
                        {"residual_rms", pair(rms)}};
+    run["left_out_prediction_rms"] = left_out ? pair(in.id.left_out_prediction_rms[r]) : nlohmann::json(nullptr);
     if (r < in.reference_on_fitted.size()) {
       std::snprintf(line, sizeof line, "   %8.4f %8.4f", in.reference_on_fitted[r].residual_rms[0],
                     in.reference_on_fitted[r].residual_rms[1]);
@@ -181,6 +188,45 @@ void smoothing_lines(const RunsReportInput& in, std::ostringstream& out, nlohman
                     {"lambda", id.lambda}};
 }
 
+// std is the HAC one (the residuals are correlated in time); with three runs or more the
+// spread over the fits that leave one run out is shown too, and is the larger, honest one.
+void parameter_table(const RunsReportInput& in, std::ostringstream& out, nlohmann::json& j) {
+  const auto& fit = in.id.fit;
+  const std::vector<std::string> names = in.model.parameter_names();
+  const bool jackknife = in.id.jackknife_std_dev.size() == fit.theta.size();
+  const bool hac = in.id.hac_std_dev.size() == fit.theta.size();
+  const Eigen::VectorXd std_dev = hac ? in.id.hac_std_dev : fit.std_dev;
+  Eigen::VectorXd relative = 100.0 * std_dev.cwiseQuotient(fit.theta.cwiseAbs());
+  char line[256];
+  std::snprintf(line, sizeof line, "%-22s %15s %12s %11s %12s  %-10s", "parameter", "estimate", "std (HAC)",
+                "rel.std %", jackknife ? "std (runs)" : "", "unit");
+  out << line << (in.reference_theta ? "  reference" : "") << "\n";
+  std::vector<std::string> units;
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    const auto i = static_cast<Eigen::Index>(k);
+    units.push_back(parameter_unit(names[k]));
+    std::snprintf(line, sizeof line, "%-22s %15s %12s %11s %12s  %-10s", names[k].c_str(),
+                  number("%.8g", fit.theta[i]).c_str(), number("%.3g", std_dev[i]).c_str(),
+                  number("%.4f", relative[i]).c_str(),
+                  jackknife ? number("%.3g", in.id.jackknife_std_dev[i]).c_str() : "", units.back().c_str());
+    out << line;
+    if (in.reference_theta) out << "  " << number("%.6g", (*in.reference_theta)[i]);
+    out << "\n";
+  }
+  out << "std (HAC): from the residuals' autocorrelation (Newey-West); the least-squares std assumes none and is "
+      << number("%.2g", (std_dev.cwiseQuotient(fit.std_dev)).minCoeff()) << "-"
+      << number("%.2g", (std_dev.cwiseQuotient(fit.std_dev)).maxCoeff()) << "x smaller here"
+      << (jackknife ? ";\nstd (runs): jackknife over the fits that leave one run out (what differs between runs)" : "")
+      << "\n";
+  j["names"] = names;
+  j["units"] = units;
+  j["theta"] = to_json_array(fit.theta);
+  j["std"] = to_json_array(std_dev);
+  j["rel_std_pct"] = to_json_array(relative);
+  j["ls_std"] = to_json_array(fit.std_dev);
+  j["jackknife_std"] = jackknife ? to_json_array(in.id.jackknife_std_dev) : nlohmann::json(nullptr);
+}
+
 }  // namespace
 
 std::string parameter_unit(const std::string& name) {
@@ -197,7 +243,6 @@ std::string parameter_unit(const std::string& name) {
 
 RunsReport make_runs_report(const RunsReportInput& in) {
   const auto& fit = in.id.fit;
-  const std::vector<std::string> names = in.model.parameter_names();
   std::ostringstream out;
   nlohmann::json j;
   Eigen::Index used = 0;
@@ -206,20 +251,7 @@ RunsReport make_runs_report(const RunsReportInput& in) {
       << " samples used (" << 2 * used << " equations), method css, estimator ls\n";
   smoothing_lines(in, out, j);
   out << "\n";
-  char line[256];
-  std::snprintf(line, sizeof line, "%-22s %15s %12s %11s  %-10s", "parameter", "estimate", "std", "rel.std %", "unit");
-  out << line << (in.reference_theta ? "  reference" : "") << "\n";
-  std::vector<std::string> units;
-  for (std::size_t k = 0; k < names.size(); ++k) {
-    const auto i = static_cast<Eigen::Index>(k);
-    units.push_back(parameter_unit(names[k]));
-    std::snprintf(line, sizeof line, "%-22s %15s %12s %11s  %-10s", names[k].c_str(), number("%.8g", fit.theta[i]).c_str(),
-                  number("%.3g", fit.std_dev[i]).c_str(), number("%.4f", fit.relative_std_dev[i]).c_str(),
-                  units.back().c_str());
-    out << line;
-    if (in.reference_theta) out << "  " << number("%.6g", (*in.reference_theta)[i]);
-    out << "\n";
-  }
+  parameter_table(in, out, j);
   out << "\nresidual RMS [N m] over the fitted runs: joint 1 " << number("%.4g", fit.residual_rms[0]) << ", joint 2 "
       << number("%.4g", fit.residual_rms[1]) << "\n";
   out << "condition number (column-scaled regressor): " << number("%.4g", fit.condition_number) << "\n";
@@ -235,11 +267,6 @@ RunsReport make_runs_report(const RunsReportInput& in) {
   j["input"] = files;
   j["method"] = "css";
   j["estimator"] = "ls";
-  j["names"] = names;
-  j["units"] = units;
-  j["theta"] = to_json_array(fit.theta);
-  j["std"] = to_json_array(fit.std_dev);
-  j["rel_std_pct"] = to_json_array(fit.relative_std_dev);
   j["residual_rms"] = to_json_array(fit.residual_rms);
   j["condition_number"] = fit.condition_number;
   j["ill_conditioned"] = fit.ill_conditioned;

@@ -81,6 +81,13 @@ TEST_F(SidIdentifyRuns, FitsSeveralRunsAndValidatesOnAnother) {
   }
   EXPECT_TRUE(j["physical"]["plausible"].get<bool>()) << j["physical"].dump();
   EXPECT_TRUE(j["physical"]["consistent_theta"].is_null());
+  // std is the HAC one: larger than least squares' on correlated residuals; two runs give no
+  // leave-one-run-out spread.
+  const auto hac = numbers(j["std"]), ls = numbers(j["ls_std"]);
+  ASSERT_EQ(hac.size(), 7u);
+  for (std::size_t k = 0; k < 7; ++k) EXPECT_GT(hac[k], ls[k]) << "theta" << k + 1;
+  EXPECT_TRUE(j["jackknife_std"].is_null());
+  EXPECT_TRUE(j["runs"][0]["left_out_prediction_rms"].is_null());
 }
 
 TEST_F(SidIdentifyRuns, ColumnMapGivesTheSameResultAsRenamedColumns) {
@@ -116,8 +123,10 @@ TEST_F(SidIdentifyRuns, ReferenceThetaIsScoredOnFittedAndValidationRuns) {
 TEST_F(SidIdentifyRuns, EffectsAndGearRatioReportTheRotorOfDriveTwo) {
   const nlohmann::json j = identify_json(std::string(kColumns) +
                                          " --effects coulomb_j1,coulomb_j2,armature_j2 --gear-ratio 6,6 " +
-                                         run("00") + " " + run("01"));
+                                         run("00") + " " + run("01") + " " + run("12"));
   ASSERT_TRUE(j.contains("rotor")) << j.dump();
+  EXPECT_EQ(j["jackknife_std"].size(), 10u);
+  EXPECT_EQ(j["runs"][2]["left_out_prediction_rms"].size(), 2u);
   EXPECT_EQ(j["names"].size(), 10u);
   EXPECT_EQ(j["names"][9], "armature_j2.Ia");
   EXPECT_EQ(j["units"][7], "N m");

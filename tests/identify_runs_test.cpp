@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -284,6 +285,71 @@ TEST_F(RealRuns, EveryPairOfRunsGivesAPlausibleOrAConsistentEstimate) {
   // Without the swing-up the rotor term comes out negative (docs/real-data.md): some pairs must
   // exercise the consistent estimate.
   EXPECT_GT(implausible, 0);
+}
+
+TEST(IdentifyRuns, HacStandardDeviationsMatchTheSpreadOfEstimates) {
+  // White torque noise on exact angles: the residuals are uncorrelated, so the HAC standard
+  // deviations must agree with the spread of θ̂ over independent noise draws (and with the
+  // ordinary least-squares ones).
+  const sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
+  sid::RunsIdentifyOptions options;
+  options.cutoff_hz = 30.0;
+  const sid::Trajectory<double> clean = synthetic_run(0.3, 1500, 0.002, 5);
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  const int draws = 40;
+  Eigen::MatrixXd thetas(draws, 7);
+  Eigen::VectorXd hac_mean = Eigen::VectorXd::Zero(7), ls_mean = hac_mean;
+  for (int d = 0; d < draws; ++d) {
+    sid::Trajectory<double> run = clean;
+    for (Eigen::Index i = 0; i < run.size(); ++i) run.tau.row(i) += sid::Vector2<double>(noise(rng), noise(rng)).transpose();
+    const sid::RunsIdentification id = sid::identify_runs({run}, model, options);
+    ASSERT_EQ(id.hac_std_dev.size(), 7);
+    thetas.row(d) = id.fit.theta.transpose();
+    hac_mean += id.hac_std_dev / draws;
+    ls_mean += id.fit.std_dev / draws;
+  }
+  const Eigen::RowVectorXd mean = thetas.colwise().mean();
+  const Eigen::VectorXd spread =
+      ((thetas.rowwise() - mean).array().square().colwise().sum() / (draws - 1)).sqrt().transpose();
+  for (int k = 0; k < 7; ++k) {
+    EXPECT_NEAR(hac_mean[k] / spread[k], 1.0, 0.35) << "theta" << k + 1;  // 40 draws: ±11 % (1σ)
+    EXPECT_NEAR(hac_mean[k] / ls_mean[k], 1.0, 0.2) << "theta" << k + 1;
+  }
+}
+
+TEST_F(RealRuns, HacStandardDeviationsExceedTheLeastSquaresOnesOnMeasuredRuns) {
+  // The measured residuals are correlated over many samples: the ordinary covariance is
+  // over-confident. The spread of the six leave-one-run-out estimates is of the HAC size.
+  const sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
+  const sid::RunsIdentification id = sid::identify_runs(runs_, model);
+  ASSERT_EQ(id.hac_std_dev.size(), 7);
+  for (int k = 0; k < 7; ++k) EXPECT_GT(id.hac_std_dev[k], 2.0 * id.fit.std_dev[k]) << "theta" << k + 1;
+  // Each run left out in turn, at the chosen cutoff: the same as fitting the other five with
+  // that cutoff given and predicting the sixth.
+  ASSERT_EQ(id.left_out_prediction_rms.size(), runs_.size());
+  ASSERT_EQ(id.jackknife_std_dev.size(), 7);
+  sid::RunsIdentifyOptions fixed;
+  fixed.cutoff_hz = id.cutoff_hz;
+  Eigen::MatrixXd estimates(static_cast<Eigen::Index>(runs_.size()), 7);
+  for (std::size_t r = 0; r < runs_.size(); ++r) {
+    std::vector<sid::Trajectory<double>> others;
+    for (std::size_t k = 0; k < runs_.size(); ++k)
+      if (k != r) others.push_back(runs_[k]);
+    const sid::RunsIdentification without = sid::identify_runs(others, model, fixed);
+    estimates.row(static_cast<Eigen::Index>(r)) = without.fit.theta.transpose();
+    const sid::TorquePrediction p = sid::predict_torque(runs_[r], model, without.fit.theta, id.cutoff_hz);
+    EXPECT_NEAR(p.residual_rms[0], id.left_out_prediction_rms[r][0], 1e-9) << "run " << r;
+    EXPECT_NEAR(p.residual_rms[1], id.left_out_prediction_rms[r][1], 1e-9) << "run " << r;
+  }
+  const Eigen::RowVectorXd mean = estimates.colwise().mean();
+  for (int k = 0; k < 7; ++k) {
+    const double jackknife = std::sqrt((estimates.col(k).array() - mean[k]).square().sum() * 5.0 / 6.0);
+    EXPECT_NEAR(id.jackknife_std_dev[k], jackknife, 1e-9 * jackknife) << "theta" << k + 1;
+  }
+  // What differs between the runs' motions dominates the gravity terms' uncertainty.
+  EXPECT_GT(id.jackknife_std_dev[3], id.hac_std_dev[3]);
+  EXPECT_GT(id.jackknife_std_dev[4], id.hac_std_dev[4]);
 }
 
 TEST_F(RealRuns, GcvOnEncoderAnglesNearlyInterpolates) {

@@ -18,6 +18,7 @@
 /// by correlated angle error: a q̈ that follows the steps predicts held-out torques badly.
 
 #include <sid/detail/parallel.hpp>
+#include <sid/diagnosis/hac.hpp>
 #include <sid/identify.hpp>
 #include <sid/least_squares.hpp>
 #include <sid/model/model.hpp>
@@ -72,6 +73,17 @@ struct RunsIdentification {
   /// cutoff was given). Infinite where a fold's fit was singular.
   std::vector<double> grid_hz;
   std::vector<double> cross_validation_rms;
+  /// Standard deviations of θ from the HAC covariance (Newey–West with prewhitening, per run,
+  /// runs independent). The fit's own std_dev assumes uncorrelated residuals; residuals on
+  /// smoothed measured data are correlated over tens of samples, and then it is several times
+  /// too small. Empty unless the fit succeeded.
+  Eigen::VectorXd hac_std_dev;
+  /// With three runs or more, each run is also left out in turn (same cutoff): the torque RMS
+  /// per joint with which the fit of the others predicts it, and the jackknife standard
+  /// deviations of θ over those fits, √((R − 1)/R Σ(θ̂₍ᵣ₎ − θ̄)²). These include what differs
+  /// from run to run (the motions reveal different model errors), which neither covariance sees.
+  std::vector<Vector2<double>> left_out_prediction_rms;
+  Eigen::VectorXd jackknife_std_dev;
   /// Per run: λ of the penalty form (the same for both joints) and the residual RMS per joint.
   std::vector<double> lambda;
   std::vector<Vector2<double>> residual_rms;
@@ -247,6 +259,87 @@ struct CutoffChoice {
   double cutoff_hz = std::nan("");
 };
 
+/// @brief Standard deviations of a least-squares θ̂ whose residuals are correlated in time: the
+/// HAC sandwich (XᵀX)⁻¹ (Σ_runs S_run) (XᵀX)⁻¹, where S_run is the prewhitened Newey–West
+/// long-run sum of the run's scores g_t = Σ_joints x_{t,j} e_{t,j} (both joints' equations at
+/// one time form one score, so their correlation is kept). Runs are independent.
+/// @param fit a successful fit of stack_runs(model, kinematics).
+inline Eigen::VectorXd hac_standard_deviations(const StackedRegression<double>& all,
+                                               const std::vector<Kinematics<double>>& kinematics,
+                                               const LeastSquaresResult<double>& fit) {
+  const Eigen::Index p = all.X.cols(), total = all.X.rows() / 2;
+  Eigen::MatrixXd long_run = Eigen::MatrixXd::Zero(p, p);
+  Eigen::Index at = 0;
+  for (const auto& k : kinematics) {
+    const Eigen::Index n = k.size();
+    const Eigen::MatrixXd scores =
+        all.X.middleRows(at, n).array().colwise() * fit.residual.segment(at, n).array() +
+        all.X.middleRows(total + at, n).array().colwise() * fit.residual.segment(total + at, n).array();
+    long_run += hac_long_run_sum(scores);
+    at += n;
+  }
+  const Eigen::MatrixXd inverse_gram = fit.covariance / fit.sigma2;
+  return (inverse_gram * long_run * inverse_gram).diagonal().cwiseMax(0.0).cwiseSqrt();
+}
+
+namespace detail {
+
+/// Every run valid with enough samples for its folds after the skips, and more equations than
+/// parameters in all.
+inline void check_runs(const std::vector<Trajectory<double>>& runs, const Model<double>& model,
+                       const RunsIdentifyOptions& options, const char* who) {
+  check_runs_options(options, who);
+  if (runs.empty()) throw std::invalid_argument(std::string(who) + ": no runs given");
+  if (model.num_parameters() < 1) throw std::invalid_argument(std::string(who) + ": the model has no parameters");
+  Eigen::Index total = 0;
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const std::string run_name = std::string(who) + " (run " + std::to_string(r + 1) + ")";
+    runs[r].validate(run_name.c_str());
+    const auto& t = runs[r].t;
+    Eigen::Index used = 0;
+    for (Eigen::Index i = 0; i < t.size(); ++i)
+      used += t[i] >= t[0] + options.skip - 1e-9 && t[i] <= t[t.size() - 1] - options.skip_end + 1e-9;
+    if (used < 3 * options.folds_per_run)
+      throw std::invalid_argument(run_name + ": only " + std::to_string(used) + " samples are left after skipping " +
+                                  std::to_string(options.skip) + " s at the start and " +
+                                  std::to_string(options.skip_end) + " s at the end; need at least " +
+                                  std::to_string(3 * options.folds_per_run));
+    total += used;
+  }
+  if (2 * total <= model.num_parameters())
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(2 * total) + " equations for " +
+                                std::to_string(model.num_parameters()) + " parameters");
+}
+
+/// Each run predicted by the fit of the others (see RunsIdentification::left_out_prediction_rms).
+inline void leave_each_run_out(const Model<double>& model, const LeastSquaresOptions& ls, RunsIdentification& result) {
+  const std::size_t runs = result.kinematics.size();
+  Eigen::MatrixXd estimates(static_cast<Eigen::Index>(runs), result.fit.theta.size());
+  for (std::size_t r = 0; r < runs; ++r) {
+    std::vector<Kinematics<double>> others;
+    for (std::size_t k = 0; k < runs; ++k)
+      if (k != r) others.push_back(result.kinematics[k]);
+    const StackedRegression<double> fitted = stack_runs(model, others);
+    const LeastSquaresResult<double> fit = least_squares(fitted.X, fitted.y, 2, ls);
+    if (!fit.ok()) {
+      result.left_out_prediction_rms.clear();
+      result.jackknife_std_dev.resize(0);
+      return;
+    }
+    estimates.row(static_cast<Eigen::Index>(r)) = fit.theta.transpose();
+    const StackedRegression<double> left_out = stack_regression(model, result.kinematics[r]);
+    const Eigen::VectorXd e = left_out.y - left_out.X * fit.theta;
+    const Eigen::Index n = result.kinematics[r].size();
+    result.left_out_prediction_rms.emplace_back(std::sqrt(e.head(n).squaredNorm() / n),
+                                                std::sqrt(e.tail(n).squaredNorm() / n));
+  }
+  const Eigen::RowVectorXd mean = estimates.colwise().mean();
+  const double factor = static_cast<double>(runs - 1) / static_cast<double>(runs);
+  result.jackknife_std_dev = ((estimates.rowwise() - mean).array().square().colwise().sum() * factor).sqrt().transpose();
+}
+
+}  // namespace detail
+
 /// @brief The grid cutoff with the smallest cross-validated torque RMS (see cutoff_grid and
 /// cutoff_cross_validation). @throws std::invalid_argument when every cutoff leaves a fold
 /// whose fit is singular (the runs do not excite every parameter).
@@ -273,29 +366,7 @@ inline CutoffChoice choose_cutoff(const std::vector<Trajectory<double>>& runs, c
 ///         reported in fit.status, as by least_squares.
 inline RunsIdentification identify_runs(const std::vector<Trajectory<double>>& runs, const Model<double>& model,
                                         const RunsIdentifyOptions& options = {}) {
-  constexpr const char* who = "sid::identify_runs";
-  detail::check_runs_options(options, who);
-  if (runs.empty()) throw std::invalid_argument(std::string(who) + ": no runs given");
-  if (model.num_parameters() < 1) throw std::invalid_argument(std::string(who) + ": the model has no parameters");
-  Eigen::Index total = 0;
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    const std::string run_name = std::string(who) + " (run " + std::to_string(r + 1) + ")";
-    runs[r].validate(run_name.c_str());
-    const auto& t = runs[r].t;
-    Eigen::Index used = 0;
-    for (Eigen::Index i = 0; i < t.size(); ++i)
-      used += t[i] >= t[0] + options.skip - 1e-9 && t[i] <= t[t.size() - 1] - options.skip_end + 1e-9;
-    if (used < 3 * options.folds_per_run)
-      throw std::invalid_argument(run_name + ": only " + std::to_string(used) + " samples are left after skipping " +
-                                  std::to_string(options.skip) + " s at the start and " +
-                                  std::to_string(options.skip_end) + " s at the end; need at least " +
-                                  std::to_string(3 * options.folds_per_run));
-    total += used;
-  }
-  if (2 * total <= model.num_parameters())
-    throw std::invalid_argument(std::string(who) + ": " + std::to_string(2 * total) + " equations for " +
-                                std::to_string(model.num_parameters()) + " parameters");
-
+  detail::check_runs(runs, model, options, "sid::identify_runs");
   RunsIdentification result;
   if (options.cutoff_hz) {
     result.cutoff_hz = *options.cutoff_hz;
@@ -315,6 +386,10 @@ inline RunsIdentification identify_runs(const std::vector<Trajectory<double>>& r
   if (ls.column_names.empty()) ls.column_names = model.parameter_names();
   const StackedRegression<double> all = stack_runs(model, result.kinematics);
   result.fit = least_squares(all.X, all.y, 2, ls);
+  if (result.fit.ok() && result.fit.sigma2 > 0.0)
+    result.hac_std_dev = hac_standard_deviations(all, result.kinematics, result.fit);
+  if (result.fit.ok() && runs.size() >= 3) detail::leave_each_run_out(model, ls, result);
+  const Eigen::Index total = all.X.rows() / 2;
   Eigen::Index at = 0;
   for (const auto& k : result.kinematics) {
     const Eigen::Index n = k.size();

@@ -246,7 +246,7 @@ class BarrierSolver {
     diff_.resize(n);
     wdiff_.resize(p_.w.rows());
     wstep_.resize(p_.w.rows());
-    llt_ = Eigen::LLT<Eigen::MatrixXd>(n);
+    llt_.compute(Eigen::MatrixXd::Identity(n, n));  // sized once here, and its status set
   }
 
   /// ||w (z - z0)||^2 + c'z, the cost without the barrier.
