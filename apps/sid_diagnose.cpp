@@ -10,6 +10,7 @@
 #include <iostream>
 #include <optional>
 #include <sid/cvode/diagnose.hpp>
+#include <sid/diagnose_runs.hpp>
 #include <sid/model/effects.hpp>
 #include <string>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "csv.hpp"
 #include "diagnose_report.hpp"
 #include "plot.hpp"
+#include "runs_diagnose_report.hpp"
 
 namespace {
 
@@ -30,14 +32,33 @@ constexpr const char* kDescription =
     "springs), refit with it and report the gap before and after.\n";
 
 constexpr const char* kFooter = R"(
-Input: a CSV file with a header row and the columns t [s], q1, q2 [rad], tau1, tau2 [N m] in
+Measured runs (two files or more, or --measured): the runs are diagnosed together, as they are.
+  1. Each run is smoothed on its own time grid (which may be non-uniform) at one cutoff
+     frequency, chosen by how well the nominal model then predicts torques it was not fitted
+     on (as sid_identify does); the equations of all runs are stacked.
+  2. The floor per run and joint is the torque's content above the cutoff: no model on the
+     smoothed angles can explain it.
+  3. Forward selection: an effect is named only if its HAC Wald test rejects (Holm, 1 %) AND
+     it lowers the torque error of held-out runs (each run predicted by the fit of the
+     others; with fewer than 3 runs, contiguous blocks) by more than 0.5 % in mean square,
+     AND its values are physical. Significance alone is not enough on measured logs: a term
+     that absorbs one run's model error is significant but predicts the other runs worse.
+  4. Reported: the named and rejected effects with their values, whether the rotor of drive
+     2 carried by link 1 is supported (--gear-ratio turns its armature into Ir), what no
+     effect explains (the residual's excess over the floor), the final model with its
+     physical plausibility, each run's free simulation in one line (its error, or where and
+     why it became unstable), and the runs given with --validate.
+  Options of the single-log diagnosis that do not apply: --reference-theta, --plots,
+  --rest-velocity, --window.
+
+Input: CSV files with a header row and the columns t [s], q1, q2 [rad], tau1, tau2 [N m] in
 any order (other columns are ignored; what sid_simulate writes; --columns maps other names, e.g.
 --columns t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2); '#' lines are
 comments. t must be strictly increasing, every cell a finite number.
-Measured logs: the diagnosis smooths with GCV and takes its noise floors from GCV, which
-assume independent noise; on quantised encoder angles and drive-estimated torques both are far
-too small, so every window is flagged and the named effects are not reliable. Identify such
-logs with sid_identify (several runs, torque-cv smoothing, --effects, --validate).
+
+Single log (one file): the single-log diagnosis smooths with GCV and takes its noise floors from GCV, which assume
+independent noise: right for simulated logs, far too small on quantised encoder angles and
+drive-estimated torques. Diagnose measured logs as measured runs (above).
 
 What it does:
   1. Identifies theta1..theta7 by the cubic smoothing spline (lambda by GCV, no noise level
@@ -88,6 +109,8 @@ Files (existing files are never overwritten without --force):
 Exit codes: 0 success, 2 bad input or options (message on standard error), 1 internal error.
 
 Examples:
+  sid_diagnose run1.csv run2.csv run3.csv --validate run4.csv --gear-ratio 6 \
+      --columns t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2
   sid_simulate --effect coulomb_j2:0.2 -o log.csv && sid_diagnose log.csv
   sid_diagnose log.csv --json diagnosis.json --plots figures
   sid_diagnose log.csv --candidates coulomb_j1,coulomb_j2 --coulomb-epsilon 0.02
@@ -95,7 +118,10 @@ Examples:
 )";
 
 struct Options {
-  std::string input;
+  std::vector<std::string> inputs;
+  std::vector<std::string> validate;
+  bool measured = false;
+  std::optional<double> gear_ratio;
   std::string reference;
   std::string columns;
   std::string json;
@@ -110,7 +136,16 @@ struct Options {
 
 void define_options(CLI::App& cli, Options& o) {
   cli.footer(kFooter);
-  cli.add_option("DATA", o.input, "input CSV file ('-' reads standard input)")->required();
+  cli.add_option("DATA", o.inputs, "input CSV file(s), one per run ('-' reads standard input)")->required();
+  cli.add_flag("--measured", o.measured,
+               "diagnose as measured runs (torque-cv smoothing, held-out prediction) even for one "
+               "file; implied by two files or more");
+  cli.add_option("--validate", o.validate,
+                 "measured runs: predict the torques of this run, not used in the fit "
+                 "(repeatable)")
+      ->allow_extra_args(false);
+  cli.add_option("--gear-ratio", o.gear_ratio,
+                 "measured runs: gear ratio of drive 2, to report its rotor inertia Ir, > 0");
   cli.add_option("--columns", o.columns,
                  "map sid's columns to the file's names, e.g. "
                  "t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2");
@@ -163,8 +198,91 @@ void for_option(const std::string& option, const Check& check) {
   }
 }
 
+sid::app::TrajectoryColumns columns_of(const Options& o) {
+  return o.columns.empty() ? sid::app::TrajectoryColumns{}
+                           : sid::app::parse_trajectory_columns(o.columns, "--columns");
+}
+
+int diagnose_measured_runs(const Options& o) {
+  using sid::app::require;
+  require(o.reference.empty() && o.plots.empty() && o.rest_velocity == sid::DiagnoseOptions{}.rest_velocity &&
+              o.window == 0.5,
+          "--reference-theta, --plots, --rest-velocity and --window apply to the diagnosis of a single log, "
+          "not of measured runs");
+  sid::app::RunsDiagnoseReportInput in;
+  if (!o.candidates.empty()) in.options.candidates = parse_candidates(o.candidates);
+  if (o.coulomb_epsilon) {
+    require(std::isfinite(*o.coulomb_epsilon) && *o.coulomb_epsilon > 0.0,
+            "--coulomb-epsilon must be a finite number > 0 [rad/s], got " + short_number(*o.coulomb_epsilon));
+    in.options.effects.coulomb_epsilon = *o.coulomb_epsilon;
+  }
+  require(std::isfinite(o.segment) && o.segment > 0.0,
+          "--segment must be a finite number > 0 [s], got " + short_number(o.segment));
+  in.segment = o.segment;
+  if (o.gear_ratio) {
+    require(std::isfinite(*o.gear_ratio) && *o.gear_ratio > 0.0,
+            "--gear-ratio must be a finite number > 0, got " + short_number(*o.gear_ratio));
+    in.gear_ratio = o.gear_ratio;
+  }
+  int stdin_uses = 0;
+  for (const auto& f : o.inputs) stdin_uses += f == "-";
+  for (const auto& f : o.validate) stdin_uses += f == "-";
+  require(stdin_uses <= 1, "standard input ('-') can be read only once");
+  if (!o.json.empty()) for_option("--json", [&] { sid::app::ensure_writable(o.json, o.force); });
+
+  const sid::app::TrajectoryColumns columns = columns_of(o);
+  std::vector<sid::Trajectory<double>> data;
+  for (const auto& file : o.inputs) {
+    in.runs.push_back(sid::app::read_run(file, columns));
+    data.push_back(in.runs.back().data);
+  }
+  std::vector<sid::app::RunFile> held_out;
+  for (const auto& file : o.validate) held_out.push_back(sid::app::read_run(file, columns));
+  try {
+    in.diagnosis = sid::diagnose_runs(data, in.options);
+  } catch (const std::invalid_argument& e) {
+    throw sid::app::InputError(e.what());
+  }
+  const sid::RunsDiagnosis& d = in.diagnosis;
+  if (!d.final.fit.ok())
+    throw sid::app::InputError("the final model cannot be identified from these runs: " + d.final.fit.message);
+  const auto constraints = sid::default_physical_constraints(d.final_model);
+  in.physical = sid::check_physical(d.final_model, d.final.fit.theta, constraints);
+  if (!in.physical.plausible()) {
+    const sid::StackedRegression<double> all = sid::stack_runs(d.final_model, d.final.kinematics);
+    try {
+      in.consistent = sid::nearest_physical(d.final_model, all.X, all.y, constraints);
+    } catch (const std::invalid_argument& e) {
+      std::cerr << kName << ": warning: no physically consistent estimate: " << e.what() << "\n";
+    }
+  }
+  sid::FreeSimulationOptions simulation;
+  simulation.segment = o.segment;
+  simulation.simulator.rtol = simulation.simulator.atol = sid::SimulationCheckOptions{}.checked_tolerance;
+  for (const auto& k : d.final.kinematics)
+    in.simulations.push_back(sid::free_simulation(d.final_model, d.final.fit.theta, k, simulation));
+  sid::RunsIdentifyOptions fitted = in.options.identify;
+  fitted.cutoff_hz = d.cutoff_hz;
+  for (const auto& run : held_out) {
+    try {
+      in.validation.push_back(
+          {run.file, sid::predict_torque(run.data, d.final_model, d.final.fit.theta, d.cutoff_hz, fitted),
+           sid::predict_torque(run.data, d.nominal_model, d.nominal.fit.theta, d.cutoff_hz, fitted)});
+    } catch (const std::invalid_argument& e) {
+      throw sid::app::InputError(run.file + ": " + e.what());
+    }
+  }
+  const sid::app::RunsReport report = sid::app::make_runs_diagnose_report(in);
+  (o.json == "-" ? std::cerr : std::cout) << report.text << std::flush;
+  if (!o.json.empty()) sid::app::write_json(o.json, report.json);
+  return sid::app::kExitOk;
+}
+
 int diagnose(const Options& o) {
   using sid::app::require;
+  if (o.measured || o.inputs.size() > 1) return diagnose_measured_runs(o);
+  require(o.validate.empty() && !o.gear_ratio,
+          "--validate and --gear-ratio apply to measured runs (two files or more, or --measured)");
   sid::DiagnoseOptions options;
   if (!o.reference.empty()) {
     const std::vector<double> v = sid::app::parse_doubles(o.reference, "--reference-theta", 7);
@@ -196,10 +314,8 @@ int diagnose(const Options& o) {
       sid::app::ensure_output_directory(o.plots, sid::app::diagnose_plot_files(), o.force);
     });
 
-  const sid::app::CsvTable table = sid::app::read_csv(o.input);
-  const sid::Trajectory<double> data = sid::app::trajectory_from_table(
-      table, o.columns.empty() ? sid::app::TrajectoryColumns{}
-                               : sid::app::parse_trajectory_columns(o.columns, "--columns"));
+  const sid::app::CsvTable table = sid::app::read_csv(o.inputs.front());
+  const sid::Trajectory<double> data = sid::app::trajectory_from_table(table, columns_of(o));
   const std::string input = table.source == "-" ? "<stdin>" : table.source;
   require(data.size() >= 20,
           input + ": a diagnosis needs at least 20 data rows, got " + std::to_string(data.size()));

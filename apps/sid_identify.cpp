@@ -552,15 +552,6 @@ bool uses_torque_cv(const Options& o) {
   return o.method == "css" && o.estimator == "ls" && o.sigma_q.empty() && !o.S && !o.lambda;
 }
 
-sid::app::RunFile read_run(const std::string& file, const sid::app::TrajectoryColumns& columns) {
-  const sid::app::CsvTable table = sid::app::read_csv(file);
-  sid::app::RunFile run{table.source == "-" ? "<stdin>" : table.source,
-                        sid::app::trajectory_from_table(table, columns)};
-  sid::app::require(run.data.size() >= 3, run.file + ": a run needs at least 3 data rows, got " +
-                                              std::to_string(run.data.size()));
-  return run;
-}
-
 sid::Model<double> runs_model(const Options& o) {
   sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
   if (o.effects.empty()) return model;
@@ -627,11 +618,11 @@ int identify_from_runs(const Options& o) {
 
   std::vector<sid::Trajectory<double>> data;
   for (const auto& file : o.inputs) {
-    in.runs.push_back(read_run(file, columns));
+    in.runs.push_back(sid::app::read_run(file, columns));
     data.push_back(in.runs.back().data);
   }
   std::vector<sid::app::RunFile> held_out;
-  for (const auto& file : o.validate) held_out.push_back(read_run(file, columns));
+  for (const auto& file : o.validate) held_out.push_back(sid::app::read_run(file, columns));
   try {
     in.id = sid::identify_runs(data, in.model, in.options);
   } catch (const std::invalid_argument& e) {

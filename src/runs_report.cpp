@@ -39,8 +39,11 @@ void rotor_line(const RunsReportInput& in, std::ostringstream& out, nlohmann::js
   j["rotor"] = {{"gear_ratio", gr}, {"Ir", ir}, {"Ir_std", ir_std}, {"supported", ir > 2.0 * ir_std}};
 }
 
-void physical_lines(const RunsReportInput& in, std::ostringstream& out, nlohmann::json& j) {
-  const sid::PhysicalCheck& p = in.physical;
+}  // namespace
+
+void physical_lines(const sid::Model<double>& model, const sid::PhysicalCheck& p,
+                    const std::optional<sid::ConsistentEstimate>& consistent, std::ostringstream& out,
+                    nlohmann::json& j) {
   out << "physical plausibility: mass matrix "
       << (p.mass_matrix_positive_definite ? "positive definite for every q2"
                                           : "NOT positive definite at q2 = " + number("%.3f", p.min_eigenvalue_q2) + " rad")
@@ -60,9 +63,9 @@ void physical_lines(const RunsReportInput& in, std::ostringstream& out, nlohmann
   pj["min_mass_eigenvalue_q2"] = p.min_eigenvalue_q2;
   pj["negative_parameters"] = p.negative_parameters;
   pj["consistent_theta"] = nullptr;
-  if (in.consistent) {
-    const sid::ConsistentEstimate& c = *in.consistent;
-    const std::vector<std::string> names = in.model.parameter_names();
+  if (consistent) {
+    const sid::ConsistentEstimate& c = *consistent;
+    const std::vector<std::string> names = model.parameter_names();
     out << "nearest physically consistent estimate (least squares under the constraints; the table above is "
            "the unconstrained one):\n";
     for (std::size_t k = 0; k < names.size(); ++k)
@@ -76,6 +79,15 @@ void physical_lines(const RunsReportInput& in, std::ostringstream& out, nlohmann
   }
   j["physical"] = pj;
 }
+
+RunFile read_run(const std::string& file, const TrajectoryColumns& columns) {
+  const CsvTable table = read_csv(file);
+  RunFile run{table.source == "-" ? "<stdin>" : table.source, trajectory_from_table(table, columns)};
+  require(run.data.size() >= 3, run.file + ": a run needs at least 3 data rows, got " + std::to_string(run.data.size()));
+  return run;
+}
+
+namespace {
 
 // Wide enough for every file name shown, so the columns stay aligned.
 int file_width(const RunsReportInput& in) {
@@ -258,7 +270,7 @@ RunsReport make_runs_report(const RunsReportInput& in) {
   runs_table(in, out, j);
   validation_lines(in, out, j);
   out << "\n";
-  physical_lines(in, out, j);
+  physical_lines(in.model, in.physical, in.consistent, out, j);
   rotor_line(in, out, j);
   if (fit.ill_conditioned) out << "warning: " << fit.message << "\n";
 

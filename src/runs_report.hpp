@@ -5,11 +5,14 @@
 
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <sstream>
 #include <sid/identify_runs.hpp>
 #include <sid/model/model.hpp>
 #include <sid/physical_consistency.hpp>
 #include <string>
 #include <vector>
+
+#include "csv.hpp"
 
 namespace sid::app {
 
@@ -50,5 +53,15 @@ struct RunsReport {
 std::string parameter_unit(const std::string& name);
 
 RunsReport make_runs_report(const RunsReportInput& in);
+
+/// @brief The plausibility lines of a report (and "physical" in its JSON): the check and, when
+/// given, the nearest physically consistent estimate, labelled as such.
+void physical_lines(const sid::Model<double>& model, const sid::PhysicalCheck& check,
+                    const std::optional<sid::ConsistentEstimate>& consistent, std::ostringstream& out,
+                    nlohmann::json& j);
+
+/// @brief Reads one run (columns mapped as given).
+/// @throws InputError on a bad file or fewer than 3 rows.
+RunFile read_run(const std::string& file, const TrajectoryColumns& columns);
 
 }  // namespace sid::app

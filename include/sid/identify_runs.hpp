@@ -259,14 +259,14 @@ struct CutoffChoice {
   double cutoff_hz = std::nan("");
 };
 
-/// @brief Standard deviations of a least-squares θ̂ whose residuals are correlated in time: the
+/// @brief The covariance of a least-squares θ̂ whose residuals are correlated in time: the
 /// HAC sandwich (XᵀX)⁻¹ (Σ_runs S_run) (XᵀX)⁻¹, where S_run is the prewhitened Newey–West
 /// long-run sum of the run's scores g_t = Σ_joints x_{t,j} e_{t,j} (both joints' equations at
 /// one time form one score, so their correlation is kept). Runs are independent.
 /// @param fit a successful fit of stack_runs(model, kinematics).
-inline Eigen::VectorXd hac_standard_deviations(const StackedRegression<double>& all,
-                                               const std::vector<Kinematics<double>>& kinematics,
-                                               const LeastSquaresResult<double>& fit) {
+inline Eigen::MatrixXd hac_covariance(const StackedRegression<double>& all,
+                                      const std::vector<Kinematics<double>>& kinematics,
+                                      const LeastSquaresResult<double>& fit) {
   const Eigen::Index p = all.X.cols(), total = all.X.rows() / 2;
   Eigen::MatrixXd long_run = Eigen::MatrixXd::Zero(p, p);
   Eigen::Index at = 0;
@@ -279,7 +279,14 @@ inline Eigen::VectorXd hac_standard_deviations(const StackedRegression<double>& 
     at += n;
   }
   const Eigen::MatrixXd inverse_gram = fit.covariance / fit.sigma2;
-  return (inverse_gram * long_run * inverse_gram).diagonal().cwiseMax(0.0).cwiseSqrt();
+  return inverse_gram * long_run * inverse_gram;
+}
+
+/// @brief The standard deviations of hac_covariance.
+inline Eigen::VectorXd hac_standard_deviations(const StackedRegression<double>& all,
+                                               const std::vector<Kinematics<double>>& kinematics,
+                                               const LeastSquaresResult<double>& fit) {
+  return hac_covariance(all, kinematics, fit).diagonal().cwiseMax(0.0).cwiseSqrt();
 }
 
 namespace detail {
