@@ -41,7 +41,7 @@ The experiment: the arm starts at rest at q = 0 and is driven open loop by u1 = 
 u2 = 4 cos t [N m] for T = 10 s; the true trajectory is simulated once with CVODE and sampled
 every Ts = 0.0025 s (4001 samples). Each run adds independent Gaussian noise to it: variance
 sigma_q2 [rad^2] on both joint angles and sigma_tau2 [(N m)^2] on both torques. The true
-parameters are the paper's, corrected as in PAPER_NOTES:
+parameters are the paper's, corrected as in docs/paper-reproduction.md:
   theta = 0.034015193438, 0.003064135808, 0.0045320492, 0.13291456, 0.01694224, 0.6189, 0.6189
 
 Methods (how q-dot and q-double-dot are estimated from the noisy angles; then least squares):

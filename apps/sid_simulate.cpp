@@ -42,7 +42,7 @@ tau1 = 5 sin 1.3t + 2 sin 3.1t, tau2 = 3 cos 0.7t + 1.5 sin 2.3t [N m] (--excita
 the arm starts at rest at q = 0. Samples are taken at t_k = k Ts [s], k = 0 .. round(T / Ts)
 (T = 10, Ts = 0.0025 give 4001 samples).
 
-Parameters (default: the paper's, corrected as in PAPER_NOTES):
+Parameters (default: the paper's, corrected as in docs/paper-reproduction.md):
   --theta t1,...,t7   theta1..theta3 [kg m^2], theta4, theta5 [kg m], theta6, theta7 [N m s/rad]
                       default 0.034015193438,0.003064135808,0.0045320492,0.13291456,
                               0.01694224,0.6189,0.6189

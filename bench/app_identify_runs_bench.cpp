@@ -1,7 +1,8 @@
-// Identification from measured runs: the six DFKI double-pendulum runs in tests/data (29 k
+// Identification and diagnosis from measured runs: the six DFKI double-pendulum runs in tests/data (29 k
 // samples on non-uniform grids), read with the apps' CSV reader.
 
 #include <sid/identify_runs.hpp>
+#include <sid/diagnose_runs.hpp>
 
 #include <benchmark/benchmark.h>
 
@@ -57,7 +58,23 @@ void BM_IdentifySixRealRuns(benchmark::State& state) {
   state.counters["runs"] = static_cast<double>(real_runs().size());
 }
 
+// The diagnosis of the six runs together (torque domain: cutoff, forward selection with each
+// run held out in turn, final fit, rotor coupling test); the apps add one free simulation per run.
+// Argument: threads of the cutoff search.
+void BM_DiagnoseSixRealRuns(benchmark::State& state) {
+  sid::RunsDiagnoseOptions options;
+  options.identify.threads = static_cast<int>(state.range(0));
+  Eigen::Index samples = 0;
+  for (const auto& r : real_runs()) samples += r.size();
+  for (auto _ : state) {
+    const auto d = sid::diagnose_runs(real_runs(), options);
+    benchmark::DoNotOptimize(d.final.fit.theta.data());
+  }
+  state.SetItemsProcessed(state.iterations() * samples);
+}
+
 }  // namespace
 
+BENCHMARK(BM_DiagnoseSixRealRuns)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_KinematicsAtCutoff)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_IdentifySixRealRuns)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();

@@ -161,7 +161,7 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
   }
   out << "\nwhere the nominal model and the data disagree:\n";
   disagreement(out, r.nominal, r);
-  if (!sim.nominal.ok) out << "  note: the free simulation of the nominal model failed: " << sim.nominal.message << "\n";
+  if (!sim.nominal.ok) out << "  note: the free simulation of the nominal model: " << simulation_summary(sim.nominal) << "\n";
 
   out << "\nnamed effects (forward selection; each passed the HAC Wald test, BIC and blocked CV):\n";
   if (r.effects.empty()) out << "  none: no candidate explains the residual beyond the noise\n";
@@ -232,7 +232,7 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
     out << line;
   }
   if (!r.effects.empty() && !sim.final.ok)
-    out << "  note: the free simulation of the final model failed: " << sim.final.message << "\n";
+    out << "  note: the free simulation of the final model: " << simulation_summary(sim.final) << "\n";
 
   if (context.has_reference) {
     out << "\ndrift against the reference theta (final model; significant when |z| > 3):\n";
@@ -449,6 +449,16 @@ std::vector<PlotResult> write_diagnose_plots(const std::string& dir, const sid::
     plots.push_back(plot_lines(error, path_in(dir, "sim_error_q" + joint + ".png")));
   }
   return plots;
+}
+
+std::string simulation_summary(const sid::FreeSimulation& s) {
+  const std::size_t segments = s.segment_starts.size();
+  std::string text = format("%.4g", s.error_rms[0]) + " / " + format("%.4g", s.error_rms[1]);
+  if (s.ok) return text + " (" + std::to_string(segments) + " segments)";
+  // The first failure says where and why; the others repeat it at later segments.
+  return "UNSTABLE: " + std::to_string(s.failed_segments) + " of " + std::to_string(segments) +
+         " segments failed; first: " + s.message.substr(0, s.message.find("; ")) +
+         "; error over the samples simulated " + text;
 }
 
 }  // namespace sid::app

@@ -64,4 +64,8 @@ std::pair<Eigen::VectorXd, Eigen::VectorXd> binned_mean(const Eigen::Ref<const E
                                                         const Eigen::Ref<const Eigen::VectorXd>& y,
                                                         int bins, int min_count = 5);
 
+/// @brief One line on a free simulation: its error, or where and why it failed (the first
+/// failure only, with the number of failed segments).
+std::string simulation_summary(const sid::FreeSimulation& sim);
+
 }  // namespace sid::app

@@ -282,7 +282,7 @@ std::string montecarlo_header(const sid::MonteCarloOptions& options, Eigen::Inde
       << "  sigma_tau2       " << level_label(options.sigma_tau2) << " (N m)^2\n"
       << "  methods          " << methods << "\n"
       << "  seed             " << options.seed << " (a run's noise depends on seed, level, run only)\n"
-      << "  true theta       the corrected values (PAPER_NOTES; the paper prints 0.0030 and 0.0170\n"
+      << "  true theta       the corrected values (docs/paper-reproduction.md; the paper prints 0.0030 and 0.0170\n"
       << "                   for theta2 and theta5)\n";
   return out.str();
 }

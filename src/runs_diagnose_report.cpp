@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "app.hpp"
+#include "diagnose_report.hpp"  // simulation_summary
 
 namespace sid::app {
 namespace {
@@ -95,6 +96,30 @@ void runs_table(const RunsDiagnoseReportInput& in, std::ostringstream& out, nloh
   j["runs"] = rows;
 }
 
+void friction_shape_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlohmann::json& j) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (const auto& s : in.diagnosis.friction_shapes) {
+    const bool atan = s.shape == sid::CoulombShape::Atan;
+    out << "  friction shape of " << s.id << ": " << (atan ? "atan" : "tanh") << ", "
+        << (s.asymmetric ? "asymmetric" : "symmetric") << " (atan instead of tanh: held-out "
+        << sid::detail::mean_square_change(s.atan_gain) << "; asymmetric: "
+        << sid::detail::mean_square_change(s.asymmetric_gain) << ", Wald p = " << number("%.2g", s.asymmetric_p_value)
+        << ", forward " << number("%.4g", s.forward) << " +- " << number("%.2g", s.forward_std) << ", backward "
+        << number("%.4g", s.backward) << " +- " << number("%.2g", s.backward_std) << " N m)\n";
+    rows.push_back({{"id", s.id},
+                    {"shape", atan ? "atan" : "tanh"},
+                    {"asymmetric", s.asymmetric},
+                    {"atan_gain", pair(s.atan_gain)},
+                    {"asymmetric_gain", pair(s.asymmetric_gain)},
+                    {"asymmetric_p_value", s.asymmetric_p_value},
+                    {"forward", s.forward},
+                    {"backward", s.backward},
+                    {"forward_std", s.forward_std},
+                    {"backward_std", s.backward_std}});
+  }
+  j["friction_shapes"] = rows;
+}
+
 void effect_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlohmann::json& j) {
   const sid::RunsDiagnosis& d = in.diagnosis;
   out << "\nnamed effects (significant under the HAC covariance and lowering the held-out torque error):\n";
@@ -105,6 +130,7 @@ void effect_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nl
         << "; held-out torque mean square " << sid::detail::mean_square_change(t.prediction_gain) << " (joint 1 / 2) when added\n";
     named.push_back(effect_json(t));
   }
+  friction_shape_lines(in, out, j);
   out << "not named:\n";
   for (const auto& t : d.not_named) {
     out << "  " << t.id << " (" << values_text(t) << "): " << t.reason << "\n";
@@ -210,16 +236,6 @@ void validation_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out
 }
 
 }  // namespace
-
-std::string simulation_summary(const sid::FreeSimulation& s) {
-  const std::size_t segments = s.segment_starts.size();
-  std::string text = number("%.4g", s.error_rms[0]) + " / " + number("%.4g", s.error_rms[1]);
-  if (s.ok) return text + " (" + std::to_string(segments) + " segments)";
-  // The first failure says where and why; the others repeat it at later segments.
-  return "UNSTABLE: " + std::to_string(s.failed_segments) + " of " + std::to_string(segments) +
-         " segments failed; first: " + s.message.substr(0, s.message.find("; ")) +
-         "; error over the samples simulated " + text;
-}
 
 RunsReport make_runs_diagnose_report(const RunsDiagnoseReportInput& in) {
   const sid::RunsDiagnosis& d = in.diagnosis;

@@ -35,10 +35,6 @@ struct RunsDiagnoseReportInput {
   std::optional<double> gear_ratio;  ///< of drive 2, for the rotor coupling line
 };
 
-/// @brief One line on a free simulation: its error, or where and why it failed (the first
-/// failure only, with the number of failed segments).
-std::string simulation_summary(const sid::FreeSimulation& sim);
-
 RunsReport make_runs_diagnose_report(const RunsDiagnoseReportInput& in);
 
 }  // namespace sid::app

@@ -67,6 +67,7 @@ TEST_F(SidDiagnoseRuns, DiagnosesSeveralRunsAndValidatesOnAnother) {
   }
   EXPECT_TRUE(j["physical"].contains("plausible"));
   EXPECT_EQ(j["excess_rms"].size(), 2u);
+  for (const auto& s : j["friction_shapes"]) EXPECT_TRUE(s["shape"] == "tanh" || s["shape"] == "atan") << s.dump();
 }
 
 TEST_F(SidDiagnoseRuns, BadInputIsRefusedWithAMessageNamingIt) {

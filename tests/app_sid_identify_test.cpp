@@ -111,7 +111,7 @@ TEST_F(SidIdentify, NearlyNoiseFreeRoundTripRecoversEveryPaperParameter) {
 TEST_F(SidIdentify, SmallNoiseRoundTripThroughAPipeRecoversThePaperParameters) {
   // sigma_q = 1e-5 rad: the smoothing spline with S = n (the paper's choice) keeps six
   // parameters within a few %; theta2 (the smallest inertia, seen through qdd1 + qdd2) is
-  // biased low by ~25 % by the smoothing, as PAPER_NOTES reports (-23 % at sigma_q^2 = 1e-8).
+  // biased low by ~25 % by the smoothing, as the corrected paper reports (-23 % at sigma_q^2 = 1e-8).
   const AppRun r = shell(sim() + " -q --sigma-q2 1e-10 --sigma-tau2 1e-8 | " + id() +
                          " --method css --sigma-q 1e-5 --json result.json -");
   ASSERT_EQ(r.exit_code, 0) << r.err;

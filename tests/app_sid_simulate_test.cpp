@@ -111,7 +111,7 @@ TEST_F(SidSimulate, NoiseFreeRunMatchesTheReferenceTrajectory) {
               kTorqueTol)
         << tau;
   }
-  // The model's acceleration at t = 0 (PAPER_NOTES: qdd2(0) ~ 2205 rad/s^2).
+  // The model's acceleration at t = 0 (the corrected paper: qdd2(0) ~ 2205 rad/s^2).
   EXPECT_NEAR(sim.column("qdd2")[0], ref.column("qdd2")[0], 1e-6);
 }
 
@@ -258,7 +258,7 @@ TEST_F(SidSimulate, RefusesToOverwriteWithoutForce) {
   EXPECT_EQ(sid::app::read_csv(file("out.csv")).rows(), 41);
 }
 
-// ---- Hidden effects and the multisine excitation (issue #6) --------------------------------
+// ---- Hidden effects and the multisine excitation --------------------------------------
 
 namespace {
 

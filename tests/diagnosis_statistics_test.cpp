@@ -104,7 +104,7 @@ TEST(NeweyWest, WaldStatisticIsTheQuadraticForm) {
 }
 
 TEST(NoiseFloor, FindsWhiteNoiseOnASmoothSignal) {
-  // The τ: a few N m of sinusoids at 400 Hz, σ = 0.1 N m.
+  // A test τ: a few N m of sinusoids at 400 Hz, σ = 0.1 N m.
   constexpr Eigen::Index kN = 4001;
   const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(kN, 0.0, 10.0);
   std::mt19937_64 rng(3);

@@ -59,7 +59,7 @@ Eigen::MatrixXd columns(const sid::Term<double>& term, const State& s) {
   return out;
 }
 
-// The columns of each effect written out from the issue's table, independently of the header.
+// The columns of each effect written out from the effect table (docs/discrepancy-workflow.md), independently of the header.
 Eigen::MatrixXd expected_columns(const std::string& id, const State& s, double eps, double vs) {
   const int j = id.back() == '1' ? 0 : 1;
   const double v = s.qd[j];
@@ -114,7 +114,7 @@ sid::EffectSpec example_spec(const std::string& id) {
 
 }  // namespace
 
-TEST(Effects, IdsAreTheIssuesInItsOrder) {
+TEST(Effects, IdsAreInTheDocumentedOrder) {
   EXPECT_EQ(sid::effect_ids(), all_ids());
   for (const auto& id : all_ids()) EXPECT_TRUE(sid::is_effect_id(id)) << id;
   for (const char* id : {"", "coulomb", "coulomb_j3", "angle_offset_j1", "Coulomb_j1"})

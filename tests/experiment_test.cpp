@@ -1,6 +1,6 @@
 // Tests of sid::simulate_arm_experiment (include/sid/cvode/experiment.hpp): the paper's
 // experiment against an independent SciPy reference, and energy conservation of the
-// frictionless, unforced arm. The arm model is written here from shared/PAPER_NOTES.md, on
+// frictionless, unforced arm. The arm model is written here from the paper's corrected equations, on
 // purpose independent of include/sid/model/.
 
 #include <sid/cvode/experiment.hpp>
@@ -177,7 +177,7 @@ TEST(ArmExperiment, TrajectoryViewCarriesTimeAngleAndTorque) {
   EXPECT_EQ(trajectory.t, run.truth.t);
   EXPECT_EQ(trajectory.q, run.truth.q);
   EXPECT_EQ(trajectory.tau, run.truth.tau);
-  // The start is the rest state and the start's acceleration is the model's (PAPER_NOTES:
+  // The start is the rest state and the start's acceleration is the model's (the corrected paper:
   // qdd2(0) = 2205.5 rad/s^2).
   EXPECT_EQ(run.truth.q.row(0), Eigen::RowVector2d::Zero());
   EXPECT_EQ(run.truth.qd.row(0), Eigen::RowVector2d::Zero());

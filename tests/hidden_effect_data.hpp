@@ -12,7 +12,7 @@
 
 namespace sid::test {
 
-constexpr double kTauVariance = 1e-2;  // σ_τ² [N² m²] of the test data
+constexpr double kTauVariance = 1e-2;  // σ_τ² [N² m²] of the diagnosis test data
 constexpr double kQVariance = 1e-6;    // σq² [rad²]
 
 enum class Excitation { Paper, Multisine };

@@ -10,7 +10,7 @@
 
 namespace {
 
-constexpr double kCssNoiseFreeTol = 1e-4;  // relative, the bound for CSS on exact q
+constexpr double kCssNoiseFreeTol = 1e-4;  // relative, the bound required of CSS on exact q
 
 sid::Trajectory<double> reference_trajectory() {
   const auto table = sid_test::read_table("trajectory_noise_free.csv");

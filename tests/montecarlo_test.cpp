@@ -93,7 +93,7 @@ TEST(MonteCarlo, GcvSmoothingNeedsNoNoiseLevelAndNearsTheOracle) {
     const auto& gcv = summary(r, level, sid::StudyMethod::CssGcv);
     const auto& oracle = summary(r, level, sid::StudyMethod::Oracle);
     EXPECT_EQ(gcv.failed_runs, 0);
-    // Issue 5's target (<= 1.15 x oracle), with room for 12 runs instead of 30.
+    // The target for this estimator (<= 1.15 x oracle), with room for 12 runs instead of 30.
     EXPECT_LT(gcv.rms_rel_error_pct, 1.3 * oracle.rms_rel_error_pct) << "level " << level;
   }
   // At 1e-8 the paper's S = n leaves theta2 strongly biased; GCV does not.

@@ -13,7 +13,7 @@
 
 namespace {
 
-// Tolerances the issue sets against the 60-digit references.
+// Tolerances required against the 60-digit references.
 constexpr double kValueTol = 1e-12;       // g, relative to max|g|
 constexpr double kDerivativeTol = 1e-11;  // g', g'', relative to their max
 constexpr double kParameterTol = 1e-12;   // p, relative

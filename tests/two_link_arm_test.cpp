@@ -119,7 +119,7 @@ TEST(TwoLinkArm, PhysicalParametersGiveCorrectedTheta) {
   const auto theta = sid::two_link_parameters(physical);
   EXPECT_LE((theta - sid::paper_arm_parameters<double>()).norm(),
             kRoundoffTol * theta.norm());
-  // Physically theta3 = l1 theta5 (PAPER_NOTES), a check the 7-parameter model leaves free.
+  // Physically theta3 = l1 theta5 (the corrected paper), a check the 7-parameter model leaves free.
   EXPECT_NEAR(theta[2], physical.l1 * theta[4], kRoundoffTol);
 }
 

@@ -5,7 +5,7 @@
 ///
 /// Everything here reproduces scipy.signal (butter, lfilter, lfilter_zi, filtfilt with its
 /// defaults) step by step, so that results agree with SciPy to rounding: the paper's "filtered"
-/// method (PAPER_NOTES.md) is specified by SciPy/MATLAB behaviour, not by a formula.
+/// method (docs/paper-reproduction.md) is specified by SciPy/MATLAB behaviour, not by a formula.
 
 #include <Eigen/Dense>
 

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief Model-discrepancy diagnosis (issue #6): find where the identified arm model and the
+/// @brief Model-discrepancy diagnosis: find where the identified arm model and the
 /// data disagree, name the missing physical effect from the library in sid/model/effects.hpp,
 /// add it, and show the gap shrink.
 

@@ -65,6 +65,21 @@ struct RunsEffectTest {
   std::string reason;  ///< why it was not named; empty for a named effect
 };
 
+/// @brief The shape of a named Coulomb friction, tested after the selection: the sign stand-in
+/// atan instead of tanh (a slower approach to the level), then a level that differs by direction.
+struct FrictionShapeTest {
+  std::string id;  ///< coulomb_j1 or coulomb_j2
+  CoulombShape shape = CoulombShape::Tanh;  ///< the one kept
+  bool asymmetric = false;                  ///< kept: Fc + dFc forward, Fc − dFc backward
+  /// Relative drops of the held-out torque mean square per joint when the variant replaces the
+  /// current term (negative: worse), as the selection's criterion measures them.
+  Vector2<double> atan_gain = Vector2<double>::Zero(), asymmetric_gain = Vector2<double>::Zero();
+  double asymmetric_p_value = 1;  ///< HAC Wald test of dFc = 0
+  /// The levels forward and backward [N m] with HAC std: of the final model when asymmetric, of
+  /// the asymmetric trial otherwise.
+  double forward = std::nan(""), backward = std::nan(""), forward_std = std::nan(""), backward_std = std::nan("");
+};
+
 /// @brief What diagnose_runs found.
 struct RunsDiagnosis {
   double cutoff_hz = std::nan("");
@@ -77,6 +92,10 @@ struct RunsDiagnosis {
   /// The drive-2 rotor carried by link 1 (armature_j2) tested against the final model when it
   /// was not named; its estimate gives Ir = Ia / (gr² + gr) for a gear ratio gr.
   std::optional<RunsEffectTest> rotor_coupling;
+  /// One per named Coulomb friction. A variant is kept when it lowers the held-out torque mean
+  /// square by more than min_prediction_gain (the asymmetry also when its Wald test rejects at
+  /// family_alpha and both levels are positive).
+  std::vector<FrictionShapeTest> friction_shapes;
   /// Per run and joint: RMS of the measured torque's content above the cutoff [N m]. The
   /// kinematics carry nothing above the cutoff, so no model built on them can explain it: it is
   /// the floor the residual is compared with. A floor from the torque's own noise estimate (GCV)
@@ -340,6 +359,58 @@ inline const RunsEffectTest* best_candidate(const std::vector<RunsEffectTest>& t
   return best;
 }
 
+/// The levels forward and backward of an asymmetric Coulomb term at `at` (Fc, dFc) of θ.
+inline void directional_levels(FrictionShapeTest& s, const Eigen::VectorXd& theta, const Eigen::MatrixXd& covariance,
+                               Eigen::Index at) {
+  s.forward = theta[at] + theta[at + 1];
+  s.backward = theta[at] - theta[at + 1];
+  const double cross = covariance(at, at + 1);
+  s.forward_std = std::sqrt(std::max(0.0, covariance(at, at) + covariance(at + 1, at + 1) + 2.0 * cross));
+  s.backward_std = std::sqrt(std::max(0.0, covariance(at, at) + covariance(at + 1, at + 1) - 2.0 * cross));
+}
+
+/// Tests the shapes of the named Coulomb terms, one joint after the other, and keeps those that
+/// pass (see RunsDiagnosis::friction_shapes); updates `named` and `chosen`'s settings.
+inline std::vector<FrictionShapeTest> test_friction_shapes(std::vector<std::pair<std::string, EffectSettings>>& named,
+                                                           std::vector<RunsEffectTest>& chosen,
+                                                           const std::vector<Kinematics<double>>& kinematics,
+                                                           const RunsDiagnoseOptions& options) {
+  std::vector<FrictionShapeTest> shapes;
+  const auto equations = [&](const std::vector<std::pair<std::string, EffectSettings>>& terms) {
+    return runs_equations(model_with(options.effects.gravity, terms), kinematics, options.identify.folds_per_run);
+  };
+  for (auto& term : named) {
+    if (!starts_with(term.first, "coulomb_j")) continue;
+    FrictionShapeTest s;
+    s.id = term.first;
+    Vector2<double> base = left_out_mean_square(equations(named));
+    const EffectSettings kept = term.second;
+    term.second.coulomb_shape = CoulombShape::Atan;
+    const Vector2<double> with_atan = left_out_mean_square(equations(named));
+    s.atan_gain = (base - with_atan).cwiseQuotient(base);
+    if (s.atan_gain.mean() > options.min_prediction_gain) {
+      s.shape = CoulombShape::Atan;
+      base = with_atan;
+    } else {
+      term.second = kept;
+    }
+    term.second.coulomb_asymmetric = true;
+    const RunsEquations e = equations(named);
+    s.asymmetric_gain = (base - left_out_mean_square(e)).cwiseQuotient(base);
+    const auto [theta, covariance] = fit_with_hac(e);
+    const Eigen::Index at = model_with(options.effects.gravity, named).parameter_offset(s.id);
+    s.asymmetric_p_value = chi_square_tail(std::max(0.0, theta[at + 1] * theta[at + 1] / covariance(at + 1, at + 1)), 1.0);
+    directional_levels(s, theta, covariance, at);
+    s.asymmetric = s.asymmetric_gain.mean() > options.min_prediction_gain && s.asymmetric_p_value < options.family_alpha &&
+                   s.forward > 0.0 && s.backward > 0.0;
+    term.second.coulomb_asymmetric = s.asymmetric;
+    for (auto& c : chosen)
+      if (c.id == s.id) c.settings = term.second;
+    shapes.push_back(s);
+  }
+  return shapes;
+}
+
 }  // namespace detail
 
 /// @brief Diagnoses several measured runs of the two-link arm together.
@@ -355,7 +426,9 @@ inline const RunsEffectTest* best_candidate(const std::vector<RunsEffectTest>& t
 ///    passing candidate with the largest drop is named (a Stribeck term only if it beats its
 ///    joint's Coulomb term by min_prediction_gain). armature_j1 is never tested: its column
 ///    equals θ1's.
-/// 4. The final model is fitted by identify_runs (QR, HAC std, each run left out in turn); the
+/// 4. Each named Coulomb term is tried with the atan shape, then with a level that differs by
+///    direction (RunsDiagnosis::friction_shapes).
+/// 5. The final model is fitted by identify_runs (QR, HAC std, each run left out in turn); the
 ///    named effects' values come from it. The rotor coupling of drive 2 is tested against it.
 /// @throws std::invalid_argument as identify_runs does, or for bad options (names the problem).
 inline RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& runs, const RunsDiagnoseOptions& options = {}) {
@@ -397,6 +470,7 @@ inline RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& runs, 
     if (!superseded.empty()) remaining.erase(std::remove(remaining.begin(), remaining.end(), superseded), remaining.end());
   }
 
+  result.friction_shapes = detail::test_friction_shapes(named, chosen, k, fixed);
   result.final_model = detail::model_with(g, named);
   result.final = identify_runs(runs, result.final_model, fixed.identify);
   const StackedRegression<double> all = stack_runs(result.final_model, result.final.kinematics);
@@ -405,6 +479,10 @@ inline RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& runs, 
     c.estimate = effect_estimate(c.id, result.final.fit.theta, result.final_covariance, result.final_model, c.settings);
     result.named.push_back(std::move(c));
   }
+  for (auto& shape : result.friction_shapes)
+    if (shape.asymmetric)
+      detail::directional_levels(shape, result.final.fit.theta, result.final_covariance,
+                                 result.final_model.parameter_offset(shape.id));
   const bool rotor_named = std::any_of(named.begin(), named.end(), [](const auto& e) { return e.first == "armature_j2"; });
   if (!rotor_named) {
     const auto it = std::find_if(result.not_named.begin(), result.not_named.end(),

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// @brief The data that flows through sid: measured trajectories and the kinematics estimated
-/// from them (see shared/ARCHITECTURE.md).
+/// from them (see docs/design.md).
 
 #include <Eigen/Core>
 

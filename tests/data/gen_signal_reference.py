@@ -24,7 +24,7 @@ import scipy
 from scipy import signal
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-# The paper's three filters (PAPER_NOTES.md): q, qd, qdd.
+# The paper's three filters (as corrected in docs/paper-reproduction.md): q, qd, qdd.
 FILTERS = [("q", 3, 0.05), ("qd", 3, 0.015), ("qdd", 4, 0.01)]
 
 

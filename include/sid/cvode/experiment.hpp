@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// @brief The paper's open-loop experiment (Dolinsky & Celikovsky, section 3.1; corrected in
-/// shared/PAPER_NOTES.md): a two-joint arm driven by a known torque, simulated with CVODE and
+/// docs/paper-reproduction.md): a two-joint arm driven by a known torque, simulated with CVODE and
 /// sampled on a uniform grid. It produces the true trajectory that measurement noise is added to.
 
 #include <sid/cvode/simulator.hpp>

@@ -2,7 +2,7 @@
 /// @file
 /// @brief Free (open-loop) simulation of an identified model driven by the measured torque,
 /// compared with the measured angles: where a model that fits the torques well still drifts
-/// away from the data, something physical is missing (issue #6, sid_diagnose).
+/// away from the data, something physical is missing (sid_diagnose).
 
 #include <sid/butterworth.hpp>
 #include <sid/cvode/simulator.hpp>

@@ -2,7 +2,7 @@
 /// @file
 /// @brief Simulation of a state-space model xdot = f(t, x) with SUNDIALS CVODE, sampled on a
 /// given time grid. This header and the others under sid/cvode/ are the only ones that include
-/// SUNDIALS (shared/ARCHITECTURE.md), so Eigen-only users never need it. They use CVODES, CVODE
+/// SUNDIALS (docs/design.md), so Eigen-only users never need it. They use CVODES, CVODE
 /// with forward sensitivities (sid/cvode/sensitivity.hpp): the same solver and calls, and one
 /// library, since the two define the same symbols.
 

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// @brief A library of physical effects the paper's arm model leaves out, each a model term that is
-/// linear in its own parameters (issue #6): Coulomb and Stribeck friction, torque-sensor and
+/// linear in its own parameters: Coulomb and Stribeck friction, torque-sensor and
 /// angle-sensor offsets, rotor inertia (armature) and joint springs.
 ///
 /// Every effect is a torque added to the left side of D(q) qdd + C(q, qd) qd + G(q) + friction,
@@ -38,10 +38,22 @@ namespace sid {
 // it calls (README, "Tests"; src/precompiled/pipeline.cpp).
 
 /// @brief Hyper-parameters shared by the effect terms (fixed, not estimated).
+/// @brief The smooth stand-in for sign(qd) in the friction terms.
+enum class CoulombShape {
+  Tanh,  ///< tanh(qd / ε): 99.5 % of the level at |qd| = 3 ε
+  /// (2/π) atan(qd / ε): approaches the level slowly (80 % at 3 ε, 94 % at 10 ε), as the
+  /// friction of geared drives often does at low speed.
+  Atan
+};
+
 struct EffectSettings {
-  /// epsilon of tanh(qd / epsilon), the smooth stand-in for sign(qd) [rad/s], finite and > 0.
-  /// At |qd| = 3 epsilon the friction has reached 99.5 % of Fc.
+  /// epsilon of the sign stand-in tanh(qd / epsilon) (or atan, see coulomb_shape) [rad/s],
+  /// finite and > 0. At |qd| = 3 epsilon tanh has reached 99.5 % of Fc.
   double coulomb_epsilon = 0.01;
+  CoulombShape coulomb_shape = CoulombShape::Tanh;  ///< of the Coulomb and Stribeck terms
+  /// A Coulomb term with a second column |sign(qd)| and parameter "<id>.dFc": the level is
+  /// Fc + dFc moving forward and Fc − dFc backward.
+  bool coulomb_asymmetric = false;
   /// g used by the angle-offset columns [m/s^2], finite.
   double gravity = kPaperGravity;
   /// vs [rad/s], the Stribeck term's nonlinear parameter, fixed so the term stays linear (a
@@ -122,6 +134,12 @@ inline void check_effect_settings(const EffectSettings& settings, const char* wh
   if (!(settings.stribeck_velocity > 0.0) || !isfinite(settings.stribeck_velocity))
     throw std::invalid_argument(std::string(who) +
                                 ": settings.stribeck_velocity must be finite and > 0 [rad/s]");
+}
+
+/// The smooth sign of the friction terms.
+inline double smooth_sign(double v, double epsilon, CoulombShape shape) noexcept {
+  constexpr double kTwoOverPi = 0.63661977236758134308;
+  return shape == CoulombShape::Tanh ? std::tanh(v / epsilon) : kTwoOverPi * std::atan(v / epsilon);
 }
 
 /// exp(-(v / vs)^2), 0 beyond |v / vs| = 40 (where it underflows anyway), so that huge or
@@ -230,7 +248,9 @@ inline bool is_dynamic_effect(const std::string& id) {
 
 /// @brief The regression term of an effect, named exactly id, in measured coordinates, linear in
 /// its parameters (row 0 = joint 1, row 1 = joint 2; c = cos, s = sin, g = settings.gravity):
-/// - coulomb_jX: tanh(qd_j / epsilon) on joint j's row; parameter "<id>.Fc".
+/// - coulomb_jX: tanh(qd_j / epsilon) on joint j's row; parameter "<id>.Fc". With the settings'
+///   coulomb_shape Atan, (2/π) atan(qd_j / eps) instead (also for stribeck); with
+///   coulomb_asymmetric a second column |tanh(qd_j / eps)|, parameter "<id>.dFc".
 /// - stribeck_jX: tanh(qd_j / eps) and exp(-(qd_j / vs)^2) tanh(qd_j / eps) at the settings' vs;
 ///   parameters "<id>.Fc", "<id>.Fs_minus_Fc".
 /// - torque_offset_jX: e_j; "<id>.b".
@@ -253,18 +273,27 @@ inline Term<double> effect_term(const std::string& id, const EffectSettings& set
   detail::check_effect_settings(settings, who);
   const Eigen::Index j = info.joint, other = 1 - info.joint;
   const double eps = settings.coulomb_epsilon, vs = settings.stribeck_velocity;
+  const CoulombShape shape = settings.coulomb_shape;
   const double g = settings.gravity;
   using V = const Vector2<double>&;
   using Out = RegressorView<double>;
   switch (info.kind) {
     case detail::EffectKind::Coulomb:
-      return {id, {id + ".Fc"}, [j, other, eps](V, V qd, V, Out out) {
-                out(j, 0) = std::tanh(qd[j] / eps);
+      if (settings.coulomb_asymmetric)
+        return {id, {id + ".Fc", id + ".dFc"}, [j, other, eps, shape](V, V qd, V, Out out) {
+                  const double sign = detail::smooth_sign(qd[j], eps, shape);
+                  out(j, 0) = sign;
+                  out(j, 1) = std::abs(sign);
+                  out(other, 0) = 0.0;
+                  out(other, 1) = 0.0;
+                }};
+      return {id, {id + ".Fc"}, [j, other, eps, shape](V, V qd, V, Out out) {
+                out(j, 0) = detail::smooth_sign(qd[j], eps, shape);
                 out(other, 0) = 0.0;
               }};
     case detail::EffectKind::Stribeck:
-      return {id, {id + ".Fc", id + ".Fs_minus_Fc"}, [j, other, eps, vs](V, V qd, V, Out out) {
-                const double sign = std::tanh(qd[j] / eps);
+      return {id, {id + ".Fc", id + ".Fs_minus_Fc"}, [j, other, eps, vs, shape](V, V qd, V, Out out) {
+                const double sign = detail::smooth_sign(qd[j], eps, shape);
                 out(j, 0) = sign;
                 out(j, 1) = detail::stribeck_bump(qd[j], vs) * sign;
                 out(other, 0) = 0.0;

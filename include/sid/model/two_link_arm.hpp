@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief The paper's two-link planar arm (eq. 38-40, corrected in shared/PAPER_NOTES.md): its
+/// @brief The paper's two-link planar arm (eq. 38-40, corrected as docs/paper-reproduction.md lists): its
 /// parameters, its terms for sid::Model, and closed-form fixed-size fast paths for control loops.
 ///
 /// Conventions: q1 from the downward vertical (gravity pulls toward q = 0), q2 relative to link 1,
@@ -46,7 +46,7 @@ struct TwoLinkPhysical {
   Scalar mu2;  ///< viscous friction of joint 2 [N m s/rad]
 };
 
-/// @brief The paper's arm with the corrections of PAPER_NOTES (lc1 = 0.0398 m, lc2 = 0.0392 m,
+/// @brief The paper's arm with the corrections listed in docs/paper-reproduction.md (lc1 = 0.0398 m, lc2 = 0.0392 m,
 /// not the printed 0.00398/0.00392; mu1 = mu2 = 0.6189 from the tables).
 template <typename Scalar = double>
 TwoLinkPhysical<Scalar> paper_arm_physical() noexcept {
@@ -107,7 +107,7 @@ void two_link_viscous_columns(const Vector2<Scalar>& qd, Out& out) noexcept {
 
 }  // namespace detail
 
-/// @brief Closed-form regressor Z(q, qd, qdd), tau = Z theta (PAPER_NOTES; checked against
+/// @brief Closed-form regressor Z(q, qd, qdd), tau = Z theta (the corrected model; checked against
 /// Pinocchio). Fast path: fixed size, no allocation.
 /// @param q [rad], qd [rad/s], qdd [rad/s^2], g gravity [m/s^2].
 template <typename Scalar>
