@@ -282,8 +282,8 @@ std::string montecarlo_header(const sid::MonteCarloOptions& options, Eigen::Inde
       << "  sigma_tau2       " << level_label(options.sigma_tau2) << " (N m)^2\n"
       << "  methods          " << methods << "\n"
       << "  seed             " << options.seed << " (a run's noise depends on seed, level, run only)\n"
-      << "  true theta       the corrected values (docs/paper-reproduction.md; the paper prints 0.0030 and 0.0170\n"
-      << "                   for theta2 and theta5)\n";
+      << "  true theta       the corrected values (the paper prints 0.0030 and 0.0170 for theta2 and\n"
+      << "                   theta5; see docs/paper-reproduction.md)\n";
   return out.str();
 }
 
