@@ -18,6 +18,7 @@
 /// with an even grid_size it holds q2 = 0 and q2 = -pi, where the arm's det D = theta1 theta2 -
 /// theta3^2 cos^2 q2 is smallest, and the grid check is then exact for the arm.
 
+#include <sid/config.hpp>
 #include <sid/model/model.hpp>
 #include <sid/trajectory.hpp>
 
@@ -49,19 +50,7 @@ struct PhysicalConstraints {
 /// down, which the convention q = 0 downward excludes), theta6, theta7 (viscous friction
 /// dissipates) and every parameter named "*.Fc" (Coulomb level) or "*.Ia" (rotor inertia).
 /// Stribeck's "Fs_minus_Fc", offsets and springs may have either sign and are left free.
-inline PhysicalConstraints default_physical_constraints(const Model<double>& model) {
-  const auto ends_with = [](const std::string& s, const std::string& tail) {
-    return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
-  };
-  std::vector<std::string> names;
-  for (const auto& name : model.parameter_names())
-    if (name == "theta4" || name == "theta5" || name == "theta6" || name == "theta7" ||
-        ends_with(name, ".Fc") || ends_with(name, ".Ia"))
-      names.push_back(name);
-  PhysicalConstraints c;
-  c.nonnegative = std::move(names);
-  return c;
-}
+SID_INLINE PhysicalConstraints default_physical_constraints(const Model<double>& model);
 
 /// @brief Result of check_physical.
 struct PhysicalCheck {
@@ -132,20 +121,7 @@ inline double physical_grid_q2(Eigen::Index g, Eigen::Index grid_size) noexcept 
 /// (model/dynamics.hpp), so three regressor evaluations give every A_k at a grid point instead of
 /// 3 p calls of mass_matrix. The off-diagonal is the mean of (1,2) and (2,1), which agree for any
 /// term derived from a Lagrangian; symmetrising makes "positive definite" well defined otherwise.
-inline Eigen::MatrixXd mass_matrix_basis(const Model<double>& model, Eigen::Index grid_size) {
-  const Vector2<double> zero = Vector2<double>::Zero();
-  Eigen::MatrixXd basis(3 * grid_size, model.num_parameters());
-  for (Eigen::Index g = 0; g < grid_size; ++g) {
-    const Vector2<double> q(0.0, physical_grid_q2(g, grid_size));
-    const ModelRegressor<double> z0 = model.regressor(q, zero, zero);
-    const ModelRegressor<double> z1 = model.regressor(q, zero, Vector2<double>::UnitX());
-    const ModelRegressor<double> z2 = model.regressor(q, zero, Vector2<double>::UnitY());
-    basis.row(3 * g) = z1.row(0) - z0.row(0);
-    basis.row(3 * g + 1) = 0.5 * ((z2.row(0) - z0.row(0)) + (z1.row(1) - z0.row(1)));
-    basis.row(3 * g + 2) = z2.row(1) - z0.row(1);
-  }
-  return basis;
-}
+SID_INLINE Eigen::MatrixXd mass_matrix_basis(const Model<double>& model, Eigen::Index grid_size);
 
 inline double min_eigenvalue_2x2(double a11, double a12, double a22) noexcept {
   return 0.5 * (a11 + a22) - std::hypot(0.5 * (a11 - a22), a12);
@@ -161,232 +137,13 @@ struct GridMinimum {
 };
 
 /// Smallest eigenvalue over the grid of the stacked matrices d (3 grid_size entries).
-inline GridMinimum grid_min_eigenvalue(const Eigen::Ref<const Eigen::VectorXd>& d) {
-  GridMinimum m;
-  for (Eigen::Index g = 0; g < d.size() / 3; ++g) {
-    const double v = min_eigenvalue_2x2(d(3 * g), d(3 * g + 1), d(3 * g + 2));
-    if (v < m.value || g == 0) m = {v, g};
-  }
-  return m;
-}
+SID_INLINE GridMinimum grid_min_eigenvalue(const Eigen::Ref<const Eigen::VectorXd>& d);
 
 /// Indices (in theta order) of the parameters c bounds at zero.
-inline std::vector<Eigen::Index> bounded_indices(const Model<double>& model,
-                                                 const PhysicalConstraints& c) {
-  const std::vector<std::string> names = model.parameter_names();
-  const std::vector<std::string> wanted =
-      c.nonnegative ? *c.nonnegative : *default_physical_constraints(model).nonnegative;
-  std::vector<Eigen::Index> indices;
-  for (std::size_t k = 0; k < names.size(); ++k)
-    if (std::find(wanted.begin(), wanted.end(), names[k]) != wanted.end())
-      indices.push_back(static_cast<Eigen::Index>(k));
-  return indices;
-}
+SID_INLINE std::vector<Eigen::Index> bounded_indices(const Model<double>& model,
+                                                 const PhysicalConstraints& c);
 
-inline void check_grid_size(const char* who, const PhysicalConstraints& c) {
-  if (c.grid_size < 1)
-    throw std::invalid_argument(std::string(who) + ": c.grid_size must be >= 1, got " +
-                                std::to_string(c.grid_size));
-}
-
-/// The barrier problem of a primal interior-point method (Boyd & Vandenberghe, Convex
-/// Optimization, sec. 11.3 and 11.6 for matrix inequalities):
-///   minimise t (||w (z - z0)||^2 + c'z) - sum_g log det S_g(z) - sum_i log h_i(z),
-///   S_g(z) = 2 x 2 symmetric with entries (11, 12, 22) = lmi.middleRows(3 g, 3) z + lmi_offset,
-///   h(z) = lin z + lin_offset.
-/// nu = 2 G + rows(lin) is the barrier's parameter: a centred point is nu / t from optimal.
-struct BarrierProblem {
-  Eigen::MatrixXd lmi;
-  Eigen::VectorXd lmi_offset;
-  Eigen::MatrixXd lin;
-  Eigen::VectorXd lin_offset;
-  Eigen::MatrixXd w;
-  Eigen::VectorXd z0;
-  Eigen::VectorXd c;
-
-  double nu() const { return static_cast<double>(lmi.rows() / 3 * 2 + lin.rows()); }
-};
-
-/// Newton's method on the barrier problem with buffers sized once, so that the loops over grid
-/// points and constraints allocate nothing. Only the columns of lmi that are not zero enter the
-/// O(G n^2) Hessian sums (for the arm 3 of 7: friction and gravity are absent from D).
-///
-/// The line search compares CHANGES of the barrier objective, each formed without cancellation:
-///   cost:     2 a (W d)'(W s) + a^2 ||W s||^2 + a c's   (d = z - z0, s the step, a its length)
-///   log det:  log1p(a tr(P E) + a^2 det E / det S)      (E = the step's change of S)
-///   log h:    log1p(a (lin s)_i / h_i).
-/// Near the end t ||X theta - y||^2 reaches 1e12 or more while the decrease sought is 1e-9;
-/// differencing objective values would drown it in rounding and stall the method.
-class BarrierSolver {
- public:
-  explicit BarrierSolver(const BarrierProblem& problem) : p_(problem) {
-    const Eigen::Index n = p_.lmi.cols(), rows = p_.lmi.rows(), grid = rows / 3;
-    for (Eigen::Index k = 0; k < n; ++k)
-      if (!p_.lmi.col(k).isZero(0.0)) columns_.push_back(k);
-    const Eigen::Index nj = static_cast<Eigen::Index>(columns_.size());
-    lmi_j_.resize(rows, nj);
-    for (Eigen::Index j = 0; j < nj; ++j) lmi_j_.col(j) = p_.lmi.col(columns_[j]);
-    wtw2_ = 2.0 * p_.w.transpose() * p_.w;
-    s_.resize(rows);
-    v_.resize(rows);
-    e_.resize(rows);
-    y_.resize(rows, nj);
-    det_.resize(grid);
-    det_linear_.resize(grid);
-    det_quadratic_.resize(grid);
-    h_.resize(p_.lin.rows());
-    r_.resize(p_.lin.rows());
-    h_linear_.resize(p_.lin.rows());
-    grad_.resize(n);
-    grad_j_.resize(nj);
-    hess_.resize(n, n);
-    hess_j_.resize(nj, nj);
-    step_.resize(n);
-    trial_.resize(n);
-    diff_.resize(n);
-    wdiff_.resize(p_.w.rows());
-    wstep_.resize(p_.w.rows());
-    llt_.compute(Eigen::MatrixXd::Identity(n, n));  // sized once here, and its status set
-  }
-
-  /// ||w (z - z0)||^2 + c'z, the cost without the barrier.
-  double cost(const Eigen::VectorXd& z) {
-    diff_ = z - p_.z0;
-    wdiff_.noalias() = p_.w * diff_;
-    return wdiff_.squaredNorm() + p_.c.dot(z);
-  }
-
-  bool strictly_feasible(const Eigen::VectorXd& z) { return evaluate_constraints(z); }
-
-  /// Centres z at t (Newton with backtracking that never leaves the interior) until the Newton
-  /// decrement is negligible or done_early(z) holds. Counts steps into iterations, stopping at
-  /// max_iterations. @pre z strictly feasible.
-  ///
-  /// Near the boundary the slack of S_g is computed from entries ~1e12 times larger, so the
-  /// barrier's gradient carries relative noise growing with t and the decrement meets a floor
-  /// (1e-8 at t ~ 1e11 on the arm). Inside the quadratic region (decrement < 1e-3) a step that
-  /// fails to cut the decrement fourfold shows that floor, and the centring stops there.
-  template <typename DoneEarly>
-  void centre(Eigen::VectorXd& z, double t, int& iterations, int max_iterations,
-              const DoneEarly& done_early) {
-    constexpr double decrement_tol = 1e-10, quadratic_region = 1e-3, armijo = 0.25;
-    constexpr double min_step = 1e-14;
-    double previous = std::numeric_limits<double>::infinity();
-    while (iterations < max_iterations) {
-      if (!newton_direction(z, t)) return;
-      const double slope = grad_.dot(step_);  // -(Newton decrement)^2
-      const double decrement = -0.5 * slope;
-      if (!(decrement > decrement_tol)) return;
-      if (decrement < quadratic_region && decrement > 0.25 * previous) return;
-      previous = decrement;
-      double alpha = 1.0;
-      while (!(objective_change(z, alpha, t) <= armijo * alpha * slope)) {
-        alpha *= 0.5;
-        if (alpha < min_step) return;  // rounding-limited: as centred as it gets
-      }
-      z += alpha * step_;
-      ++iterations;
-      if (done_early(z)) return;
-    }
-  }
-
- private:
-  /// Fills s_ and h_; false unless every S_g is positive definite and every h_i > 0.
-  bool evaluate_constraints(const Eigen::VectorXd& z) {
-    s_.noalias() = p_.lmi * z;
-    s_ += p_.lmi_offset;
-    for (Eigen::Index g = 0; g < s_.size() / 3; ++g) {
-      const double a = s_(3 * g), b = s_(3 * g + 1), d = s_(3 * g + 2);
-      if (!(a > 0.0) || !(d > 0.0) || !(a * d - b * b > 0.0)) return false;
-    }
-    h_.noalias() = p_.lin * z;
-    h_ += p_.lin_offset;
-    for (Eigen::Index i = 0; i < h_.size(); ++i)
-      if (!(h_(i) > 0.0)) return false;
-    return true;
-  }
-
-  /// Gradient and Hessian of the barrier objective at z, step_ = -H^-1 grad, and the
-  /// coefficients objective_change needs. For S = S_g and P = S^-1 (symmetric 2 x 2 written as
-  /// vectors (11, 12, 22)):
-  ///   d/dz_k (-log det S) = -tr(P A_k) = -v' a_k,     v = (P11, 2 P12, P22),
-  ///   d2/dz_k dz_l        =  tr(P A_k P A_l) = a_k' M a_l,
-  /// with M the symmetric 3 x 3 below (from the entries of P A P). False if H is not positive
-  /// definite (cannot happen with a full-rank w or bounded variables; a guard, not a branch).
-  bool newton_direction(const Eigen::VectorXd& z, double t) {
-    evaluate_constraints(z);
-    diff_ = z - p_.z0;
-    grad_.noalias() = t * (wtw2_ * diff_);
-    grad_ += t * p_.c;
-    hess_ = t * wtw2_;
-    for (Eigen::Index g = 0; g < s_.size() / 3; ++g) {
-      const double a = s_(3 * g), b = s_(3 * g + 1), d = s_(3 * g + 2);
-      det_(g) = a * d - b * b;
-      const double inv_det = 1.0 / det_(g);
-      const double p11 = d * inv_det, p12 = -b * inv_det, p22 = a * inv_det;
-      v_(3 * g) = p11;
-      v_(3 * g + 1) = 2.0 * p12;
-      v_(3 * g + 2) = p22;
-      Eigen::Matrix3d m;
-      m << p11 * p11, 2.0 * p11 * p12, p12 * p12,                           //
-          2.0 * p11 * p12, 2.0 * (p11 * p22 + p12 * p12), 2.0 * p12 * p22,  //
-          p12 * p12, 2.0 * p12 * p22, p22 * p22;
-      y_.middleRows<3>(3 * g).noalias() = m * lmi_j_.middleRows<3>(3 * g);
-    }
-    grad_j_.noalias() = lmi_j_.transpose() * v_;
-    hess_j_.noalias() = lmi_j_.transpose() * y_;
-    const Eigen::Index nj = static_cast<Eigen::Index>(columns_.size());
-    for (Eigen::Index i = 0; i < nj; ++i) {
-      grad_(columns_[i]) -= grad_j_(i);
-      for (Eigen::Index j = 0; j < nj; ++j) hess_(columns_[i], columns_[j]) += hess_j_(i, j);
-    }
-    r_ = h_.cwiseInverse();
-    grad_.noalias() -= p_.lin.transpose() * r_;
-    for (Eigen::Index i = 0; i < h_.size(); ++i)
-      hess_.noalias() += (r_(i) * r_(i)) * p_.lin.row(i).transpose() * p_.lin.row(i);
-    llt_.compute(hess_);
-    if (llt_.info() != Eigen::Success) return false;
-    step_ = llt_.solve(grad_);
-    step_ = -step_;
-
-    e_.noalias() = p_.lmi * step_;
-    for (Eigen::Index g = 0; g < det_.size(); ++g) {
-      const auto eg = e_.segment<3>(3 * g);
-      det_linear_(g) = v_.segment<3>(3 * g).dot(eg);  // tr(P E)
-      det_quadratic_(g) = (eg(0) * eg(2) - eg(1) * eg(1)) / det_(g);
-    }
-    h_linear_.noalias() = p_.lin * step_;
-    h_linear_.array() *= r_.array();
-    wdiff_.noalias() = p_.w * diff_;
-    wstep_.noalias() = p_.w * step_;
-    cost_linear_ = 2.0 * wdiff_.dot(wstep_) + p_.c.dot(step_);
-    cost_quadratic_ = wstep_.squaredNorm();
-    return true;
-  }
-
-  /// F(z + alpha step) - F(z) at t, +infinity outside the strict interior; after
-  /// newton_direction(z, t).
-  double objective_change(const Eigen::VectorXd& z, double alpha, double t) {
-    trial_ = z + alpha * step_;
-    if (!evaluate_constraints(trial_)) return std::numeric_limits<double>::infinity();
-    double change = t * alpha * (cost_linear_ + alpha * cost_quadratic_);
-    for (Eigen::Index g = 0; g < det_.size(); ++g) {
-      const double ratio_minus_one = alpha * (det_linear_(g) + alpha * det_quadratic_(g));
-      if (!(ratio_minus_one > -1.0)) return std::numeric_limits<double>::infinity();
-      change -= std::log1p(ratio_minus_one);
-    }
-    for (Eigen::Index i = 0; i < h_linear_.size(); ++i) change -= std::log1p(alpha * h_linear_(i));
-    return change;
-  }
-
-  const BarrierProblem& p_;
-  std::vector<Eigen::Index> columns_;
-  Eigen::MatrixXd lmi_j_, y_, wtw2_, hess_, hess_j_;
-  Eigen::VectorXd s_, v_, e_, det_, det_linear_, det_quadratic_, h_, r_, h_linear_, grad_, grad_j_,
-      step_, trial_, diff_, wdiff_, wstep_;
-  double cost_linear_ = 0.0, cost_quadratic_ = 0.0;
-  Eigen::LLT<Eigen::MatrixXd> llt_;
-};
+SID_INLINE void check_grid_size(const char* who, const PhysicalConstraints& c);
 
 /// Phase 1 (Boyd & Vandenberghe sec. 11.4.1): a point where D(phi) is positive definite at every
 /// grid point and phi_k > 0 on the bounded indices, or an exception if none exists.
@@ -395,58 +152,9 @@ class BarrierSolver {
 /// (0, 1) is strictly feasible, and any iterate with s < 0 is an interior point of the cone.
 /// The optimal s* < 0 iff the cone has an interior; it is declared empty once the bound
 /// s - nu / t on s* exceeds -2 delta, i.e. the cone is thinner than delta in these units.
-inline Eigen::VectorXd physical_interior_point(const Eigen::MatrixXd& basis,
+SID_INLINE Eigen::VectorXd physical_interior_point(const Eigen::MatrixXd& basis,
                                                const std::vector<Eigen::Index>& bounded,
-                                               int& iterations, int max_iterations) {
-  constexpr const char* who = "sid::nearest_physical";
-  constexpr double delta = 1e-9;
-  const Eigen::Index p = basis.cols(), rows = basis.rows();
-  const Eigen::Index nb = static_cast<Eigen::Index>(bounded.size());
-  const double a_max = basis.cwiseAbs().maxCoeff();
-  if (!(a_max > 0.0))
-    throw std::invalid_argument(std::string(who) +
-                                ": no parameter values make the mass matrix positive definite "
-                                "(the model's D is identically zero): no strictly feasible point");
-  BarrierProblem phase1;
-  phase1.lmi.resize(rows, p + 1);
-  phase1.lmi.leftCols(p) = basis / a_max;
-  for (Eigen::Index g = 0; g < rows / 3; ++g) phase1.lmi.col(p).segment<3>(3 * g) << 1.0, 0.0, 1.0;
-  phase1.lmi_offset = Eigen::VectorXd::Zero(rows);
-  phase1.lin = Eigen::MatrixXd::Zero(nb + 2 * p, p + 1);
-  phase1.lin_offset = Eigen::VectorXd::Zero(nb + 2 * p);
-  for (Eigen::Index i = 0; i < nb; ++i) {
-    phase1.lin(i, bounded[static_cast<std::size_t>(i)]) = 1.0;
-    phase1.lin(i, p) = 1.0;
-  }
-  for (Eigen::Index j = 0; j < p; ++j) {
-    phase1.lin(nb + 2 * j, j) = 1.0;
-    phase1.lin(nb + 2 * j + 1, j) = -1.0;
-    phase1.lin_offset.segment<2>(nb + 2 * j).setOnes();
-  }
-  phase1.w.resize(0, p + 1);
-  phase1.z0 = Eigen::VectorXd::Zero(p + 1);
-  phase1.c = Eigen::VectorXd::Unit(p + 1, p);
-
-  BarrierSolver solver(phase1);
-  Eigen::VectorXd z = Eigen::VectorXd::Zero(p + 1);
-  z(p) = 1.0;
-  const auto found = [p](const Eigen::VectorXd& zz) { return zz(p) < -delta; };
-  double t = 1.0;
-  for (int stage = 0;; ++stage, t *= 10.0) {
-    solver.centre(z, t, iterations, max_iterations, found);
-    if (found(z)) return z.head(p);
-    if (z(p) - phase1.nu() / t > -2.0 * delta)
-      throw std::invalid_argument(
-          std::string(who) +
-          ": no strictly feasible point: no parameter values make the mass matrix positive "
-          "definite at every q2 with the bounded parameters positive (for example D is singular "
-          "for all parameters, or a bound contradicts it)");
-    if (iterations >= max_iterations || stage == kMaxBarrierStages)
-      throw std::runtime_error(std::string(who) +
-                               ": finding a strictly feasible start took more than "
-                               "options.max_iterations Newton steps");
-  }
-}
+                                               int& iterations, int max_iterations);
 
 }  // namespace detail
 
@@ -454,31 +162,9 @@ inline Eigen::VectorXd physical_interior_point(const Eigen::MatrixXd& basis,
 /// see the file comment) and no parameter of c's list negative.
 /// @param theta [model.num_parameters()], finite.
 /// @throws std::invalid_argument on a wrongly sized or non-finite theta, or c.grid_size < 1.
-inline PhysicalCheck check_physical(const Model<double>& model,
+SID_INLINE PhysicalCheck check_physical(const Model<double>& model,
                                     const Eigen::Ref<const Eigen::VectorXd>& theta,
-                                    const PhysicalConstraints& c = {}) {
-  constexpr const char* who = "sid::check_physical";
-  if (theta.size() != model.num_parameters())
-    throw std::invalid_argument(std::string(who) + ": theta has " + std::to_string(theta.size()) +
-                                " entries but the model has " +
-                                std::to_string(model.num_parameters()) + " parameters");
-  if (!theta.allFinite()) throw std::invalid_argument(std::string(who) + ": theta must be finite");
-  detail::check_grid_size(who, c);
-
-  PhysicalCheck check;
-  const Eigen::VectorXd d = detail::mass_matrix_basis(model, c.grid_size) * theta;
-  const detail::GridMinimum worst = detail::grid_min_eigenvalue(d);
-  check.min_eigenvalue = worst.value;
-  check.min_eigenvalue_q2 = detail::physical_grid_q2(worst.index, c.grid_size);
-  check.mass_matrix_positive_definite = worst.value > 0.0;
-  const std::vector<std::string> names = model.parameter_names();
-  for (const Eigen::Index k : detail::bounded_indices(model, c))
-    if (theta(k) < 0.0) {
-      check.negative_parameters.push_back(names[static_cast<std::size_t>(k)]);
-      check.negative_values.push_back(theta(k));
-    }
-  return check;
-}
+                                    const PhysicalConstraints& c = {});
 
 /// @brief The least-squares estimate closest to the data among the physically plausible ones:
 ///   minimise ||X theta - y||^2 subject to D(theta, q2_g) >= margin_absolute I on the grid and
@@ -497,161 +183,14 @@ inline PhysicalCheck check_physical(const Model<double>& model,
 /// @throws std::invalid_argument ("sid::nearest_physical: ...") on wrong sizes, non-finite
 ///         values, a rank-deficient X, invalid options or c.grid_size, or when no parameter values
 ///         satisfy the constraints strictly (e.g. a model without inertia terms).
-inline ConsistentEstimate nearest_physical(const Model<double>& model,
+SID_INLINE ConsistentEstimate nearest_physical(const Model<double>& model,
                                            const Eigen::Ref<const Eigen::MatrixXd>& X,
                                            const Eigen::Ref<const Eigen::VectorXd>& y,
                                            const PhysicalConstraints& c = {},
-                                           const NearestPhysicalOptions& options = {}) {
-  constexpr const char* who = "sid::nearest_physical";
-  const std::string prefix = std::string(who) + ": ";
-  const Eigen::Index m = X.rows(), p = X.cols();
-  if (p != model.num_parameters())
-    throw std::invalid_argument(prefix + "X has " + std::to_string(p) +
-                                " columns but the model has " +
-                                std::to_string(model.num_parameters()) + " parameters");
-  if (p < 1) throw std::invalid_argument(prefix + "the model has no parameters");
-  if (m <= p)
-    throw std::invalid_argument(prefix + "X must have more rows than columns, got " +
-                                std::to_string(m) + " x " + std::to_string(p));
-  if (y.size() != m)
-    throw std::invalid_argument(prefix + "y must have as many entries as X has rows (" +
-                                std::to_string(m) + "), got " + std::to_string(y.size()));
-  if (!X.allFinite()) throw std::invalid_argument(prefix + "X must be finite");
-  if (!y.allFinite()) throw std::invalid_argument(prefix + "y must be finite");
-  detail::check_grid_size(who, c);
-  if (!(options.margin >= 0.0) || !std::isfinite(options.margin))
-    throw std::invalid_argument(prefix + "options.margin must be finite and >= 0");
-  if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
-    throw std::invalid_argument(prefix + "options.tolerance must be finite and > 0");
-  if (options.max_iterations < 1)
-    throw std::invalid_argument(prefix + "options.max_iterations must be >= 1");
-
-  // Whitening: unit-norm columns, then X_s = Q R; Q' y gives phi_hat and the residual sum RSS.
-  Eigen::VectorXd scale = X.colwise().norm().transpose();
-  for (Eigen::Index j = 0; j < p; ++j)
-    if (scale(j) == 0.0) scale(j) = 1.0;  // a zero column: caught as rank deficiency below
-  Eigen::MatrixXd xs = X * scale.cwiseInverse().asDiagonal();
-  const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(xs);
-  const Eigen::VectorXd qty = qr.householderQ().adjoint() * y;
-  const Eigen::MatrixXd r = qr.matrixQR().topLeftCorner(p, p).triangularView<Eigen::Upper>();
-  {
-    const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(r);
-    const Eigen::VectorXd& sv = svd.singularValues();
-    if (!(sv(p - 1) > static_cast<double>(m) * std::numeric_limits<double>::epsilon() * sv(0)))
-      throw std::invalid_argument(prefix +
-                                  "X is rank deficient (after scaling its columns to unit norm): "
-                                  "the constrained fit needs every parameter identifiable");
-  }
-  const Eigen::VectorXd phi_hat = r.triangularView<Eigen::Upper>().solve(qty.head(p));
-  const double rss = qty.tail(m - p).squaredNorm();
-
-  const Eigen::MatrixXd basis = detail::mass_matrix_basis(model, c.grid_size);  // theta units
-  const Eigen::MatrixXd basis_phi = basis * scale.cwiseInverse().asDiagonal();  // phi units
-  const std::vector<Eigen::Index> bounded = detail::bounded_indices(model, c);
-  const std::vector<std::string> names = model.parameter_names();
-
-  ConsistentEstimate result;
-  result.theta_unconstrained = phi_hat.cwiseQuotient(scale);
-  const Eigen::VectorXd d_hat = basis * result.theta_unconstrained;
-  double s_d = 0.0;
-  for (Eigen::Index g = 0; g < c.grid_size; ++g)
-    s_d = std::max(s_d, detail::max_abs_eigenvalue_2x2(d_hat(3 * g), d_hat(3 * g + 1),
-                                                       d_hat(3 * g + 2)));
-  const double eps = options.margin * s_d;
-  result.margin_absolute = eps;
-
-  const auto finish = [&](const Eigen::VectorXd& theta) {
-    result.theta = theta;
-    const detail::GridMinimum worst = detail::grid_min_eigenvalue(basis * theta);
-    result.min_eigenvalue = worst.value;
-    result.min_eigenvalue_q2 = detail::physical_grid_q2(worst.index, c.grid_size);
-  };
-
-  const detail::GridMinimum worst_hat = detail::grid_min_eigenvalue(d_hat);
-  bool bounds_hold = true;
-  for (const Eigen::Index k : bounded) bounds_hold = bounds_hold && phi_hat(k) >= 0.0;
-  if (worst_hat.value > 0.0 && worst_hat.value >= eps && bounds_hold) {
-    finish(result.theta_unconstrained);
-    result.converged = true;
-    return result;
-  }
-
-  // Phase 1, then a strictly feasible start on the ray from phi_hat toward the interior point:
-  // lambda_min(D(phi_hat + c phi_f)) >= lambda_min(D(phi_hat)) + c lambda_min(D(phi_f)) (Weyl).
-  int iterations = 0;
-  const Eigen::VectorXd phi_f =
-      detail::physical_interior_point(basis_phi, bounded, iterations, options.max_iterations);
-  const Eigen::VectorXd d_f = basis_phi * phi_f;
-  double c_needed = 0.0;
-  for (Eigen::Index g = 0; g < c.grid_size; ++g) {
-    const double lam_hat =
-        detail::min_eigenvalue_2x2(d_hat(3 * g), d_hat(3 * g + 1), d_hat(3 * g + 2));
-    const double lam_f = detail::min_eigenvalue_2x2(d_f(3 * g), d_f(3 * g + 1), d_f(3 * g + 2));
-    c_needed = std::max(c_needed, (eps - lam_hat) / lam_f);
-  }
-  for (const Eigen::Index k : bounded) c_needed = std::max(c_needed, -phi_hat(k) / phi_f(k));
-
-  detail::BarrierProblem fit;
-  fit.lmi = basis_phi;
-  fit.lmi_offset = Eigen::VectorXd::Zero(3 * c.grid_size);
-  for (Eigen::Index g = 0; g < c.grid_size; ++g) {
-    fit.lmi_offset(3 * g) = -eps;
-    fit.lmi_offset(3 * g + 2) = -eps;
-  }
-  const Eigen::Index nb = static_cast<Eigen::Index>(bounded.size());
-  fit.lin = Eigen::MatrixXd::Zero(nb, p);
-  for (Eigen::Index i = 0; i < nb; ++i) fit.lin(i, bounded[static_cast<std::size_t>(i)]) = 1.0;
-  fit.lin_offset = Eigen::VectorXd::Zero(nb);
-  fit.w = r;
-  fit.z0 = phi_hat;
-  fit.c = Eigen::VectorXd::Zero(p);
-  detail::BarrierSolver solver(fit);
-
-  double step = c_needed > 0.0 ? 2.0 * c_needed : 1e-3;
-  Eigen::VectorXd phi = phi_hat + step * phi_f;
-  for (int doubling = 0; !solver.strictly_feasible(phi); ++doubling) {
-    if (doubling == 60)
-      throw std::runtime_error(prefix + "could not place a strictly feasible start");
-    step *= 2.0;
-    phi = phi_hat + step * phi_f;
-  }
-
-  const double nu = fit.nu();
-  double t = nu / std::max(solver.cost(phi), std::numeric_limits<double>::min());
-  const auto never = [](const Eigen::VectorXd&) { return false; };
-  for (int stage = 0;; ++stage, t *= 10.0) {
-    solver.centre(phi, t, iterations, options.max_iterations, never);
-    if (nu / t <= options.tolerance * (rss + solver.cost(phi))) {
-      result.converged = true;
-      break;
-    }
-    if (iterations >= options.max_iterations || stage == detail::kMaxBarrierStages) break;
-  }
-
-  // Active bounds: on the central path phi_k * lambda_k = 1 / t (lambda_k the bound's
-  // multiplier, same units as phi_k), so phi_k < 1 / sqrt(t) means lambda_k > phi_k: the
-  // strict-complementarity split between "held at zero" and "free".
-  const double zero_below = 1.0 / std::sqrt(t);
-  std::vector<Eigen::Index> active;
-  for (const Eigen::Index k : bounded)
-    if (phi(k) < zero_below) active.push_back(k);
-  Eigen::VectorXd snapped = phi;
-  for (const Eigen::Index k : active)
-    if (basis.col(k).isZero(0.0)) snapped(k) = 0.0;  // no effect on D
-  Eigen::VectorXd all_snapped = snapped;
-  for (const Eigen::Index k : active) all_snapped(k) = 0.0;
-  const double snapped_min = detail::grid_min_eigenvalue(basis_phi * all_snapped).value;
-  if (snapped_min > 0.0 && snapped_min >= eps) snapped = all_snapped;
-  phi = snapped;
-
-  for (const Eigen::Index k : active)
-    result.active_bounds.push_back(names[static_cast<std::size_t>(k)]);
-  finish(phi.cwiseQuotient(scale));
-  result.changed = true;
-  result.cost_increase = solver.cost(phi);
-  result.mass_matrix_active = result.min_eigenvalue <= eps + 1e-6 * s_d;
-  result.iterations = iterations;
-  return result;
-}
+                                           const NearestPhysicalOptions& options = {});
 
 }  // namespace sid
+
+#ifdef SID_HEADER_ONLY
+#include <sid/physical_consistency-inl.hpp>
+#endif

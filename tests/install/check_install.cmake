@@ -1,5 +1,5 @@
 # Installs the sid build tree to a fresh prefix, then configures, builds and runs a consumer
-# project that only knows find_package(sid).
+# project that only knows find_package(sid), in both build modes.
 file(REMOVE_RECURSE ${WORK_DIR})
 set(prefix ${WORK_DIR}/prefix)
 execute_process(COMMAND ${CMAKE_COMMAND} --install ${SID_BINARY_DIR} --prefix ${prefix}
@@ -18,8 +18,10 @@ execute_process(COMMAND ${CMAKE_COMMAND} --build ${WORK_DIR}/build RESULT_VARIAB
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "building the consumer failed: ${rc}")
 endif()
-execute_process(COMMAND ${WORK_DIR}/build/consumer RESULT_VARIABLE rc OUTPUT_VARIABLE out)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "the consumer failed: ${rc} ${out}")
-endif()
-message(STATUS "consumer says: ${out}")
+foreach(mode IN ITEMS header_only compiled)
+  execute_process(COMMAND ${WORK_DIR}/build/consumer_${mode} RESULT_VARIABLE rc OUTPUT_VARIABLE out)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "the ${mode} consumer failed: ${rc} ${out}")
+  endif()
+  message(STATUS "${mode} consumer says: ${out}")
+endforeach()

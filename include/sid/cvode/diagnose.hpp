@@ -4,6 +4,7 @@
 /// final model, each simulated open loop from the measured torque, compared with the measured
 /// angles, and the time windows where a model drifts further than the torque noise explains.
 
+#include <sid/config.hpp>
 #include <sid/cvode/free_simulation.hpp>
 #include <sid/cvode/friction_refinement.hpp>
 #include <sid/cvode/simulation_check.hpp>
@@ -28,9 +29,6 @@
 #include <vector>
 
 namespace sid {
-
-// The functions here are templates on an unused parameter, so that a file compiles only those
-// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
 
 /// @brief How simulation windows are judged.
 ///
@@ -82,22 +80,7 @@ struct SimulationCheckOptions {
 namespace detail {
 
 /// Mean square per sample over the noise-alone runs (NaN entries of failed runs left out).
-template <typename = void>
-inline MatrixX2<double> mean_square(const std::vector<MatrixX2<double>>& runs, Eigen::Index n) {
-  MatrixX2<double> ms = MatrixX2<double>::Zero(n, 2);
-  for (Eigen::Index i = 0; i < n; ++i)
-    for (int j = 0; j < 2; ++j) {
-      double sum = 0.0;
-      int count = 0;
-      for (const auto& e : runs)
-        if (std::isfinite(e(i, j))) {
-          sum += e(i, j) * e(i, j);
-          ++count;
-        }
-      ms(i, j) = count > 0 ? sum / count : 0.0;
-    }
-  return ms;
-}
+SID_INLINE MatrixX2<double> mean_square(const std::vector<MatrixX2<double>>& runs, Eigen::Index n);
 
 }  // namespace detail
 
@@ -106,51 +89,10 @@ inline MatrixX2<double> mean_square(const std::vector<MatrixX2<double>>& runs, E
 /// square per sample and joint. ratio = window RMS / expected RMS (infinite when that is 0).
 /// NaN errors (a failed simulation) are left out; a window needs 2 finite samples.
 /// @throws std::invalid_argument for sizes that differ or a window_length that is not > 0.
-template <typename = void>
-inline std::vector<FlaggedWindow> simulation_windows(const FreeSimulation& sim,
+SID_INLINE std::vector<FlaggedWindow> simulation_windows(const FreeSimulation& sim,
                                                      const Eigen::Ref<const MatrixX2<double>>& expected_ms,
                                                      double window_length,
-                                                     const SimulationCheckOptions& check = {}) {
-  const std::string who = "sid::simulation_windows: ";
-  const Eigen::Index n = sim.t.size();
-  if (sim.error.rows() != n || expected_ms.rows() != n)
-    throw std::invalid_argument(who + "sim.t, sim.error and expected_ms must have the same rows");
-  if (!(window_length > 0.0) || !std::isfinite(window_length))
-    throw std::invalid_argument(who + "window_length must be finite and > 0 [s]");
-  std::vector<FlaggedWindow> windows;
-  if (n == 0) return windows;
-  const double t0 = sim.t[0];
-  for (int j = 0; j < 2; ++j) {
-    Eigen::Index begin = 0;
-    while (begin < n) {
-      const auto m = std::floor((sim.t[begin] - t0) / window_length + 1e-9);
-      const double w_begin = t0 + m * window_length, w_end = w_begin + window_length;
-      Eigen::Index end = begin;
-      double observed = 0.0, expected = 0.0;
-      Eigen::Index count = 0;
-      while (end < n && sim.t[end] < w_end - 1e-9 * window_length) {
-        const double e = sim.error(end, j);
-        if (std::isfinite(e)) {
-          observed += e * e;
-          expected += expected_ms(end, j);
-          ++count;
-        }
-        ++end;
-      }
-      if (end == begin) ++end;  // cannot happen for increasing t; guards the loop
-      if (count >= 2) {
-        const double rms = std::sqrt(observed / static_cast<double>(count));
-        const double reference = std::sqrt(expected / static_cast<double>(count));
-        if (rms > check.threshold * reference && rms > check.min_error)
-          windows.push_back({j + 1, w_begin, std::min(w_end, sim.t[n - 1]),
-                             reference > 0.0 ? rms / reference
-                                             : std::numeric_limits<double>::infinity()});
-      }
-      begin = end;
-    }
-  }
-  return windows;
-}
+                                                     const SimulationCheckOptions& check = {});
 
 /// @brief Runs diagnose(data, options), then the free simulations of the nominal and the final
 /// model on the result's kinematics (restarted every sim.segment seconds), and fills
@@ -161,95 +103,14 @@ inline std::vector<FlaggedWindow> simulation_windows(const FreeSimulation& sim,
 /// @param[out] details when not null, the simulations and the noise calibration.
 /// @throws std::invalid_argument as diagnose() does, for bad simulation options, or for bad
 ///   check options (noise_runs < 1, threshold or min_error not > 0 / >= 0).
-template <typename = void>
-DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
+SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
                                          const DiagnoseOptions& options = {},
                                          const FreeSimulationOptions& sim = {},
                                          const SimulationCheckOptions& check = {},
-                                         SimulationCheck* details = nullptr) {
-  const std::string who = "sid::diagnose_with_simulation: ";
-  if (check.noise_runs < 1) throw std::invalid_argument(who + "check.noise_runs must be >= 1");
-  if (!(check.threshold > 0.0) || !std::isfinite(check.threshold))
-    throw std::invalid_argument(who + "check.threshold must be finite and > 0");
-  if (!(check.min_error >= 0.0) || !std::isfinite(check.min_error))
-    throw std::invalid_argument(who + "check.min_error must be finite and >= 0 [rad]");
-  if (!(check.noise_tolerance > 0.0) || !std::isfinite(check.noise_tolerance))
-    throw std::invalid_argument(who + "check.noise_tolerance must be finite and > 0");
-  if (!(check.checked_tolerance >= 0.0) || !std::isfinite(check.checked_tolerance))
-    throw std::invalid_argument(who + "check.checked_tolerance must be finite and >= 0 (0: sim's)");
-  const auto start = std::chrono::steady_clock::now();
-  DiagnosisResult result = diagnose(data, options);
-  const Kinematics<double>& k = result.kinematics;
-  const Eigen::Index n = k.size();
-  SimulationCheck check_result;
-  FreeSimulationOptions checked = sim;
-  if (check.checked_tolerance > 0.0) checked.simulator.rtol = checked.simulator.atol = check.checked_tolerance;
-  // The friction test does not change the nominal model, and its fits leave a core idle part
-  // of the time (a handful of windows on two threads): the nominal simulation runs beside it.
-  // It works on copies: the friction test rewrites the result.
-  const bool nominal_beside_friction_test =
-      check.refine_friction && (detail::names_friction_of(result, 1) || detail::names_friction_of(result, 2));
-  if (nominal_beside_friction_test) {
-    std::future<FreeSimulation> nominal = std::async(
-        std::launch::async, [model = result.nominal_model, theta = result.nominal.theta, kinematics = k, &checked] {
-          return free_simulation(model, theta, kinematics, checked);
-        });
-    refine_named_friction(result, data, options, check.friction);
-    check_result.nominal = nominal.get();
-  }
-
-  // The noise alone: (sim with tau + w) - (sim with tau), w white at the noise floor. The draws
-  // come first, in order, so that the simulations (independent) can run on every core.
-  FreeSimulationOptions loose = sim;
-  loose.simulator.rtol = loose.simulator.atol = check.noise_tolerance;
-  std::mt19937_64 rng(check.seed);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  std::vector<Kinematics<double>> noisy(static_cast<std::size_t>(check.noise_runs), k);
-  for (auto& run : noisy)
-    for (int j = 0; j < 2; ++j)
-      for (Eigen::Index i = 0; i < n; ++i) run.tau(i, j) = k.tau(i, j) + result.noise_floor[j] * normal(rng);
-  FreeSimulation base;
-  std::vector<FreeSimulation> perturbed(noisy.size());
-  const bool named = !result.effects.empty();
-  // The two checked simulations (the tighter tolerance, the longest) first.
-  std::vector<std::function<void()>> runs;
-  if (!nominal_beside_friction_test)
-    runs.emplace_back([&] { check_result.nominal = free_simulation(result.nominal_model, result.nominal.theta, k, checked); });
-  if (named)
-    runs.emplace_back([&] { check_result.final = free_simulation(result.final_model, result.final.theta, k, checked); });
-  const Model<double>& calibrated = named ? result.final_model : result.nominal_model;
-  const Eigen::VectorXd& calibrated_theta = named ? result.final.theta : result.nominal.theta;
-  runs.emplace_back([&] { base = free_simulation(calibrated, calibrated_theta, k, loose); });
-  for (std::size_t r = 0; r < noisy.size(); ++r)
-    runs.emplace_back([&, r] { perturbed[r] = free_simulation(calibrated, calibrated_theta, noisy[r], loose); });
-  detail::for_each_index(static_cast<Eigen::Index>(runs.size()),
-                         static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
-                         [&](Eigen::Index task, int) { runs[static_cast<std::size_t>(task)](); });
-  std::vector<MatrixX2<double>> noise_errors;
-  for (const auto& p : perturbed) noise_errors.push_back(p.q - base.q);
-  const MatrixX2<double> expected_ms = detail::mean_square(noise_errors, n);
-  check_result.noise_rms = expected_ms.cwiseSqrt();
-  for (int j = 0; j < 2; ++j)
-    check_result.noise_error_rms[j] = n > 0 ? std::sqrt(expected_ms.col(j).mean()) : 0.0;
-
-  result.nominal.sim_error_rms = check_result.nominal.error_rms;
-  result.nominal.sim_windows =
-      simulation_windows(check_result.nominal, expected_ms, options.window_length, check);
-  if (!named) check_result.final = check_result.nominal;
-  result.final.sim_error_rms = check_result.final.error_rms;
-  result.final.sim_windows =
-      simulation_windows(check_result.final, expected_ms, options.window_length, check);
-  // The whole wall time, diagnose() included.
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (details) *details = std::move(check_result);
-  return result;
-}
-
-#ifdef SID_PRECOMPILED
-// Compiled once, in src/precompiled/pipeline.cpp, for the programs that link it.
-extern template DiagnosisResult diagnose_with_simulation<>(const Trajectory<double>&, const DiagnoseOptions&,
-                                                         const FreeSimulationOptions&, const SimulationCheckOptions&,
-                                                         SimulationCheck*);
-#endif
+                                         SimulationCheck* details = nullptr);
 
 }  // namespace sid
+
+#ifdef SID_HEADER_ONLY
+#include <sid/cvode/diagnose-inl.hpp>
+#endif

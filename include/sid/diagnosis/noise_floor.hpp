@@ -6,34 +6,18 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <limits>
+#include <sid/config.hpp>
 #include <sid/smoothing_spline.hpp>
 #include <stdexcept>
 #include <string>
 
 namespace sid {
 
-// The functions here are templates on an unused parameter, so that a file compiles only those
-// it calls (README, "Tests"; src/precompiled/pipeline.cpp).
-
 /// @brief σ of white noise on a smooth signal from second differences:
 /// E[(y_{i+1} − 2y_i + y_{i−1})²] = 6σ² + O(Ts⁴ (y'''')²). Cheap, but only 51 % efficient
 /// (its variance is 35/18 times that of the mean of the true squared noise).
 /// @throws std::invalid_argument for fewer than 3 samples or non-finite y.
-template <typename = void>
-inline double noise_sigma_second_differences(const Eigen::Ref<const Eigen::VectorXd>& y) {
-  const Eigen::Index n = y.size();
-  if (n < 3)
-    throw std::invalid_argument(
-        "sid::noise_sigma_second_differences: needs at least 3 samples, got " + std::to_string(n));
-  if (!y.allFinite())
-    throw std::invalid_argument("sid::noise_sigma_second_differences: y must be finite");
-  double sum = 0.0;
-  for (Eigen::Index i = 1; i + 1 < n; ++i) {
-    const double d = y[i + 1] - 2.0 * y[i] + y[i - 1];
-    sum += d * d;
-  }
-  return std::sqrt(sum / (6.0 * static_cast<double>(n - 2)));
-}
+SID_INLINE double noise_sigma_second_differences(const Eigen::Ref<const Eigen::VectorXd>& y);
 
 /// @brief σ of white noise on a smooth signal from a GCV smoothing spline:
 /// σ̂² = RSS / (n − tr A) (Wahba 1990, eq. 4.3.1). Nearly fully efficient, and its residual is
@@ -41,11 +25,11 @@ inline double noise_sigma_second_differences(const Eigen::Ref<const Eigen::Vecto
 /// residual RMS is compared with) far more closely than a difference estimator.
 /// @param t strictly increasing times [s]; y the signal (n >= 4).
 /// @throws std::invalid_argument as SmoothingSpline does (too few samples, bad t, non-finite y).
-template <typename = void>
-inline double noise_sigma_gcv(const Eigen::Ref<const Eigen::VectorXd>& t,
-                              const Eigen::Ref<const Eigen::VectorXd>& y) {
-  const SmoothingSpline<double> spline(t);
-  return spline.fit_cross_validated(y, 1.0, SmoothingCriterion::Gcv).sigma;
-}
+SID_INLINE double noise_sigma_gcv(const Eigen::Ref<const Eigen::VectorXd>& t,
+                              const Eigen::Ref<const Eigen::VectorXd>& y);
 
 }  // namespace sid
+
+#ifdef SID_HEADER_ONLY
+#include <sid/diagnosis/noise_floor-inl.hpp>
+#endif

@@ -8,6 +8,7 @@
 /// this header needs no SUNDIALS. A run's noise depends only on (seed, level index, run index):
 /// the numbers are the same for any thread count, and runs can be split across machines.
 
+#include <sid/config.hpp>
 #include <sid/identify.hpp>
 #include <sid/identify_runs.hpp>
 #include <sid/measurement_noise.hpp>
@@ -47,29 +48,11 @@ enum class StudyMethod {
   Oracle,    ///< exact q, q̇, q̈ with the noisy τ: the floor no estimator beats on average
 };
 
-inline const char* study_method_name(StudyMethod method) {
-  switch (method) {
-    case StudyMethod::Raw: return "raw";
-    case StudyMethod::Filtered: return "filtered";
-    case StudyMethod::Css: return "css";
-    case StudyMethod::CssGcv: return "css_gcv";
-    case StudyMethod::CssWls: return "css_wls";
-    case StudyMethod::CssIv: return "css_iv";
-    case StudyMethod::CssTorqueCv: return "css_tcv";
-    case StudyMethod::Oracle: return "oracle";
-  }
-  return "unknown";
-}
+SID_INLINE const char* study_method_name(StudyMethod method);
 
 /// @throws std::invalid_argument for a name other than raw, filtered, css, css_gcv, css_wls,
 /// css_iv, css_tcv, oracle.
-inline StudyMethod parse_study_method(const std::string& name) {
-  for (StudyMethod m : {StudyMethod::Raw, StudyMethod::Filtered, StudyMethod::Css, StudyMethod::CssGcv,
-                        StudyMethod::CssWls, StudyMethod::CssIv, StudyMethod::CssTorqueCv, StudyMethod::Oracle})
-    if (name == study_method_name(m)) return m;
-  throw std::invalid_argument("sid::parse_study_method: unknown method '" + name +
-                              "' (expected raw, filtered, css, css_gcv, css_wls, css_iv, css_tcv or oracle)");
-}
+SID_INLINE StudyMethod parse_study_method(const std::string& name);
 
 /// @brief A refinement of a first least-squares fit on the windowed kinematics, such as the
 /// IDIM-IV step of sid/cvode/instrumental_variables.hpp (sid::instrumental_variable_step()).
@@ -126,197 +109,35 @@ struct MonteCarloResult {
 };
 
 /// @brief The generator of one run: seeded from (seed, level, run) only.
-inline std::mt19937_64 run_generator(std::uint64_t seed, std::size_t level, int run) {
-  std::seed_seq seq{static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32),
-                    static_cast<std::uint32_t>(level), static_cast<std::uint32_t>(run)};
-  return std::mt19937_64(seq);
-}
+SID_INLINE std::mt19937_64 run_generator(std::uint64_t seed, std::size_t level, int run);
 
 /// @brief The kinematics one method estimates from one noisy data set (before the window is
 /// applied by fit_study_method; useful for plots).
-inline Kinematics<double> study_kinematics(StudyMethod method, const Kinematics<double>& truth,
+SID_INLINE Kinematics<double> study_kinematics(StudyMethod method, const Kinematics<double>& truth,
                                            const Trajectory<double>& measured, double sigma_q2,
-                                           const IdentifyOptions& base) {
-  if (method == StudyMethod::Oracle) {
-    Kinematics<double> k = truth;
-    k.tau = measured.tau;
-    return k;
-  }
-  if (method == StudyMethod::CssTorqueCv) {
-    // The study already runs one data set per thread; the cutoff search stays on it.
-    RunsIdentifyOptions choice;
-    choice.skip = base.skip;
-    choice.skip_end = base.skip_end;
-    choice.threads = 1;
-    const std::vector<Trajectory<double>> runs{measured};
-    return kinematics_at_cutoff(measured, choose_cutoff(runs, two_link_arm_model<double>(base.gravity), choice).cutoff_hz);
-  }
-  IdentifyOptions options = base;
-  options.method = method == StudyMethod::Raw        ? DerivativeMethod::ForwardDifference
-                   : method == StudyMethod::Filtered ? DerivativeMethod::FilteredDifference
-                                                     : DerivativeMethod::SmoothingSpline;
-  options.sigma_q = Vector2<double>::Constant(std::sqrt(sigma_q2));
-  const bool gcv = method == StudyMethod::CssGcv || method == StudyMethod::CssWls || method == StudyMethod::CssIv;
-  options.smoothing = gcv ? SmoothingMode::Gcv : SmoothingMode::SConstraint;
-  if (method == StudyMethod::CssIv) options.cross_validation_lambda_scale = kInstrumentalVariableLambdaScale;
-  return estimate_kinematics(measured, options);
-}
+                                           const IdentifyOptions& base);
 
 /// @brief θ̂ of one method on one noisy data set (the paper's windows); NaN-free on success.
 /// @param refine the IV step for StudyMethod::CssIv (ignored by the other methods).
 /// @throws std::invalid_argument for css_iv without refine.
-inline LeastSquaresResult<double> fit_study_method(StudyMethod method, const Kinematics<double>& truth,
+SID_INLINE LeastSquaresResult<double> fit_study_method(StudyMethod method, const Kinematics<double>& truth,
                                                    const Trajectory<double>& measured, double sigma_q2,
                                                    const IdentifyOptions& base,
-                                                   const EstimateRefinement& refine = {}) {
-  if (method == StudyMethod::CssIv && !refine)
-    throw std::invalid_argument(
-        "sid::fit_study_method: css_iv needs the IV step (sid::instrumental_variable_step() from "
-        "sid/cvode/instrumental_variables.hpp)");
-  const Kinematics<double> k = study_kinematics(method, truth, measured, sigma_q2, base);
-  const double skip = method == StudyMethod::Filtered ? base.filtered_skip : base.skip;
-  const Kinematics<double> kept = window(k, truth.t[0] + skip);
-  if (method == StudyMethod::CssWls) return fit_two_link_weighted(kept, base.gravity, base.least_squares);
-  LeastSquaresResult<double> fit = fit_two_link(kept, base.gravity, base.least_squares);
-  if (method == StudyMethod::CssIv && fit.ok()) return refine(kept, fit);
-  return fit;
-}
+                                                   const EstimateRefinement& refine = {});
 
 namespace detail {
 
-inline void summarize(MethodSummary& s, const TwoLinkParameters<double>& theta) {
-  const Eigen::Index p = theta.size();
-  s.mean = Eigen::VectorXd::Zero(p);
-  s.variance = Eigen::VectorXd::Zero(p);
-  int good = 0;
-  double sum_sq_rel = 0.0;
-  for (Eigen::Index r = 0; r < s.estimates.rows(); ++r) {
-    if (!s.estimates.row(r).allFinite()) continue;
-    ++good;
-    s.mean += s.estimates.row(r).transpose();
-    sum_sq_rel += ((s.estimates.row(r).transpose() - theta).cwiseQuotient(theta)).squaredNorm();
-  }
-  s.failed_runs = static_cast<int>(s.estimates.rows()) - good;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  if (good == 0) {
-    s.mean.setConstant(nan);
-    s.variance.setConstant(nan);
-  } else {
-    s.mean /= good;
-    for (Eigen::Index r = 0; r < s.estimates.rows(); ++r)
-      if (s.estimates.row(r).allFinite())
-        s.variance += (s.estimates.row(r).transpose() - s.mean).cwiseAbs2();
-    s.variance /= good > 1 ? good - 1 : nan;
-  }
-  const Eigen::VectorXd abs_theta = theta.cwiseAbs();
-  s.bias_pct = 100.0 * (s.mean - theta).cwiseQuotient(abs_theta);
-  s.std_pct = 100.0 * s.variance.cwiseSqrt().cwiseQuotient(abs_theta);
-  s.standard_error = (s.variance / std::max(good, 1)).cwiseSqrt();
-  s.rms_rel_error_pct = good > 0 ? 100.0 * std::sqrt(sum_sq_rel / (good * static_cast<double>(p))) : nan;
-  s.worst_abs_bias_pct = s.bias_pct.cwiseAbs().maxCoeff();
-}
+SID_INLINE void summarize(MethodSummary& s, const TwoLinkParameters<double>& theta);
 
 }  // namespace detail
 
 /// @brief Runs the study on a true trajectory (t, q, q̇, q̈, τ at the sample times).
 /// @throws std::invalid_argument on runs < 2, an empty or negative noise level, σ_τ² < 0, no
 /// methods, or a truth with inconsistent sizes.
-inline MonteCarloResult run_monte_carlo(const Kinematics<double>& truth, const MonteCarloOptions& options) {
-  const char* who = "sid::run_monte_carlo";
-  if (options.runs < 2) throw std::invalid_argument(std::string(who) + ": runs must be >= 2 (a variance needs two)");
-  if (options.sigma_q2_levels.empty()) throw std::invalid_argument(std::string(who) + ": no noise levels");
-  for (double v : options.sigma_q2_levels)
-    if (!(v > 0.0) || !std::isfinite(v))
-      throw std::invalid_argument(std::string(who) + ": every sigma_q2 level must be finite and > 0 (CSS needs "
-                                  "δq = σq > 0), got " + std::to_string(v));
-  if (!(options.sigma_tau2 >= 0.0) || !std::isfinite(options.sigma_tau2))
-    throw std::invalid_argument(std::string(who) + ": sigma_tau2 must be finite and >= 0");
-  if (options.methods.empty()) throw std::invalid_argument(std::string(who) + ": no methods");
-  for (StudyMethod m : options.methods)
-    if (m == StudyMethod::CssIv && !options.refine)
-      throw std::invalid_argument(std::string(who) + ": method css_iv needs options.refine (the IV step, "
-                                  "sid::instrumental_variable_step() from sid/cvode/instrumental_variables.hpp)");
-  const Eigen::Index n = truth.size();
-  if (truth.q.rows() != n || truth.qd.rows() != n || truth.qdd.rows() != n || truth.tau.rows() != n)
-    throw std::invalid_argument(std::string(who) + ": truth has columns of different lengths");
-
-  const auto start = std::chrono::steady_clock::now();
-  MonteCarloResult result;
-  result.theta = options.theta;
-  result.runs = options.runs;
-  result.seed = options.seed;
-  const std::size_t levels = options.sigma_q2_levels.size(), methods = options.methods.size();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  result.levels.resize(levels);
-  for (std::size_t l = 0; l < levels; ++l) {
-    result.levels[l].sigma_q2 = options.sigma_q2_levels[l];
-    result.levels[l].methods.resize(methods);
-    for (std::size_t m = 0; m < methods; ++m) {
-      result.levels[l].methods[m].method = options.methods[m];
-      result.levels[l].methods[m].estimates = Eigen::MatrixXd::Constant(options.runs, 7, nan);
-    }
-  }
-
-  const int total = static_cast<int>(levels) * options.runs;
-  std::atomic<int> next{0}, done{0};
-  std::mutex mutex;  // guards failure messages, the progress callback and `error`
-  std::exception_ptr error;
-  auto work_body = [&] {
-    for (int job = next++; job < total; job = next++) {
-      const std::size_t l = static_cast<std::size_t>(job / options.runs);
-      const int run = job % options.runs;
-      const double sigma_q2 = options.sigma_q2_levels[l];
-      std::mt19937_64 rng = run_generator(options.seed, l, run);
-      const Trajectory<double> measured =
-          add_measurement_noise(truth, MeasurementNoise<double>{sigma_q2, options.sigma_tau2}, rng);
-      for (std::size_t m = 0; m < methods; ++m) {
-        MethodSummary& summary = result.levels[l].methods[m];
-        std::string failure;
-        try {
-          const auto fit = fit_study_method(options.methods[m], truth, measured, sigma_q2, options.identify, options.refine);
-          if (fit.ok())
-            summary.estimates.row(run) = fit.theta.transpose();
-          else
-            failure = fit.message;
-        } catch (const std::exception& e) {
-          failure = e.what();
-        }
-        if (!failure.empty()) {
-          std::lock_guard<std::mutex> lock(mutex);
-          if (summary.failures.size() < 5) summary.failures.push_back("run " + std::to_string(run) + ": " + failure);
-        }
-      }
-      const int finished = ++done;
-      if (options.progress) {
-        std::lock_guard<std::mutex> lock(mutex);
-        options.progress(finished, total);
-      }
-    }
-  };
-  auto worker = [&] {
-    try {
-      work_body();
-    } catch (...) {  // an exception must not leave a std::thread: hand it to the caller
-      std::lock_guard<std::mutex> lock(mutex);
-      if (!error) error = std::current_exception();
-      next = total;
-    }
-  };
-  int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::max(1, std::min(threads, total));
-  result.threads_used = threads;
-  if (threads == 1) {
-    worker();
-  } else {
-    std::vector<std::thread> pool;
-    for (int i = 0; i < threads; ++i) pool.emplace_back(worker);
-    for (auto& thread : pool) thread.join();
-  }
-  if (error) std::rethrow_exception(error);
-  for (auto& level : result.levels)
-    for (auto& summary : level.methods) detail::summarize(summary, options.theta);
-  result.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return result;
-}
+SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth, const MonteCarloOptions& options);
 
 }  // namespace sid
+
+#ifdef SID_HEADER_ONLY
+#include <sid/study/montecarlo-inl.hpp>
+#endif

@@ -1,0 +1,148 @@
+#pragma once
+// Definitions of sid/diagnosis/hac.hpp (see sid/config.hpp).
+
+#include <sid/diagnosis/hac.hpp>
+
+namespace sid {
+
+namespace detail {
+
+SID_INLINE double gamma_p_series(double a, double x) {
+  double term = 1.0 / a, sum = term;
+  for (int k = 1; k < 1000; ++k) {
+    term *= x / (a + k);
+    sum += term;
+    if (std::fabs(term) < std::fabs(sum) * 1e-16) break;
+  }
+  return sum * std::exp(-x + a * std::log(x) - std::lgamma(a));
+}
+
+SID_INLINE double gamma_q_continued_fraction(double a, double x) {
+  constexpr double tiny = 1e-300;
+  double b = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / b, h = d;
+  for (int i = 1; i < 1000; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::fabs(d) < tiny) d = tiny;
+    c = b + an / c;
+    if (std::fabs(c) < tiny) c = tiny;
+    d = 1.0 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::fabs(delta - 1.0) < 1e-16) break;
+  }
+  return std::exp(-x + a * std::log(x) - std::lgamma(a)) * h;
+}
+
+}  // namespace detail
+
+SID_INLINE double regularized_gamma_q(double a, double x) {
+  if (!(a > 0.0) || !std::isfinite(a))
+    throw std::invalid_argument("sid::regularized_gamma_q: a must be finite and > 0");
+  if (!(x >= 0.0)) throw std::invalid_argument("sid::regularized_gamma_q: x must be >= 0");
+  if (x == 0.0) return 1.0;
+  if (std::isinf(x)) return 0.0;
+  if (x < a + 1.0) return 1.0 - detail::gamma_p_series(a, x);
+  return detail::gamma_q_continued_fraction(a, x);
+}
+
+SID_INLINE double chi_square_tail(double x, double df) {
+  if (!(df > 0.0)) throw std::invalid_argument("sid::chi_square_tail: df must be > 0");
+  if (!(x >= 0.0)) throw std::invalid_argument("sid::chi_square_tail: x must be >= 0");
+  return regularized_gamma_q(0.5 * df, 0.5 * x);
+}
+
+SID_INLINE double chi_square_critical(double alpha, double df) {
+  if (!(alpha > 0.0 && alpha < 1.0))
+    throw std::invalid_argument("sid::chi_square_critical: alpha must be in (0, 1)");
+  if (!(df > 0.0)) throw std::invalid_argument("sid::chi_square_critical: df must be > 0");
+  double lo = 0.0, hi = std::max(1.0, df);
+  while (chi_square_tail(hi, df) > alpha) hi *= 2.0;
+  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (chi_square_tail(mid, df) > alpha ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+SID_INLINE int newey_west_bandwidth(const Eigen::Ref<const Eigen::MatrixXd>& scores) {
+  const Eigen::Index n = scores.rows();
+  if (n < 8) return 1;
+  double num = 0.0, den = 0.0;
+  for (Eigen::Index a = 0; a < scores.cols(); ++a) {
+    const auto x = scores.col(a);
+    const double xx = x.head(n - 1).squaredNorm();
+    if (!(xx > 0.0)) continue;
+    double rho = x.tail(n - 1).dot(x.head(n - 1)) / xx;
+    rho = std::clamp(rho, -0.97, 0.97);
+    const double s2 =
+        (x.tail(n - 1) - rho * x.head(n - 1)).squaredNorm() / static_cast<double>(n - 1);
+    const double s4 = s2 * s2;
+    num += 4.0 * rho * rho * s4 / (std::pow(1.0 - rho, 6) * (1.0 + rho) * (1.0 + rho));
+    den += s4 / std::pow(1.0 - rho, 4);
+  }
+  if (!(den > 0.0)) return 1;
+  const double lag = 1.1447 * std::cbrt(num / den * static_cast<double>(n));
+  return static_cast<int>(
+      std::clamp(std::ceil(lag), 1.0, std::max(1.0, static_cast<double>(n / 4))));
+}
+
+SID_INLINE Eigen::MatrixXd newey_west_sum(const Eigen::Ref<const Eigen::MatrixXd>& scores, int lag) {
+  if (lag < 0) throw std::invalid_argument("sid::newey_west_sum: lag must be >= 0");
+  const Eigen::Index n = scores.rows();
+  Eigen::MatrixXd s = scores.transpose() * scores;
+  for (Eigen::Index l = 1; l <= lag && l < n; ++l) {
+    const double w = 1.0 - static_cast<double>(l) / static_cast<double>(lag + 1);
+    const Eigen::MatrixXd gamma = scores.bottomRows(n - l).transpose() * scores.topRows(n - l);
+    s += w * (gamma + gamma.transpose());
+  }
+  return s;
+}
+
+SID_INLINE Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::MatrixXd>& scores) {
+  const Eigen::Index n = scores.rows(), k = scores.cols();
+  if (n < 3 * k + 8) return newey_west_sum(scores, newey_west_bandwidth(scores));
+  const auto before = scores.topRows(n - 1);
+  const auto after = scores.bottomRows(n - 1);
+  Eigen::MatrixXd b = (before.transpose() * before).ldlt().solve(before.transpose() * after);
+  if (!b.allFinite()) return newey_west_sum(scores, newey_west_bandwidth(scores));
+  // B is square: Eigen's QR preconditioner would never run, and instantiating it costs
+  // seconds of compile time in every file that includes this header.
+  Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(b, Eigen::ComputeFullU |
+                                                                          Eigen::ComputeFullV);
+  constexpr double kMaxRoot = 0.97;
+  if (svd.singularValues().maxCoeff() > kMaxRoot)
+    b = svd.matrixU() * svd.singularValues().cwiseMin(kMaxRoot).asDiagonal() *
+        svd.matrixV().transpose();
+  const Eigen::MatrixXd u = after - before * b;
+  const Eigen::MatrixXd s_u = newey_west_sum(u, newey_west_bandwidth(u));
+  const Eigen::MatrixXd recolour = (Eigen::MatrixXd::Identity(k, k) - b.transpose())
+                                       .partialPivLu()
+                                       .solve(Eigen::MatrixXd::Identity(k, k));
+  return recolour * s_u * recolour.transpose() *
+         (static_cast<double>(n) / static_cast<double>(n - 1));
+}
+
+SID_INLINE double wald_statistic(const Eigen::Ref<const Eigen::VectorXd>& gamma,
+                             const Eigen::Ref<const Eigen::MatrixXd>& covariance) {
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(covariance);
+  if (ldlt.info() == Eigen::Success && ldlt.isPositive() && (ldlt.vectorD().array() > 0.0).all())
+    return gamma.dot(ldlt.solve(gamma));
+  // Moore–Penrose by the SVD (square: no QR preconditioner), singular values below
+  // k eps σ_max taken as zero.
+  const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(
+      covariance, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::VectorXd& sv = svd.singularValues();
+  const double cut = sv.size() > 0 ? static_cast<double>(sv.size()) *
+                                         std::numeric_limits<double>::epsilon() * sv[0]
+                                   : 0.0;
+  const Eigen::VectorXd projected = svd.matrixU().transpose() * gamma;
+  const Eigen::VectorXd back = svd.matrixV().transpose() * gamma;
+  double statistic = 0.0;
+  for (Eigen::Index i = 0; i < sv.size(); ++i)
+    if (sv[i] > cut) statistic += projected[i] * back[i] / sv[i];
+  return statistic;
+}
+
+}  // namespace sid
