@@ -136,7 +136,8 @@ struct Options {
 
 void define_options(CLI::App& cli, Options& o) {
   cli.footer(kFooter);
-  cli.add_option("DATA", o.inputs, "input CSV file(s), one per run ('-' reads standard input)")->required();
+  cli.add_option("DATA", o.inputs, "input CSV file(s), one per run ('-' reads standard input)")
+      ->required();
   cli.add_flag("--measured", o.measured,
                "diagnose as measured runs (torque-cv smoothing, held-out prediction) even for one "
                "file; implied by two files or more");
@@ -205,15 +206,17 @@ sid::app::TrajectoryColumns columns_of(const Options& o) {
 
 int diagnose_measured_runs(const Options& o) {
   using sid::app::require;
-  require(o.reference.empty() && o.plots.empty() && o.rest_velocity == sid::DiagnoseOptions{}.rest_velocity &&
-              o.window == 0.5,
-          "--reference-theta, --plots, --rest-velocity and --window apply to the diagnosis of a single log, "
+  require(o.reference.empty() && o.plots.empty() &&
+              o.rest_velocity == sid::DiagnoseOptions{}.rest_velocity && o.window == 0.5,
+          "--reference-theta, --plots, --rest-velocity and --window apply to the diagnosis of a "
+          "single log, "
           "not of measured runs");
   sid::app::RunsDiagnoseReportInput in;
   if (!o.candidates.empty()) in.options.candidates = parse_candidates(o.candidates);
   if (o.coulomb_epsilon) {
     require(std::isfinite(*o.coulomb_epsilon) && *o.coulomb_epsilon > 0.0,
-            "--coulomb-epsilon must be a finite number > 0 [rad/s], got " + short_number(*o.coulomb_epsilon));
+            "--coulomb-epsilon must be a finite number > 0 [rad/s], got " +
+                short_number(*o.coulomb_epsilon));
     in.options.effects.coulomb_epsilon = *o.coulomb_epsilon;
   }
   require(std::isfinite(o.segment) && o.segment > 0.0,
@@ -245,7 +248,8 @@ int diagnose_measured_runs(const Options& o) {
   }
   const sid::RunsDiagnosis& d = in.diagnosis;
   if (!d.final.fit.ok())
-    throw sid::app::InputError("the final model cannot be identified from these runs: " + d.final.fit.message);
+    throw sid::app::InputError("the final model cannot be identified from these runs: " +
+                               d.final.fit.message);
   const auto constraints = sid::default_physical_constraints(d.final_model);
   in.physical = sid::check_physical(d.final_model, d.final.fit.theta, constraints);
   if (!in.physical.plausible()) {
@@ -258,7 +262,8 @@ int diagnose_measured_runs(const Options& o) {
   }
   sid::FreeSimulationOptions simulation;
   simulation.segment = o.segment;
-  simulation.simulator.rtol = simulation.simulator.atol = sid::SimulationCheckOptions{}.checked_tolerance;
+  simulation.simulator.rtol = simulation.simulator.atol =
+      sid::SimulationCheckOptions{}.checked_tolerance;
   for (const auto& k : d.final.kinematics)
     in.simulations.push_back(sid::free_simulation(d.final_model, d.final.fit.theta, k, simulation));
   sid::RunsIdentifyOptions fitted = in.options.identify;
@@ -266,8 +271,10 @@ int diagnose_measured_runs(const Options& o) {
   for (const auto& run : held_out) {
     try {
       in.validation.push_back(
-          {run.file, sid::predict_torque(run.data, d.final_model, d.final.fit.theta, d.cutoff_hz, fitted),
-           sid::predict_torque(run.data, d.nominal_model, d.nominal.fit.theta, d.cutoff_hz, fitted)});
+          {run.file,
+           sid::predict_torque(run.data, d.final_model, d.final.fit.theta, d.cutoff_hz, fitted),
+           sid::predict_torque(run.data, d.nominal_model, d.nominal.fit.theta, d.cutoff_hz,
+                               fitted)});
     } catch (const std::invalid_argument& e) {
       throw sid::app::InputError(run.file + ": " + e.what());
     }
@@ -300,9 +307,9 @@ int diagnose(const Options& o) {
   require(std::isfinite(o.window) && o.window > 0.0,
           "--window must be a finite number > 0 [s], got " + short_number(o.window));
   options.window_length = o.window;
-  require(std::isfinite(o.rest_velocity) && o.rest_velocity >= 0.0,
-          "--rest-velocity must be a finite number >= 0 [rad/s], got " +
-              short_number(o.rest_velocity));
+  require(
+      std::isfinite(o.rest_velocity) && o.rest_velocity >= 0.0,
+      "--rest-velocity must be a finite number >= 0 [rad/s], got " + short_number(o.rest_velocity));
   options.rest_velocity = o.rest_velocity;
   sid::FreeSimulationOptions simulation;
   simulation.segment = o.segment;

@@ -163,8 +163,8 @@ Examples:
   sid_simulate | sid_identify -
 )";
 
-const char* const kUnits[7] = {"kg m^2", "kg m^2", "kg m^2", "kg m", "kg m", "N m s/rad",
-                               "N m s/rad"};
+const char* const kUnits[7] = {"kg m^2", "kg m^2",    "kg m^2",   "kg m",
+                               "kg m",   "N m s/rad", "N m s/rad"};
 
 struct Options {
   std::vector<std::string> inputs;
@@ -199,8 +199,9 @@ void define_options(CLI::App& cli, Options& o) {
                  "a run not used in the fit: report how well the estimate predicts its torques "
                  "(repeatable)")
       ->allow_extra_args(false);
-  cli.add_option("--cutoff", o.cutoff,
-                 "torque-cv: smooth at this cutoff [Hz] instead of choosing it by cross-validation");
+  cli.add_option(
+      "--cutoff", o.cutoff,
+      "torque-cv: smooth at this cutoff [Hz] instead of choosing it by cross-validation");
   cli.add_option("--effects", o.effects,
                  "torque-cv: effect terms added to the model, comma-separated (e.g. "
                  "coulomb_j1,coulomb_j2,torque_offset_j1,torque_offset_j2,armature_j2)");
@@ -302,8 +303,9 @@ sid::IdentifyOptions make_options(const Options& o) {
   const std::string name = sid::smoothing_mode_name(mode);
   switch (mode) {
     case sid::SmoothingMode::SConstraint:
-      require(!o.lambda, "--lambda does not apply to --smoothing s-constraint (use --S, or "
-                         "--smoothing lambda)");
+      require(!o.lambda,
+              "--lambda does not apply to --smoothing s-constraint (use --S, or "
+              "--smoothing lambda)");
       require(o.S || !o.sigma_q.empty(),
               "--smoothing s-constraint needs --sigma-q V: the standard deviation of the angle "
               "noise [rad] (or --S V to give the constraint directly, with unit weights); "
@@ -402,8 +404,8 @@ struct Report {
   nlohmann::json json;
 };
 
-Report make_report(const sid::IdentifyOptions& options,
-                   const sid::app::CsvTable& table, const sid::Identification& id,
+Report make_report(const sid::IdentifyOptions& options, const sid::app::CsvTable& table,
+                   const sid::Identification& id,
                    const std::optional<sid::TwoLinkParameters<double>>& truth,
                    const std::string& estimator, const IvOutcome& iv, double t_start) {
   const auto& fit = id.fit;
@@ -424,8 +426,9 @@ Report make_report(const sid::IdentifyOptions& options,
 
   std::ostringstream out;
   out << kName << ": " << input << ", method " << sid::method_name(options.method) << ", "
-      << id.samples_used() << " of " << table.rows() << " samples used (t >= "
-      << short_number(id.kinematics.t[0]) << " s), estimator " << estimator;
+      << id.samples_used() << " of " << table.rows()
+      << " samples used (t >= " << short_number(id.kinematics.t[0]) << " s), estimator "
+      << estimator;
   if (iv.iterations >= 0)
     out << " (" << iv.iterations << (iv.iterations == 1 ? " iteration, " : " iterations, ")
         << (iv.converged ? "converged" : "not converged") << ")";
@@ -440,8 +443,9 @@ Report make_report(const sid::IdentifyOptions& options,
   }
   out << "\n";
   for (int k = 0; k < 7; ++k) {
-    std::snprintf(line, sizeof line, "%-9s %15s %12s %11s  %-10s", names[static_cast<std::size_t>(k)].c_str(),
-                  fixed("%.8g", fit.theta[k]).c_str(), fixed("%.3g", fit.std_dev[k]).c_str(),
+    std::snprintf(line, sizeof line, "%-9s %15s %12s %11s  %-10s",
+                  names[static_cast<std::size_t>(k)].c_str(), fixed("%.8g", fit.theta[k]).c_str(),
+                  fixed("%.3g", fit.std_dev[k]).c_str(),
                   fixed("%.4f", fit.relative_std_dev[k]).c_str(), kUnits[k]);
     out << line;
     if (truth) {
@@ -458,32 +462,32 @@ Report make_report(const sid::IdentifyOptions& options,
   out << "condition number (column-scaled regressor): " << short_number(fit.condition_number)
       << "\n";
   const sid::SmoothingReport& sm = id.smoothing;
-  const bool cross_validated = options.smoothing == sid::SmoothingMode::Gcv ||
-                               options.smoothing == sid::SmoothingMode::Cv;
+  const bool cross_validated =
+      options.smoothing == sid::SmoothingMode::Gcv || options.smoothing == sid::SmoothingMode::Cv;
   if (css) {
     out << "smoothing (css): " << sid::smoothing_mode_name(options.smoothing);
     switch (options.smoothing) {
       case sid::SmoothingMode::SConstraint:
         out << " (sigma_q = " << short_number(options.sigma_q[0]) << ", "
-            << short_number(options.sigma_q[1]) << " rad; S = "
-            << short_number(options.S.value_or(static_cast<double>(table.rows()))) << ")";
+            << short_number(options.sigma_q[1])
+            << " rad; S = " << short_number(options.S.value_or(static_cast<double>(table.rows())))
+            << ")";
         break;
       case sid::SmoothingMode::Gcv:
       case sid::SmoothingMode::Cv:
         out << " (lambda chosen by "
             << (options.smoothing == sid::SmoothingMode::Gcv ? "generalized" : "leave-one-out")
-            << " cross-validation on t >= "
-            << short_number(t_start + options.cross_validation_skip) << " s)";
+            << " cross-validation on t >= " << short_number(t_start + options.cross_validation_skip)
+            << " s)";
         break;
       case sid::SmoothingMode::Lambda:
-        out << " (lambda = " << short_number(options.lambda) << ", sigma_q = "
-            << short_number(options.sigma_q[0]) << ", " << short_number(options.sigma_q[1])
-            << " rad)";
+        out << " (lambda = " << short_number(options.lambda)
+            << ", sigma_q = " << short_number(options.sigma_q[0]) << ", "
+            << short_number(options.sigma_q[1]) << " rad)";
         break;
     }
     out << "\n";
-    std::snprintf(line, sizeof line, "  %-7s %13s %13s %13s", "joint", "p", "lambda",
-                  "tr A (dof)");
+    std::snprintf(line, sizeof line, "  %-7s %13s %13s %13s", "joint", "p", "lambda", "tr A (dof)");
     out << line << (cross_validated ? "  sigma_hat [rad]" : "") << "\n";
     for (int jt = 0; jt < 2; ++jt) {
       std::snprintf(line, sizeof line, "  %-7d %13s %13s %13s", jt + 1,
@@ -513,7 +517,8 @@ Report make_report(const sid::IdentifyOptions& options,
   j["residual_rms"] = sid::app::to_json_array(fit.residual_rms);
   j["condition_number"] = fit.condition_number;
   j["ill_conditioned"] = fit.ill_conditioned;
-  j["warning"] = fit.ill_conditioned ? nlohmann::json(warning_text(fit.message)) : nlohmann::json(nullptr);
+  j["warning"] =
+      fit.ill_conditioned ? nlohmann::json(warning_text(fit.message)) : nlohmann::json(nullptr);
   j["samples_used"] = id.samples_used();
   j["samples_total"] = table.rows();
   j["skip"] = skip;
@@ -555,10 +560,10 @@ bool uses_torque_cv(const Options& o) {
 sid::Model<double> runs_model(const Options& o) {
   sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
   if (o.effects.empty()) return model;
-  for (const std::string& id : sid::app::parse_name_list(o.effects, "--effects", "effect id", "effects",
-                                                         sid::detail::effect_id_list())) {
-    sid::app::require(sid::is_effect_id(id),
-                      "--effects: unknown effect '" + id + "' (expected " + sid::detail::effect_id_list() + ")");
+  for (const std::string& id : sid::app::parse_name_list(
+           o.effects, "--effects", "effect id", "effects", sid::detail::effect_id_list())) {
+    sid::app::require(sid::is_effect_id(id), "--effects: unknown effect '" + id + "' (expected " +
+                                                 sid::detail::effect_id_list() + ")");
     model.add(sid::effect_term(id));
   }
   return model;
@@ -566,13 +571,16 @@ sid::Model<double> runs_model(const Options& o) {
 
 sid::RunsIdentifyOptions runs_options(const Options& o) {
   using sid::app::require;
-  require(o.method == "css", "--smoothing torque-cv smooths with the spline: it needs --method css");
-  require(o.estimator == "ls", "--smoothing torque-cv supports --estimator ls only (wls and iv use gcv)");
+  require(o.method == "css",
+          "--smoothing torque-cv smooths with the spline: it needs --method css");
+  require(o.estimator == "ls",
+          "--smoothing torque-cv supports --estimator ls only (wls and iv use gcv)");
   require(o.sigma_q.empty() && !o.S && !o.lambda,
           "--sigma-q, --S and --lambda do not apply to --smoothing torque-cv (it chooses the "
           "smoothing by how well it predicts torques)");
-  require(o.truth.empty(), "--true applies to the single-run smoothing modes; with torque-cv use "
-                           "--reference-theta");
+  require(o.truth.empty(),
+          "--true applies to the single-run smoothing modes; with torque-cv use "
+          "--reference-theta");
   sid::RunsIdentifyOptions options;
   if (o.skip) {
     require(std::isfinite(*o.skip) && *o.skip >= 0.0,
@@ -594,22 +602,25 @@ int identify_from_runs(const Options& o) {
   in.options = runs_options(o);
   in.model = runs_model(o);
   if (!o.reference_theta.empty()) {
-    const std::vector<double> v = sid::app::parse_doubles(
-        o.reference_theta, "--reference-theta", static_cast<std::size_t>(in.model.num_parameters()));
+    const std::vector<double> v =
+        sid::app::parse_doubles(o.reference_theta, "--reference-theta",
+                                static_cast<std::size_t>(in.model.num_parameters()));
     in.reference_theta = Eigen::Map<const Eigen::VectorXd>(v.data(), in.model.num_parameters());
   }
   if (!o.gear_ratio.empty()) {
     const std::vector<double> g = sid::app::parse_doubles(o.gear_ratio, "--gear-ratio");
-    require(g.size() == 1 || g.size() == 2, "--gear-ratio needs 1 value or 2 (gr1,gr2), got " +
-                                                std::to_string(g.size()));
+    require(g.size() == 1 || g.size() == 2,
+            "--gear-ratio needs 1 value or 2 (gr1,gr2), got " + std::to_string(g.size()));
     for (double v : g) require(v > 0.0, "--gear-ratio must be > 0, got " + short_number(v));
-    require(in.model.has_term("armature_j2"),
-            "--gear-ratio needs armature_j2 in --effects: the rotor of drive 2 enters the fit as an "
-            "armature on joint 2");
+    require(
+        in.model.has_term("armature_j2"),
+        "--gear-ratio needs armature_j2 in --effects: the rotor of drive 2 enters the fit as an "
+        "armature on joint 2");
     in.gear_ratio = g.back();
   }
   const sid::app::TrajectoryColumns columns =
-      o.columns.empty() ? sid::app::TrajectoryColumns{} : sid::app::parse_trajectory_columns(o.columns, "--columns");
+      o.columns.empty() ? sid::app::TrajectoryColumns{}
+                        : sid::app::parse_trajectory_columns(o.columns, "--columns");
   int stdin_uses = 0;
   for (const auto& f : o.inputs) stdin_uses += f == "-";
   for (const auto& f : o.validate) stdin_uses += f == "-";
@@ -629,13 +640,15 @@ int identify_from_runs(const Options& o) {
     throw sid::app::InputError(e.what());
   }
   if (!in.id.fit.ok())
-    throw sid::app::InputError("the parameters cannot be identified from these runs: " + in.id.fit.message);
+    throw sid::app::InputError("the parameters cannot be identified from these runs: " +
+                               in.id.fit.message);
   const Eigen::VectorXd& theta = in.id.fit.theta;
   in.physical = sid::check_physical(in.model, theta, sid::default_physical_constraints(in.model));
   if (!in.physical.plausible()) {
     const sid::StackedRegression<double> all = sid::stack_runs(in.model, in.id.kinematics);
     try {
-      in.consistent = sid::nearest_physical(in.model, all.X, all.y, sid::default_physical_constraints(in.model));
+      in.consistent = sid::nearest_physical(in.model, all.X, all.y,
+                                            sid::default_physical_constraints(in.model));
     } catch (const std::invalid_argument& e) {
       std::cerr << kName << ": warning: no physically consistent estimate: " << e.what() << "\n";
     }
@@ -645,7 +658,8 @@ int identify_from_runs(const Options& o) {
     try {
       row.prediction = sid::predict_torque(run.data, in.model, theta, in.id.cutoff_hz, in.options);
       if (in.reference_theta)
-        row.reference = sid::predict_torque(run.data, in.model, *in.reference_theta, in.id.cutoff_hz, in.options);
+        row.reference = sid::predict_torque(run.data, in.model, *in.reference_theta,
+                                            in.id.cutoff_hz, in.options);
     } catch (const std::invalid_argument& e) {
       throw sid::app::InputError(run.file + ": " + e.what());
     }
@@ -664,15 +678,18 @@ int identify_from_runs(const Options& o) {
 int identify(const Options& o) {
   using sid::app::require;
   if (uses_torque_cv(o)) return identify_from_runs(o);
-  require(o.inputs.size() == 1, "several runs are fitted together only with --smoothing torque-cv "
-                                "(the default for --method css without --sigma-q, --S, --lambda)");
-  require(o.validate.empty() && o.effects.empty() && o.reference_theta.empty() && o.gear_ratio.empty(),
-          "--validate, --effects, --reference-theta and --gear-ratio apply to --smoothing torque-cv");
+  require(o.inputs.size() == 1,
+          "several runs are fitted together only with --smoothing torque-cv "
+          "(the default for --method css without --sigma-q, --S, --lambda)");
+  require(
+      o.validate.empty() && o.effects.empty() && o.reference_theta.empty() && o.gear_ratio.empty(),
+      "--validate, --effects, --reference-theta and --gear-ratio apply to --smoothing torque-cv");
   sid::IdentifyOptions options = make_options(o);
   require(o.estimator == "ls" || o.estimator == "wls" || o.estimator == "iv",
           "--estimator: unknown estimator '" + o.estimator + "' (expected ls, wls or iv)");
   options.weighted = o.estimator == "wls";
-  if (o.estimator == "iv") options.cross_validation_lambda_scale = sid::kInstrumentalVariableLambdaScale;
+  if (o.estimator == "iv")
+    options.cross_validation_lambda_scale = sid::kInstrumentalVariableLambdaScale;
   std::optional<sid::TwoLinkParameters<double>> truth;
   if (!o.truth.empty()) {
     const std::vector<double> v = sid::app::parse_doubles(o.truth, "--true", 7);
@@ -694,15 +711,18 @@ int identify(const Options& o) {
   }
   fill_trace(data, options, id.smoothing);
   if (!id.fit.ok())
-    throw sid::app::InputError(table.source + ": the parameters cannot be identified from these "
-                                              "data: " +
+    throw sid::app::InputError(table.source +
+                               ": the parameters cannot be identified from these "
+                               "data: " +
                                id.fit.message);
 
   IvOutcome iv;
   if (o.estimator == "iv") {
-    const sid::InstrumentalVariableResult refined = sid::refine_instrumental_variables(id.kinematics, id.fit);
+    const sid::InstrumentalVariableResult refined =
+        sid::refine_instrumental_variables(id.kinematics, id.fit);
     if (refined.failed)
-      throw sid::app::InputError(table.source + ": the instrumental-variable step failed: " + refined.message);
+      throw sid::app::InputError(table.source +
+                                 ": the instrumental-variable step failed: " + refined.message);
     id.fit = refined.fit;
     iv.iterations = refined.iterations;
     iv.converged = refined.converged;

@@ -126,8 +126,7 @@ X is 1 or 2. Every id with its values:
     std::string line = "  " + id + ":" + values;
     line.resize(std::max<std::size_t>(line.size() + 2, 44), ' ');
     const std::string name = sid::effect_name(id);
-    text += line.size() + name.size() <= 100 ? line + name + "\n"
-                                             : line + "\n      " + name + "\n";
+    text += line.size() + name.size() <= 100 ? line + name + "\n" : line + "\n      " + name + "\n";
   }
   text += "--truth writes the true angles and the applied torques, without the sensor offsets.\n";
   return text;
@@ -227,25 +226,24 @@ std::uint64_t parse_seed(const std::string& text) {
   const char* end = text.data() + text.size();
   const auto result = std::from_chars(text.data(), end, seed);
   sid::app::require(!text.empty() && result.ec == std::errc() && result.ptr == end,
-                    "--seed must be an integer from 0 to 18446744073709551615, got '" + text +
-                        "'");
+                    "--seed must be an integer from 0 to 18446744073709551615, got '" + text + "'");
   return seed;
 }
 
 void check_options(const Options& o) {
   using sid::app::require;
-  require(std::isfinite(o.Ts) && o.Ts > 0.0, "--Ts must be a finite number > 0 [s], got " +
-                                                  short_number(o.Ts));
-  require(std::isfinite(o.T) && o.T > o.Ts,
-          "--T must be a finite number greater than --Ts (" + short_number(o.Ts) + " s), got " +
-              short_number(o.T));
-  require(o.T / o.Ts <= 1e8, "--T / --Ts = " + short_number(o.T / o.Ts) +
-                                 " samples is too many (at most 1e8)");
+  require(std::isfinite(o.Ts) && o.Ts > 0.0,
+          "--Ts must be a finite number > 0 [s], got " + short_number(o.Ts));
+  require(std::isfinite(o.T) && o.T > o.Ts, "--T must be a finite number greater than --Ts (" +
+                                                short_number(o.Ts) + " s), got " +
+                                                short_number(o.T));
+  require(o.T / o.Ts <= 1e8,
+          "--T / --Ts = " + short_number(o.T / o.Ts) + " samples is too many (at most 1e8)");
   require(std::isfinite(o.sigma_q2) && o.sigma_q2 >= 0.0,
           "--sigma-q2 must be a finite variance >= 0 [rad^2], got " + short_number(o.sigma_q2));
-  require(std::isfinite(o.sigma_tau2) && o.sigma_tau2 >= 0.0,
-          "--sigma-tau2 must be a finite variance >= 0 [(N m)^2], got " +
-              short_number(o.sigma_tau2));
+  require(
+      std::isfinite(o.sigma_tau2) && o.sigma_tau2 >= 0.0,
+      "--sigma-tau2 must be a finite variance >= 0 [(N m)^2], got " + short_number(o.sigma_tau2));
   require(std::isfinite(o.rtol) && o.rtol > 0.0,
           "--rtol must be a finite number > 0, got " + short_number(o.rtol));
   require(std::isfinite(o.atol) && o.atol > 0.0,
@@ -303,8 +301,9 @@ int simulate(const Options& o) {
   // D(q) is positive definite for every q iff theta2 > 0 and det = theta1 theta2 -
   // theta3^2 cos^2 q2 > 0 for every q2, i.e. theta1 theta2 > theta3^2.
   require(theta[1] > 0.0 && theta[0] * theta[1] > theta[2] * theta[2],
-          source + ": the mass matrix D(q) is not positive definite for every q (needs theta2 > 0 "
-                   "and theta1 theta2 > theta3^2; theta = " +
+          source +
+              ": the mass matrix D(q) is not positive definite for every q (needs theta2 > 0 "
+              "and theta1 theta2 > theta3^2; theta = " +
               join_numbers(theta) + ")");
   sid::app::ensure_writable(o.output, o.force);
 
@@ -331,9 +330,8 @@ int simulate(const Options& o) {
     return closed_form ? sid::simulate_arm_experiment(closed_fd, input, experiment)
                        : sid::simulate_arm_experiment(model_fd, input, experiment);
   };
-  const sid::ExperimentResult run = o.excitation == "multisine"
-                                        ? with_input(sid::MultisineInput())
-                                        : with_input(sid::PaperInput());
+  const sid::ExperimentResult run = o.excitation == "multisine" ? with_input(sid::MultisineInput())
+                                                                : with_input(sid::PaperInput());
   if (!run.ok()) {
     const Eigen::Index done = run.truth.size();
     const std::string where =
@@ -348,8 +346,8 @@ int simulate(const Options& o) {
   for (Eigen::Index i = 0; i < run.truth.size(); ++i)
     require(run.truth.q.row(i).allFinite() && run.truth.qd.row(i).allFinite() &&
                 run.truth.qdd.row(i).allFinite(),
-            "the simulation produced a non-finite state at t = " +
-                short_number(run.truth.t[i]) + " s; check the parameters");
+            "the simulation produced a non-finite state at t = " + short_number(run.truth.t[i]) +
+                " s; check the parameters");
 
   // The sensors' faults come before their noise: measured q = true q - delta, measured tau =
   // applied tau + b (the noise draws do not depend on the effects, so a seed's noise is the same
@@ -382,19 +380,18 @@ int simulate(const Options& o) {
               "2 sin 3.1t, u2 = 3 cos 0.7t + 1.5 sin 2.3t [N m], q(0) = qd(0) = 0, g = 9.81 m/s^2",
       "T = " + shortest(o.T) + " s, Ts = " + shortest(o.Ts) +
           " s, samples = " + std::to_string(measured.size()),
-      "seed = " + std::to_string(seed) + " (std::mt19937_64), sigma_q2 = " +
-          shortest(o.sigma_q2) + " rad^2, sigma_tau2 = " +
-          shortest(o.sigma_tau2) + " (N m)^2",
+      "seed = " + std::to_string(seed) + " (std::mt19937_64), sigma_q2 = " + shortest(o.sigma_q2) +
+          " rad^2, sigma_tau2 = " + shortest(o.sigma_tau2) + " (N m)^2",
       "theta = " + join_numbers(theta, true),
-      "CVODE rtol = " + shortest(o.rtol) +
-          ", atol = " + shortest(o.atol),
+      "CVODE rtol = " + shortest(o.rtol) + ", atol = " + shortest(o.atol),
       "excitation = " + o.excitation};
   std::string effect_list;
-  for (const auto& spec : effects) effect_list += (effect_list.empty() ? "" : " ") + spec_text(spec);
+  for (const auto& spec : effects)
+    effect_list += (effect_list.empty() ? "" : " ") + spec_text(spec);
   comments.push_back("effects = " + (effects.empty() ? std::string("none") : effect_list) +
-                     (effects.empty() ? std::string()
-                                      : " (coulomb_epsilon = " + shortest(o.coulomb_epsilon) +
-                                            " rad/s)"));
+                     (effects.empty()
+                          ? std::string()
+                          : " (coulomb_epsilon = " + shortest(o.coulomb_epsilon) + " rad/s)"));
   for (const auto& spec : effects) comments.push_back(spec_description(spec));
   sid::app::write_csv(o.output, names, columns, comments);
   if (!o.quiet)

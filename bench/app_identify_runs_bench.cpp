@@ -1,5 +1,5 @@
-// Identification and diagnosis from measured runs: the six DFKI double-pendulum runs in tests/data (29 k
-// samples on non-uniform grids), read with the apps' CSV reader.
+// Identification and diagnosis from measured runs: the six DFKI double-pendulum runs in tests/data
+// (29 k samples on non-uniform grids), read with the apps' CSV reader.
 
 #include <sid/identify_runs.hpp>
 #include <sid/diagnose_runs.hpp>
@@ -25,7 +25,8 @@ const std::vector<sid::Trajectory<double>>& real_runs() {
     std::vector<sid::Trajectory<double>> out;
     for (const char* id : {"00", "01", "02", "03", "05", "12"})
       out.push_back(sid::app::trajectory_from_table(
-          sid::app::read_csv(std::string(SID_TEST_DATA_DIR) + "/dfki_double_pendulum/trajectory_" + id + ".csv"),
+          sid::app::read_csv(std::string(SID_TEST_DATA_DIR) + "/dfki_double_pendulum/trajectory_" +
+                             id + ".csv"),
           columns));
     return out;
   }();

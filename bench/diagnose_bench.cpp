@@ -30,7 +30,8 @@ namespace {
 /// 1.5 sin 2.3t [N m].
 struct MultisineInput {
   sid::Vector2<double> operator()(double t) const {
-    return {5.0 * std::sin(1.3 * t) + 2.0 * std::sin(3.1 * t), 3.0 * std::cos(0.7 * t) + 1.5 * std::sin(2.3 * t)};
+    return {5.0 * std::sin(1.3 * t) + 2.0 * std::sin(3.1 * t),
+            3.0 * std::cos(0.7 * t) + 1.5 * std::sin(2.3 * t)};
   }
 };
 
@@ -38,10 +39,12 @@ constexpr double kSigmaQ2 = 1e-6;    // [rad^2], the brief's default
 constexpr double kSigmaTau2 = 1e-2;  // [(N m)^2]
 
 template <typename Input>
-sid::Trajectory<double> measured_data(const std::vector<sid::EffectSpec>& effects, const Input& input,
-                                      unsigned seed, double sigma_q2 = kSigmaQ2) {
+sid::Trajectory<double> measured_data(const std::vector<sid::EffectSpec>& effects,
+                                      const Input& input, unsigned seed,
+                                      double sigma_q2 = kSigmaQ2) {
   const sid::EffectfulArm arm = sid::effectful_arm(sid::paper_arm_parameters(), effects);
-  auto fd = [&arm](const sid::Vector2<double>& q, const sid::Vector2<double>& qd, const sid::Vector2<double>& tau) {
+  auto fd = [&arm](const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
+                   const sid::Vector2<double>& tau) {
     return arm.model.forward_dynamics(arm.theta, q, qd, tau);
   };
   const sid::ExperimentResult run = sid::simulate_arm_experiment(fd, input);
@@ -52,7 +55,8 @@ sid::Trajectory<double> measured_data(const std::vector<sid::EffectSpec>& effect
     truth.q.col(j).array() -= arm.angle_offset[j];
   }
   std::mt19937_64 rng(seed);
-  return sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{sigma_q2, kSigmaTau2}, rng);
+  return sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{sigma_q2, kSigmaTau2},
+                                    rng);
 }
 
 sid::Trajectory<double> data_set(const std::string& effect, bool multisine, unsigned seed,
@@ -79,7 +83,8 @@ BENCHMARK(BM_DiagnoseWithSimulation)->Unit(benchmark::kMillisecond)->UseRealTime
 // The same on Stribeck friction, where the output-error test of the friction curve runs too:
 // joint 1 on the paper's excitation, and the slowest case measured, joint 2 on the multisine
 // (five windows, and a Coulomb curve that misfits the bump badly).
-void BM_DiagnoseWithSimulationStribeck(benchmark::State& state, const char* effect, bool multisine) {
+void BM_DiagnoseWithSimulationStribeck(benchmark::State& state, const char* effect,
+                                       bool multisine) {
   const sid::Trajectory<double> data = data_set(effect, multisine, 1);
   for (auto _ : state) {
     const sid::DiagnosisResult r = sid::diagnose_with_simulation(data);
@@ -175,7 +180,7 @@ void BM_ConfusionMatrix(benchmark::State& state) {
       double error_sum = 0.0, error_max = 0.0;
       int error_count = 0;
       int not_separable = 0;
-          for (const bool multisine : {false, true})
+      for (const bool multisine : {false, true})
         for (const unsigned seed : {1u, 2u}) {
           // The naming steps of the workflow: diagnose() and the output-error test of a named
           // friction curve (the free simulations name nothing).
@@ -183,14 +188,15 @@ void BM_ConfusionMatrix(benchmark::State& state) {
           const auto start = std::chrono::steady_clock::now();
           sid::DiagnosisResult r = sid::diagnose(data);
           sid::refine_named_friction(r, data, sid::DiagnoseOptions());
-          r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+          r.seconds =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
           seconds += r.seconds;
           worst = std::max(worst, r.seconds);
           ++total;
           for (const auto& e : r.effects) ++counts[e.id];
           for (const auto& s : r.not_separable) not_separable += s.id == row ? 1 : 0;
-          const bool is_exact = row == "none" ? r.effects.empty()
-                                              : (r.effects.size() == 1 && r.effects[0].id == row);
+          const bool is_exact =
+              row == "none" ? r.effects.empty() : (r.effects.size() == 1 && r.effects[0].id == row);
           if (row == "armature_j1" && r.effects.empty()) ++exact;  // nothing can be named
           if (is_exact) {
             ++exact;
@@ -200,8 +206,10 @@ void BM_ConfusionMatrix(benchmark::State& state) {
               const std::size_t levels = row.rfind("stribeck", 0) == 0 ? 2 : hidden.values.size();
               double worst_error = 0.0;
               for (std::size_t v = 0; v < levels; ++v)
-                worst_error = std::max(worst_error, std::abs(r.effects[0].estimate[static_cast<Eigen::Index>(v)] -
-                                                             hidden.values[v]) / std::abs(hidden.values[v]));
+                worst_error = std::max(
+                    worst_error, std::abs(r.effects[0].estimate[static_cast<Eigen::Index>(v)] -
+                                          hidden.values[v]) /
+                                     std::abs(hidden.values[v]));
               error_sum += worst_error;
               error_max = std::max(error_max, worst_error);
               ++error_count;
@@ -217,17 +225,20 @@ void BM_ConfusionMatrix(benchmark::State& state) {
       }
       char errors[64] = "-";
       if (error_count)
-        std::snprintf(errors, sizeof errors, "%.1f/%.1f", 100.0 * error_sum / error_count, 100.0 * error_max);
+        std::snprintf(errors, sizeof errors, "%.1f/%.1f", 100.0 * error_sum / error_count,
+                      100.0 * error_max);
       std::snprintf(line, sizeof line, "  %d/4   %14s  %d/4\n", exact, errors, not_separable);
       table += line;
     }
   }
   std::string legend = "columns:";
-  for (std::size_t c = 0; c < ids.size(); ++c) legend += " e" + std::to_string(c + 1) + "=" + ids[c];
-  std::printf("\nConfusion matrix (sigma_q2 = 1e-6, sigma_tau2 = 1e-2; seeds 1, 2; paper and multisine "
-              "excitation; armature_j1 counts as right when nothing is named)\n%s%s\n"
-              "right: %d/%d data sets; diagnose() + friction test wall time mean %.3f s, worst %.3f s\n\n",
-              table.c_str(), legend.c_str(), correct, total, seconds / std::max(total, 1), worst);
+  for (std::size_t c = 0; c < ids.size(); ++c)
+    legend += " e" + std::to_string(c + 1) + "=" + ids[c];
+  std::printf(
+      "\nConfusion matrix (sigma_q2 = 1e-6, sigma_tau2 = 1e-2; seeds 1, 2; paper and multisine "
+      "excitation; armature_j1 counts as right when nothing is named)\n%s%s\n"
+      "right: %d/%d data sets; diagnose() + friction test wall time mean %.3f s, worst %.3f s\n\n",
+      table.c_str(), legend.c_str(), correct, total, seconds / std::max(total, 1), worst);
   state.counters["right"] = correct;
   state.counters["data_sets"] = total;
 }
@@ -255,13 +266,16 @@ void BM_WholeCheckPerDataSet(benchmark::State& state) {
           ++data_sets;
           if (fastest > worst) {
             worst = fastest;
-            worst_set = row + (multisine ? " multisine" : " paper") + " seed " + std::to_string(seed);
+            worst_set =
+                row + (multisine ? " multisine" : " paper") + " seed " + std::to_string(seed);
           }
         }
   }
-  std::printf("\nWhole check per data set (diagnose_with_simulation, fastest of %d runs each) over %d data sets: "
-              "mean %.3f s, worst %.3f s (%s)\n\n",
-              kRuns, data_sets, sum / std::max(data_sets, 1), worst, worst_set.c_str());
+  std::printf(
+      "\nWhole check per data set (diagnose_with_simulation, fastest of %d runs each) over %d data "
+      "sets: "
+      "mean %.3f s, worst %.3f s (%s)\n\n",
+      kRuns, data_sets, sum / std::max(data_sets, 1), worst, worst_set.c_str());
   state.counters["data_sets"] = data_sets;
   state.counters["mean_s"] = sum / std::max(data_sets, 1);
   state.counters["worst_s"] = worst;
@@ -294,14 +308,16 @@ void BM_EffectFreeFalseAlarms(benchmark::State& state) {
         for (unsigned seed = 1; seed <= 10; ++seed) {
           const sid::Trajectory<double> data = data_set("", multisine, seed, sigma_q2);
           sid::SimulationCheck details;
-          const sid::DiagnosisResult r = sid::diagnose_with_simulation(data, {}, {}, check, &details);
+          const sid::DiagnosisResult r =
+              sid::diagnose_with_simulation(data, {}, {}, check, &details);
           seconds += r.seconds;
           worst_seconds = std::max(worst_seconds, r.seconds);
           row_named += r.effects.empty() ? 0 : 1;
           row_flagged += static_cast<long>(r.nominal.sim_windows.size());
           const sid::MatrixX2<double> expected_ms = details.noise_rms.cwiseAbs2();
           const double window_length = sid::DiagnoseOptions().window_length;
-          for (const auto& w : sid::simulation_windows(details.nominal, expected_ms, window_length, every_window)) {
+          for (const auto& w :
+               sid::simulation_windows(details.nominal, expected_ms, window_length, every_window)) {
             ++row_windows;
             worst_ratio[w.joint - 1] = std::max(worst_ratio[w.joint - 1], w.ratio);
           }
@@ -310,17 +326,20 @@ void BM_EffectFreeFalseAlarms(benchmark::State& state) {
         named += row_named;
         windows += row_windows;
         flagged += row_flagged;
-        std::snprintf(line, sizeof line, "%-9s  %.0e   %2d/10    %3ld/%-4ld        %4.1f    %4.1f\n",
-                      multisine ? "multisine" : "paper", sigma_q2, row_named, row_flagged, row_windows,
-                      worst_ratio[0], worst_ratio[1]);
+        std::snprintf(line, sizeof line,
+                      "%-9s  %.0e   %2d/10    %3ld/%-4ld        %4.1f    %4.1f\n",
+                      multisine ? "multisine" : "paper", sigma_q2, row_named, row_flagged,
+                      row_windows, worst_ratio[0], worst_ratio[1]);
         table += line;
       }
   }
-  std::printf("\nFalse alarms on effect-free data (seeds 1-10, sigma_tau2 = 1e-2; window threshold %.1f)\n"
-              "excitation sigma_q2 named  flagged/windows  worst ratio j1  j2\n%s"
-              "named on %d of %d data sets; %ld of %ld windows flagged; whole check mean %.3f s, worst %.3f s\n\n",
-              check.threshold, table.c_str(), named, data_sets, flagged, windows,
-              seconds / std::max(data_sets, 1), worst_seconds);
+  std::printf(
+      "\nFalse alarms on effect-free data (seeds 1-10, sigma_tau2 = 1e-2; window threshold %.1f)\n"
+      "excitation sigma_q2 named  flagged/windows  worst ratio j1  j2\n%s"
+      "named on %d of %d data sets; %ld of %ld windows flagged; whole check mean %.3f s, worst "
+      "%.3f s\n\n",
+      check.threshold, table.c_str(), named, data_sets, flagged, windows,
+      seconds / std::max(data_sets, 1), worst_seconds);
   state.counters["named"] = named;
   state.counters["flagged"] = static_cast<double>(flagged);
   state.counters["windows"] = static_cast<double>(windows);

@@ -1,5 +1,6 @@
 // The IDIM-IV step on one data set of the study (σq² = 1e-4): what css_iv adds per run.
-// Run: instrumental_variables_bench --benchmark_repetitions=3 --benchmark_report_aggregates_only=true
+// Run: instrumental_variables_bench --benchmark_repetitions=3
+// --benchmark_report_aggregates_only=true
 
 #include <sid/cvode/experiment.hpp>
 #include <sid/cvode/instrumental_variables.hpp>
@@ -19,15 +20,18 @@ struct Case {
 const Case& study_case() {
   static const Case c = [] {
     const auto theta = sid::paper_arm_parameters<double>();
-    const auto run = sid::simulate_arm_experiment([&](const auto& q, const auto& qd, const auto& tau) {
-      return sid::two_link_forward_dynamics(theta, q, qd, tau);
-    });
+    const auto run =
+        sid::simulate_arm_experiment([&](const auto& q, const auto& qd, const auto& tau) {
+          return sid::two_link_forward_dynamics(theta, q, qd, tau);
+        });
     if (!run.ok()) throw std::runtime_error(run.message);
     auto rng = sid::run_generator(20240601, 2, 0);
-    const auto measured = sid::add_measurement_noise(run.truth, sid::MeasurementNoise<double>{1e-4, 1e-2}, rng);
+    const auto measured =
+        sid::add_measurement_noise(run.truth, sid::MeasurementNoise<double>{1e-4, 1e-2}, rng);
     const sid::IdentifyOptions base;
     Case out;
-    out.kept = sid::window(sid::study_kinematics(sid::StudyMethod::CssIv, run.truth, measured, 1e-4, base), 0.25);
+    out.kept = sid::window(
+        sid::study_kinematics(sid::StudyMethod::CssIv, run.truth, measured, 1e-4, base), 0.25);
     out.first = sid::fit_two_link(out.kept, sid::kPaperGravity);
     return out;
   }();

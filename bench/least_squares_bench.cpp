@@ -39,7 +39,12 @@ void BM_LeastSquares(benchmark::State& state) {
   state.SetComplexityN(state.range(0));
 }
 // 8002 = 2 x 4001 rows: the paper's experiment (target <= 1 ms).
-BENCHMARK(BM_LeastSquares)->Arg(2002)->Arg(8002)->Arg(32002)->Unit(benchmark::kMicrosecond)->Complexity(benchmark::oN);
+BENCHMARK(BM_LeastSquares)
+    ->Arg(2002)
+    ->Arg(8002)
+    ->Arg(32002)
+    ->Unit(benchmark::kMicrosecond)
+    ->Complexity(benchmark::oN);
 
 void BM_WeightedLeastSquares(benchmark::State& state) {
   const Problem p = make_problem(state.range(0));

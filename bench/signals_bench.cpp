@@ -49,7 +49,8 @@ BENCHMARK(BM_ButterworthDesign);
 // The paper's three filters: q (3, 0.05), qd (3, 0.015), qdd (4, 0.01); arg = order, Wn * 1000.
 void BM_Filtfilt(benchmark::State& state) {
   const Eigen::MatrixXd q = joint_angles(kSamples);
-  const auto tf = sid::butterworth_lowpass(static_cast<int>(state.range(0)), static_cast<double>(state.range(1)) / 1000.0);
+  const auto tf = sid::butterworth_lowpass(static_cast<int>(state.range(0)),
+                                           static_cast<double>(state.range(1)) / 1000.0);
   for (auto _ : state) {
     auto y = sid::filtfilt(tf, q);
     benchmark::DoNotOptimize(y.data());

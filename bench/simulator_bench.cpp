@@ -45,9 +45,11 @@ void run_experiment(benchmark::State& state, sid::IntegrationMethod method, doub
   sid::SimulationStatistics stats;
   for (auto _ : state) {
     const auto start = std::chrono::steady_clock::now();
-    const sid::ExperimentResult run = sid::simulate_arm_experiment(arm, sid::PaperInput(), experiment);
+    const sid::ExperimentResult run =
+        sid::simulate_arm_experiment(arm, sid::PaperInput(), experiment);
     benchmark::DoNotOptimize(run.truth.q.data());
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     worst = std::max(worst, elapsed);
     if (!run.ok()) {
       state.SkipWithError(run.message.c_str());
@@ -78,7 +80,13 @@ void BM_PaperExperimentAdamsNewtonTight(benchmark::State& state) {
 
 }  // namespace
 
-BENCHMARK(BM_PaperExperimentAdamsNewton)->Unit(benchmark::kMillisecond)->ComputeStatistics("max", max_of);
+BENCHMARK(BM_PaperExperimentAdamsNewton)
+    ->Unit(benchmark::kMillisecond)
+    ->ComputeStatistics("max", max_of);
 BENCHMARK(BM_PaperExperimentBdf)->Unit(benchmark::kMillisecond)->ComputeStatistics("max", max_of);
-BENCHMARK(BM_PaperExperimentAdamsFixedPoint)->Unit(benchmark::kMillisecond)->ComputeStatistics("max", max_of);
-BENCHMARK(BM_PaperExperimentAdamsNewtonTight)->Unit(benchmark::kMillisecond)->ComputeStatistics("max", max_of);
+BENCHMARK(BM_PaperExperimentAdamsFixedPoint)
+    ->Unit(benchmark::kMillisecond)
+    ->ComputeStatistics("max", max_of);
+BENCHMARK(BM_PaperExperimentAdamsNewtonTight)
+    ->Unit(benchmark::kMillisecond)
+    ->ComputeStatistics("max", max_of);

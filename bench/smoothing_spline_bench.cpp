@@ -48,7 +48,7 @@ void BM_SmoothingConstrainedS(benchmark::State& state) {
   const Signal s = make_signal(state.range(0));
   int factorizations = 0;
   for (auto _ : state) {
-    const sid::SmoothingSpline<double> spline(s.t);  // grid set-up included
+    const sid::SmoothingSpline<double> spline(s.t);        // grid set-up included
     const auto fit = spline.fit_constrained(s.y, kSigma);  // S = n
     factorizations = fit.factorizations;
     touch_derivatives(fit);
@@ -77,6 +77,21 @@ void BM_SmoothingGcv(benchmark::State& state) {
 
 }  // namespace
 
-BENCHMARK(BM_SmoothingGcv)->Arg(4001)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMicrosecond)->Complexity(benchmark::oN);
-BENCHMARK(BM_SmoothingFixedP)->Arg(4001)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMicrosecond)->Complexity(benchmark::oN);
-BENCHMARK(BM_SmoothingConstrainedS)->Arg(4001)->Arg(100000)->Arg(1000000)->Unit(benchmark::kMicrosecond)->Complexity(benchmark::oN);
+BENCHMARK(BM_SmoothingGcv)
+    ->Arg(4001)
+    ->Arg(100000)
+    ->Arg(1000000)
+    ->Unit(benchmark::kMicrosecond)
+    ->Complexity(benchmark::oN);
+BENCHMARK(BM_SmoothingFixedP)
+    ->Arg(4001)
+    ->Arg(100000)
+    ->Arg(1000000)
+    ->Unit(benchmark::kMicrosecond)
+    ->Complexity(benchmark::oN);
+BENCHMARK(BM_SmoothingConstrainedS)
+    ->Arg(4001)
+    ->Arg(100000)
+    ->Arg(1000000)
+    ->Unit(benchmark::kMicrosecond)
+    ->Complexity(benchmark::oN);

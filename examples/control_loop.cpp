@@ -14,11 +14,11 @@
 #include <cstdio>
 
 int main() {
-  constexpr double kTick = 1e-3;      // s (1 kHz)
-  constexpr double kDuration = 5.0;   // s
-  constexpr double kOmega = 2.0;      // rad/s, reference frequency
-  constexpr double kKp = 400.0;       // 1/s^2
-  constexpr double kKd = 40.0;        // 1/s (critically damped with kKp)
+  constexpr double kTick = 1e-3;     // s (1 kHz)
+  constexpr double kDuration = 5.0;  // s
+  constexpr double kOmega = 2.0;     // rad/s, reference frequency
+  constexpr double kKp = 400.0;      // 1/s^2
+  constexpr double kKd = 40.0;       // 1/s (critically damped with kKp)
   using V2 = sid::Vector2<double>;
 
   const sid::TwoLinkParameters<double> theta_true = sid::paper_arm_parameters<double>();

@@ -10,7 +10,9 @@
 int main() {
   const auto theta = sid::paper_arm_parameters<double>();
   const auto run = sid::simulate_arm_experiment(  // CVODE, u = (6 sin t, 4 cos t), 10 s at 400 Hz
-      [&](const auto& q, const auto& qd, const auto& tau) { return sid::two_link_forward_dynamics(theta, q, qd, tau); });
+      [&](const auto& q, const auto& qd, const auto& tau) {
+        return sid::two_link_forward_dynamics(theta, q, qd, tau);
+      });
   std::mt19937_64 rng(1);
   const sid::Trajectory<double> measured = sid::add_measurement_noise(run.truth, {1e-6, 1e-2}, rng);
 
@@ -19,6 +21,7 @@ int main() {
   const sid::Identification id = sid::identify(measured, options);
 
   for (int k = 0; k < 7; ++k)
-    std::printf("theta%d = %.5f +- %.5f (true %.5f)\n", k + 1, id.fit.theta[k], id.fit.std_dev[k], theta[k]);
+    std::printf("theta%d = %.5f +- %.5f (true %.5f)\n", k + 1, id.fit.theta[k], id.fit.std_dev[k],
+                theta[k]);
   return id.fit.ok() ? 0 : 1;
 }

@@ -232,14 +232,17 @@ TrajectoryColumns parse_trajectory_columns(const std::string& text, const std::s
                                                                {"tau1", &columns.tau1},
                                                                {"tau2", &columns.tau2}};
   std::vector<std::string> seen;
-  for (const std::string& item : parse_name_list(text, option, "entry", "columns", "KEY=NAME,...")) {
+  for (const std::string& item :
+       parse_name_list(text, option, "entry", "columns", "KEY=NAME,...")) {
     const auto eq = item.find('=');
     if (eq == std::string::npos)
       throw InputError(option + ": '" + item + "' is not KEY=NAME (keys: t, q1, q2, tau1, tau2)");
     const std::string key = item.substr(0, eq), name = item.substr(eq + 1);
-    const auto hit = std::find_if(keys.begin(), keys.end(), [&](const auto& k) { return key == k.first; });
+    const auto hit =
+        std::find_if(keys.begin(), keys.end(), [&](const auto& k) { return key == k.first; });
     if (hit == keys.end())
-      throw InputError(option + ": unknown key '" + key + "' in '" + item + "' (keys: t, q1, q2, tau1, tau2)");
+      throw InputError(option + ": unknown key '" + key + "' in '" + item +
+                       "' (keys: t, q1, q2, tau1, tau2)");
     if (name.empty()) throw InputError(option + ": no column name after '" + key + "='");
     if (std::find(seen.begin(), seen.end(), key) != seen.end())
       throw InputError(option + ": key '" + key + "' is given twice");

@@ -31,7 +31,9 @@ std::string pad_left(const std::string& text, std::size_t width) {
   return text.size() >= width ? text : std::string(width - text.size(), ' ') + text;
 }
 
-nlohmann::json number(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+nlohmann::json number(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
 
 nlohmann::json pair_json(const sid::Vector2<double>& v) {
   return nlohmann::json::array({number(v[0]), number(v[1])});
@@ -40,7 +42,10 @@ nlohmann::json pair_json(const sid::Vector2<double>& v) {
 nlohmann::json windows_json(const std::vector<sid::FlaggedWindow>& windows) {
   nlohmann::json out = nlohmann::json::array();
   for (const auto& w : windows)
-    out.push_back({{"joint", w.joint}, {"t_begin", w.t_begin}, {"t_end", w.t_end}, {"ratio", number(w.ratio)}});
+    out.push_back({{"joint", w.joint},
+                   {"t_begin", w.t_begin},
+                   {"t_end", w.t_end},
+                   {"ratio", number(w.ratio)}});
   return out;
 }
 
@@ -59,8 +64,9 @@ nlohmann::json model_json(const sid::ModelReport& m) {
 }
 
 int count_joint(const std::vector<sid::FlaggedWindow>& windows, int joint) {
-  return static_cast<int>(std::count_if(windows.begin(), windows.end(),
-                                        [joint](const sid::FlaggedWindow& w) { return w.joint == joint; }));
+  return static_cast<int>(
+      std::count_if(windows.begin(), windows.end(),
+                    [joint](const sid::FlaggedWindow& w) { return w.joint == joint; }));
 }
 
 // "1.25-1.75 s (x3.2), 4.25-4.75 s (x5.1)" for one joint; "none" when empty.
@@ -69,7 +75,8 @@ std::string window_list(const std::vector<sid::FlaggedWindow>& windows, int join
   for (const auto& w : windows) {
     if (w.joint != joint) continue;
     if (!text.empty()) text += ", ";
-    text += format("%.2f", w.t_begin) + "-" + format("%.2f", w.t_end) + " s (x" + format("%.1f", w.ratio) + ")";
+    text += format("%.2f", w.t_begin) + "-" + format("%.2f", w.t_end) + " s (x" +
+            format("%.1f", w.ratio) + ")";
   }
   return text.empty() ? "none" : text;
 }
@@ -86,11 +93,13 @@ std::string unit_of(const std::string& id, std::size_t k) {
 // The unit of an effect's main physical parameter (the one detection limits are given in).
 std::string main_unit(const std::string& id) { return unit_of(id, 0); }
 
-void disagreement(std::ostringstream& out, const sid::ModelReport& m, const sid::DiagnosisResult& r) {
+void disagreement(std::ostringstream& out, const sid::ModelReport& m,
+                  const sid::DiagnosisResult& r) {
   for (int j = 0; j < 2; ++j) {
-    out << "  joint " << j + 1 << ": torque residual RMS " << g(m.residual_rms[j]) << " N m vs noise floor "
-        << g(r.noise_floor[j]) << " (torque) and " << g(r.kinematic_floor[j]) << " (angle noise through q''), excess "
-        << g(m.excess_rms[j]) << " N m (below " << g(m.excess_resolution[j])
+    out << "  joint " << j + 1 << ": torque residual RMS " << g(m.residual_rms[j])
+        << " N m vs noise floor " << g(r.noise_floor[j]) << " (torque) and "
+        << g(r.kinematic_floor[j]) << " (angle noise through q''), excess " << g(m.excess_rms[j])
+        << " N m (below " << g(m.excess_resolution[j])
         << " it means nothing); free-simulation error RMS " << g(m.sim_error_rms[j]) << " rad\n";
     out << "    torque windows beyond the noise: " << window_list(m.windows, j + 1) << "\n";
     out << "    simulation windows beyond the noise: " << window_list(m.sim_windows, j + 1) << "\n";
@@ -109,7 +118,8 @@ Eigen::VectorXd moving_average(const Eigen::VectorXd& y, Eigen::Index half) {
   const Eigen::Index n = y.size();
   Eigen::VectorXd out(n);
   for (Eigen::Index i = 0; i < n; ++i) {
-    const Eigen::Index a = std::max<Eigen::Index>(0, i - half), b = std::min<Eigen::Index>(n - 1, i + half);
+    const Eigen::Index a = std::max<Eigen::Index>(0, i - half),
+                       b = std::min<Eigen::Index>(n - 1, i + half);
     out[i] = y.segment(a, b - a + 1).mean();
   }
   return out;
@@ -137,19 +147,22 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
   if (k.size() > 0) out << " (t = " << g(k.t[0]) << " .. " << g(k.t[k.size() - 1]) << " s)";
   out << "\n\n";
 
-  out << "noise floor of the torque (sigma of its GCV smoothing spline) [N m]: joint 1 " << g(r.noise_floor[0])
-      << ", joint 2 " << g(r.noise_floor[1]) << "\n";
-  out << "kinematic floor (the torque error the angle noise leaves through the smoothed qd, qdd) [N m]: joint 1 "
+  out << "noise floor of the torque (sigma of its GCV smoothing spline) [N m]: joint 1 "
+      << g(r.noise_floor[0]) << ", joint 2 " << g(r.noise_floor[1]) << "\n";
+  out << "kinematic floor (the torque error the angle noise leaves through the smoothed qd, qdd) "
+         "[N m]: joint 1 "
       << g(r.kinematic_floor[0]) << ", joint 2 " << g(r.kinematic_floor[1])
       << "; excesses are over sqrt(noise^2 + kinematic^2)\n";
   const Eigen::Vector2i rest = left_out(r);
-  out << "equations left out where a joint rests (|qd| < " << g(context.rest_velocity) << " rad/s, and "
-      << g(context.rest_margin) << " s around; static friction is unknown there): joint 1 " << rest[0]
-      << ", joint 2 " << rest[1] << " of " << k.size() << "\n";
+  out << "equations left out where a joint rests (|qd| < " << g(context.rest_velocity)
+      << " rad/s, and " << g(context.rest_margin)
+      << " s around; static friction is unknown there): joint 1 " << rest[0] << ", joint 2 "
+      << rest[1] << " of " << k.size() << "\n";
   out << "free simulation: restarted from the smoothed state every " << g(context.segment)
-      << " s; torque noise alone gives " << g(sim.noise_error_rms[0]) << ", " << g(sim.noise_error_rms[1])
-      << " rad RMS (" << context.noise_runs << " simulations); windows of " << g(context.window_length)
-      << " s are flagged above " << g(context.threshold) << "x that\n\n";
+      << " s; torque noise alone gives " << g(sim.noise_error_rms[0]) << ", "
+      << g(sim.noise_error_rms[1]) << " rad RMS (" << context.noise_runs
+      << " simulations); windows of " << g(context.window_length) << " s are flagged above "
+      << g(context.threshold) << "x that\n\n";
 
   out << "nominal fit (two-link arm, 7 parameters; std from the HAC covariance):\n";
   for (Eigen::Index p = 0; p < r.nominal.theta.size(); ++p) {
@@ -161,9 +174,12 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
   }
   out << "\nwhere the nominal model and the data disagree:\n";
   disagreement(out, r.nominal, r);
-  if (!sim.nominal.ok) out << "  note: the free simulation of the nominal model: " << simulation_summary(sim.nominal) << "\n";
+  if (!sim.nominal.ok)
+    out << "  note: the free simulation of the nominal model: " << simulation_summary(sim.nominal)
+        << "\n";
 
-  out << "\nnamed effects (forward selection; each passed the HAC Wald test, BIC and blocked CV):\n";
+  out << "\nnamed effects (forward selection; each passed the HAC Wald test, BIC and blocked "
+         "CV):\n";
   if (r.effects.empty()) out << "  none: no candidate explains the residual beyond the noise\n";
   for (const auto& e : r.effects) {
     out << "  " << e.id << ": " << e.name << "\n   ";
@@ -176,34 +192,39 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
       if (!unit.empty()) out << " " << unit;
       out << (v + 1 < e.estimate.size() ? ";" : "");
     }
-    out << "\n    Wald " << g(e.wald) << ", p (Holm) " << g(e.p_value) << ", BIC drop " << g(e.information_drop)
-        << ", CV drop " << format("%.1f", 100.0 * e.cv_drop) << " %\n";
+    out << "\n    Wald " << g(e.wald) << ", p (Holm) " << g(e.p_value) << ", BIC drop "
+        << g(e.information_drop) << ", CV drop " << format("%.1f", 100.0 * e.cv_drop) << " %\n";
     if (!e.note.empty()) out << "    note: " << e.note << "\n";
   }
   if (!r.friction_checks.empty()) {
     out << "\nfriction curves tested by output error (angles simulated around each reversal):\n";
     for (const auto& c : r.friction_checks) {
-      out << "  joint " << c.joint << ": named " << c.named << " -> " << c.chosen << " (" << c.windows << " windows; ";
+      out << "  joint " << c.joint << ": named " << c.named << " -> " << c.chosen << " ("
+          << c.windows << " windows; ";
       if (std::isfinite(c.score))
         out << "score of a Stribeck bump at the Coulomb fit " << g(c.score);
       else
         out << "Stribeck fitted first, as named";
       if (c.stribeck_fitted)
-        out << "; Stribeck vs Coulomb likelihood ratio " << g(c.statistic) << ", p " << g(c.p_value);
+        out << "; Stribeck vs Coulomb likelihood ratio " << g(c.statistic) << ", p "
+            << g(c.p_value);
       else
         out << ", too low to fit the Stribeck curve";
       out << "; angle error / noise " << format("%.3f", c.normalized_rms_coulomb) << " Coulomb";
-      if (c.stribeck_fitted) out << ", " << format("%.3f", c.normalized_rms_stribeck) << " Stribeck";
+      if (c.stribeck_fitted)
+        out << ", " << format("%.3f", c.normalized_rms_stribeck) << " Stribeck";
       out << ")\n";
       if (!c.message.empty()) out << "    note: " << c.message << "\n";
     }
   }
   if (!r.not_separable.empty()) {
     out << "\nnot separable (the data cannot tell these from the nominal model):\n";
-    for (const auto& s : r.not_separable) out << "  " << s.id << ": " << s.name << ": " << s.explanation << "\n";
+    for (const auto& s : r.not_separable)
+      out << "  " << s.id << ": " << s.name << ": " << s.explanation << "\n";
   }
   if (!r.not_named.empty()) {
-    out << "\ncandidates not named (detection limit: the smallest value the test would have found):\n";
+    out << "\ncandidates not named (detection limit: the smallest value the test would have "
+           "found):\n";
     for (const auto& u : r.not_named) {
       out << "  " << pad(u.id, 18) << pad(u.reason, 28);
       if (std::isfinite(u.detection_limit))
@@ -214,8 +235,9 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
 
   out << "\nbefore / after (nominal -> final model):\n";
   char line[256];
-  std::snprintf(line, sizeof line, "  %-6s %-22s %-22s %-22s %-10s %-10s\n", "joint", "residual RMS [N m]",
-                "excess [N m]", "sim error RMS [rad]", "torque win", "sim win");
+  std::snprintf(line, sizeof line, "  %-6s %-22s %-22s %-22s %-10s %-10s\n", "joint",
+                "residual RMS [N m]", "excess [N m]", "sim error RMS [rad]", "torque win",
+                "sim win");
   out << line;
   for (int j = 0; j < 2; ++j) {
     const auto arrow = [](double a, double b) { return g(a) + " -> " + g(b); };
@@ -232,16 +254,19 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
     out << line;
   }
   if (!r.effects.empty() && !sim.final.ok)
-    out << "  note: the free simulation of the final model: " << simulation_summary(sim.final) << "\n";
+    out << "  note: the free simulation of the final model: " << simulation_summary(sim.final)
+        << "\n";
 
   if (context.has_reference) {
     out << "\ndrift against the reference theta (final model; significant when |z| > 3):\n";
-    std::snprintf(line, sizeof line, "  %-8s %14s %14s %12s %9s\n", "name", "reference", "estimate", "std", "z");
+    std::snprintf(line, sizeof line, "  %-8s %14s %14s %12s %9s\n", "name", "reference", "estimate",
+                  "std", "z");
     out << line;
     for (const auto& d : r.drift) {
       std::snprintf(line, sizeof line, "  %-8s %14s %14s %12s %9s%s\n", d.name.c_str(),
-                    format("%.6g", d.reference).c_str(), format("%.6g", d.estimate).c_str(), g(d.std).c_str(),
-                    format("%+.2f", d.z).c_str(), d.significant ? "  drifted" : "");
+                    format("%.6g", d.reference).c_str(), format("%.6g", d.estimate).c_str(),
+                    g(d.std).c_str(), format("%+.2f", d.z).c_str(),
+                    d.significant ? "  drifted" : "");
       out << line;
     }
   }
@@ -320,31 +345,33 @@ nlohmann::json diagnose_json(const sid::DiagnosisResult& r, const sid::Simulatio
   } else {
     j["drift"] = nullptr;
   }
-  j["simulation"] = {{"segment", number(context.segment)},
-                     {"window_length", context.window_length},
-                     {"noise_runs", context.noise_runs},
-                     {"threshold", context.threshold},
-                     {"noise_error_rms", pair_json(sim.noise_error_rms)},
-                     {"nominal_ok", sim.nominal.ok},
-                     {"final_ok", sim.final.ok},
-                     {"message", sim.nominal.message + (sim.final.message.empty() || sim.final.message == sim.nominal.message
-                                                            ? ""
-                                                            : (sim.nominal.message.empty() ? "" : "; ") + sim.final.message)}};
+  j["simulation"] = {
+      {"segment", number(context.segment)},
+      {"window_length", context.window_length},
+      {"noise_runs", context.noise_runs},
+      {"threshold", context.threshold},
+      {"noise_error_rms", pair_json(sim.noise_error_rms)},
+      {"nominal_ok", sim.nominal.ok},
+      {"final_ok", sim.final.ok},
+      {"message", sim.nominal.message +
+                      (sim.final.message.empty() || sim.final.message == sim.nominal.message
+                           ? ""
+                           : (sim.nominal.message.empty() ? "" : "; ") + sim.final.message)}};
   j["seconds"] = r.seconds;
   return j;
 }
 
 std::vector<std::string> diagnose_plot_files() {
   std::vector<std::string> files;
-  for (const char* name : {"residual_j1", "residual_j2", "friction_j1", "friction_j2", "sim_q1", "sim_q2",
-                           "sim_error_q1", "sim_error_q2"})
+  for (const char* name : {"residual_j1", "residual_j2", "friction_j1", "friction_j2", "sim_q1",
+                           "sim_q2", "sim_error_q1", "sim_error_q2"})
     for (const auto& f : plot_files(name)) files.push_back(f);
   return files;
 }
 
 std::pair<Eigen::VectorXd, Eigen::VectorXd> binned_mean(const Eigen::Ref<const Eigen::VectorXd>& x,
-                                                        const Eigen::Ref<const Eigen::VectorXd>& y, int bins,
-                                                        int min_count) {
+                                                        const Eigen::Ref<const Eigen::VectorXd>& y,
+                                                        int bins, int min_count) {
   if (x.size() != y.size()) throw std::invalid_argument("binned_mean: x and y differ in length");
   if (bins < 1) throw std::invalid_argument("binned_mean: bins must be >= 1");
   std::vector<double> sorted;
@@ -378,7 +405,8 @@ std::vector<PlotResult> write_diagnose_plots(const std::string& dir, const sid::
   std::vector<PlotResult> plots;
   const sid::Kinematics<double>& k = r.kinematics;
   const Eigen::Index n = k.size();
-  const std::string after = r.effects.empty() ? "final (= nominal: nothing named)" : "final (with the named effects)";
+  const std::string after =
+      r.effects.empty() ? "final (= nominal: nothing named)" : "final (with the named effects)";
   for (int j = 0; j < 2; ++j) {
     const std::string joint = std::to_string(j + 1);
     LinePlot residual;
@@ -388,8 +416,9 @@ std::vector<PlotResult> write_diagnose_plots(const std::string& dir, const sid::
     residual.x = k.t;
     // The noise hides the pattern; a 0.1 s mean over the raw residual shows it.
     const Eigen::Index half =
-        n > 1 ? std::max<Eigen::Index>(1, static_cast<Eigen::Index>(0.05 * static_cast<double>(n - 1) /
-                                                                     (k.t[n - 1] - k.t[0])))
+        n > 1 ? std::max<Eigen::Index>(1,
+                                       static_cast<Eigen::Index>(0.05 * static_cast<double>(n - 1) /
+                                                                 (k.t[n - 1] - k.t[0])))
               : 1;
     const Eigen::VectorXd nominal_residual = joint_residual(r.nominal, n, j);
     const Eigen::VectorXd final_residual = joint_residual(r.final, n, j);
@@ -404,7 +433,8 @@ std::vector<PlotResult> write_diagnose_plots(const std::string& dir, const sid::
     plots.push_back(plot_lines(residual, path_in(dir, "residual_j" + joint + ".png")));
 
     LinePlot friction;
-    friction.title = "mean torque residual of joint " + joint + " against its velocity (the missing friction curve)";
+    friction.title = "mean torque residual of joint " + joint +
+                     " against its velocity (the missing friction curve)";
     friction.x_label = "qd" + joint + " [rad/s]";
     friction.y_label = "mean residual [N m]";
     constexpr int kBins = 41;
@@ -420,13 +450,16 @@ std::vector<PlotResult> write_diagnose_plots(const std::string& dir, const sid::
       return m.rows() == n ? Eigen::VectorXd(m.col(j)) : Eigen::VectorXd::Constant(n, std::nan(""));
     };
     LinePlot angles;
-    angles.title = "joint " + joint + ": measured (smoothed) angle and the free simulations (restarted every segment)";
+    angles.title = "joint " + joint +
+                   ": measured (smoothed) angle and the free simulations (restarted every segment)";
     angles.x_label = "t [s]";
     angles.y_label = "q" + joint + " [rad]";
     angles.x = k.t;
     angles.series.push_back({"measured", k.q.col(j), "lines linewidth 2 linecolor rgb 'black'"});
-    angles.series.push_back({"nominal model", simulated(sim.nominal, false), "lines linecolor rgb '#c00000'"});
-    angles.series.push_back({after, simulated(sim.final, false), "lines dashtype 2 linecolor rgb '#0050c0'"});
+    angles.series.push_back(
+        {"nominal model", simulated(sim.nominal, false), "lines linecolor rgb '#c00000'"});
+    angles.series.push_back(
+        {after, simulated(sim.final, false), "lines dashtype 2 linecolor rgb '#0050c0'"});
     for (const auto& w : r.nominal.sim_windows)
       if (w.joint == j + 1) angles.marked.push_back({w.t_begin, w.t_end, ""});
     plots.push_back(plot_lines(angles, path_in(dir, "sim_q" + joint + ".png")));
@@ -434,15 +467,19 @@ std::vector<PlotResult> write_diagnose_plots(const std::string& dir, const sid::
     // The angles differ by far less than they move, so the error gets its own figure, with the
     // band the torque noise alone explains.
     LinePlot error;
-    error.title = "joint " + joint + ": measured - simulated angle (free simulation, restarted every segment)";
+    error.title = "joint " + joint +
+                  ": measured - simulated angle (free simulation, restarted every segment)";
     error.x_label = "t [s]";
     error.y_label = "q" + joint + " error [rad]";
     error.x = k.t;
-    error.series.push_back({"nominal model", simulated(sim.nominal, true), "lines linecolor rgb '#c00000'"});
+    error.series.push_back(
+        {"nominal model", simulated(sim.nominal, true), "lines linecolor rgb '#c00000'"});
     error.series.push_back({after, simulated(sim.final, true), "lines linecolor rgb '#0050c0'"});
     if (sim.noise_rms.rows() == n) {
-      error.series.push_back({"torque noise alone (+RMS)", sim.noise_rms.col(j), "lines dashtype 2 linecolor rgb 'gray'"});
-      error.series.push_back({"torque noise alone (-RMS)", -sim.noise_rms.col(j), "lines dashtype 2 linecolor rgb 'gray'"});
+      error.series.push_back({"torque noise alone (+RMS)", sim.noise_rms.col(j),
+                              "lines dashtype 2 linecolor rgb 'gray'"});
+      error.series.push_back({"torque noise alone (-RMS)", -sim.noise_rms.col(j),
+                              "lines dashtype 2 linecolor rgb 'gray'"});
     }
     for (const auto& w : r.nominal.sim_windows)
       if (w.joint == j + 1) error.marked.push_back({w.t_begin, w.t_end, ""});

@@ -16,12 +16,12 @@ namespace sid::app {
 
 /// @brief What the report says about the run besides the result itself.
 struct DiagnoseReportContext {
-  std::string input;            ///< the data file as the user named it
+  std::string input;  ///< the data file as the user named it
   Eigen::Index samples_total = 0;
-  double segment = 1.0;         ///< free-simulation restart interval [s]
-  double window_length = 0.5;   ///< [s]
-  int noise_runs = 0;           ///< SimulationCheckOptions::noise_runs
-  double threshold = 0.0;       ///< SimulationCheckOptions::threshold
+  double segment = 1.0;        ///< free-simulation restart interval [s]
+  double window_length = 0.5;  ///< [s]
+  int noise_runs = 0;          ///< SimulationCheckOptions::noise_runs
+  double threshold = 0.0;      ///< SimulationCheckOptions::threshold
   bool has_reference = false;
   double rest_velocity = 0.0;  ///< DiagnoseOptions::rest_velocity [rad/s]
   double rest_margin = 0.0;    ///< DiagnoseOptions::rest_margin [s]

@@ -75,14 +75,19 @@ std::string format_paper_variance(const PaperEntry& e) {
 // The paper's column of a method (raw 0, filtered 1, css 2), or -1 (oracle).
 int paper_column(sid::StudyMethod m) {
   switch (m) {
-    case sid::StudyMethod::Raw: return 0;
-    case sid::StudyMethod::Filtered: return 1;
-    case sid::StudyMethod::Css: return 2;
+    case sid::StudyMethod::Raw:
+      return 0;
+    case sid::StudyMethod::Filtered:
+      return 1;
+    case sid::StudyMethod::Css:
+      return 2;
     case sid::StudyMethod::CssGcv:
     case sid::StudyMethod::CssWls:
     case sid::StudyMethod::CssIv:
-    case sid::StudyMethod::CssTorqueCv: return -1;
-    case sid::StudyMethod::Oracle: return -1;
+    case sid::StudyMethod::CssTorqueCv:
+      return -1;
+    case sid::StudyMethod::Oracle:
+      return -1;
   }
   return -1;
 }
@@ -95,9 +100,9 @@ std::string paper_tables_of(const PaperLevel& level) {
   return "paper";
 }
 
-constexpr std::size_t kNameWidth = 8;    // "theta1" + gap
-constexpr std::size_t kTrueWidth = 12;   // "0.00306414" + gap
-constexpr std::size_t kOursWidth = 10;   // "-0.000512", "1.234e-07"
+constexpr std::size_t kNameWidth = 8;   // "theta1" + gap
+constexpr std::size_t kTrueWidth = 12;  // "0.00306414" + gap
+constexpr std::size_t kOursWidth = 10;  // "-0.000512", "1.234e-07"
 constexpr std::size_t kPaperMeanWidth = 7;
 constexpr std::size_t kPaperVarWidth = 9;
 
@@ -141,8 +146,9 @@ std::string table_of_values(const sid::LevelSummary& level, const PaperLevel* pa
     if (means) out << pad_right("", kTrueWidth);
     for (const auto& s : level.methods) {
       const bool with_paper = paper_column(s.method) >= 0;
-      out << (with_paper ? "  " + pad_left("ours", kOursWidth) + " / " + pad_right("paper", paper_width)
-                         : "  " + pad_left("ours", kOursWidth));
+      out << (with_paper
+                  ? "  " + pad_left("ours", kOursWidth) + " / " + pad_right("paper", paper_width)
+                  : "  " + pad_left("ours", kOursWidth));
     }
     out << "\n";
   }
@@ -172,7 +178,8 @@ std::string table_of_percentages(const sid::LevelSummary& level) {
   out << pad_right("param", kNameWidth);
   for (const auto& s : level.methods) out << "  " << pad_left(sid::study_method_name(s.method), 16);
   out << "\n" << pad_right("", kNameWidth);
-  for (std::size_t m = 0; m < level.methods.size(); ++m) out << "  " << pad_left("bias %", 8) << pad_left("std %", 8);
+  for (std::size_t m = 0; m < level.methods.size(); ++m)
+    out << "  " << pad_left("bias %", 8) << pad_left("std %", 8);
   out << "\n";
   for (int p = 0; p < kParameters; ++p) {
     out << pad_right(names[static_cast<std::size_t>(p)], kNameWidth);
@@ -203,8 +210,8 @@ std::string ranking(const sid::LevelSummary& level) {
     if (std::isfinite(s.worst_abs_bias_pct)) {
       Eigen::Index worst = 0;
       s.bias_pct.cwiseAbs().maxCoeff(&worst);
-      out << "   worst |bias| " << pad_left(format_percent("%.2f", s.worst_abs_bias_pct), 8) << " % ("
-          << names[static_cast<std::size_t>(worst)] << ")";
+      out << "   worst |bias| " << pad_left(format_percent("%.2f", s.worst_abs_bias_pct), 8)
+          << " % (" << names[static_cast<std::size_t>(worst)] << ")";
     }
     out << "\n";
   }
@@ -228,13 +235,12 @@ nlohmann::json number_or_null(double v) {
   return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
 }
 
-const char* parameter_unit(int p) {
-  return p < 3 ? "kg m^2" : p < 5 ? "kg m" : "N m s/rad";
-}
+const char* parameter_unit(int p) { return p < 3 ? "kg m^2" : p < 5 ? "kg m" : "N m s/rad"; }
 
 // Samples of y at times tk placed on the grid t (NaN elsewhere). The estimators keep a subset of
 // the sample times, copied exactly; a small tolerance guards against rounding anyway.
-Eigen::VectorXd on_grid(const Eigen::VectorXd& t, const Eigen::VectorXd& tk, const Eigen::VectorXd& y) {
+Eigen::VectorXd on_grid(const Eigen::VectorXd& t, const Eigen::VectorXd& tk,
+                        const Eigen::VectorXd& y) {
   Eigen::VectorXd out = Eigen::VectorXd::Constant(t.size(), std::nan(""));
   Eigen::Index i = 0;
   const double tol = t.size() > 1 ? 1e-6 * (t[1] - t[0]) : 0.0;
@@ -250,8 +256,9 @@ Eigen::VectorXd on_grid(const Eigen::VectorXd& t, const Eigen::VectorXd& tk, con
 std::string level_label(double sigma_q2) {
   // Scientific below 0.01 (noise variances are mostly powers of ten), %g otherwise.
   const double a = std::fabs(sigma_q2);
-  std::string text = a != 0.0 && std::isfinite(a) && (a < 1e-2 || a >= 1e6) ? trimmed_scientific(sigma_q2, 5)
-                                                                             : printf_double("%.6g", sigma_q2);
+  std::string text = a != 0.0 && std::isfinite(a) && (a < 1e-2 || a >= 1e6)
+                         ? trimmed_scientific(sigma_q2, 5)
+                         : printf_double("%.6g", sigma_q2);
   const auto e = text.find('e');
   if (e == std::string::npos) return text;
   std::string exponent = text.substr(e + 1);
@@ -274,15 +281,18 @@ std::string montecarlo_header(const sid::MonteCarloOptions& options, Eigen::Inde
   std::ostringstream out;
   std::string levels, methods;
   for (double v : options.sigma_q2_levels) levels += (levels.empty() ? "" : ", ") + level_label(v);
-  for (auto m : options.methods) methods += (methods.empty() ? "" : ", ") + std::string(sid::study_method_name(m));
+  for (auto m : options.methods)
+    methods += (methods.empty() ? "" : ", ") + std::string(sid::study_method_name(m));
   out << "Monte Carlo study of the paper (Dolinsky & Celikovsky, section 3.1): two-link arm,\n"
       << "u1 = 6 sin t, u2 = 4 cos t, " << samples << " samples (true trajectory by CVODE)\n"
       << "  runs per level   " << options.runs << "\n"
       << "  sigma_q2 levels  " << levels << " rad^2\n"
       << "  sigma_tau2       " << level_label(options.sigma_tau2) << " (N m)^2\n"
       << "  methods          " << methods << "\n"
-      << "  seed             " << options.seed << " (a run's noise depends on seed, level, run only)\n"
-      << "  true theta       the corrected values (the paper prints 0.0030 and 0.0170 for theta2 and\n"
+      << "  seed             " << options.seed
+      << " (a run's noise depends on seed, level, run only)\n"
+      << "  true theta       the corrected values (the paper prints 0.0030 and 0.0170 for theta2 "
+         "and\n"
       << "                   theta5; see docs/paper-reproduction.md)\n";
   return out.str();
 }
@@ -292,7 +302,8 @@ std::string montecarlo_tables(const sid::MonteCarloResult& result) {
   for (const auto& level : result.levels) {
     const PaperLevel* paper = paper_level(level.sigma_q2);
     out << "\n=== sigma_q2 = " << level_label(level.sigma_q2) << " rad^2  ("
-        << (paper ? paper_tables_of(*paper) : std::string("no paper values for this level")) << ") ===\n\n";
+        << (paper ? paper_tables_of(*paper) : std::string("no paper values for this level"))
+        << ") ===\n\n";
     out << "Sample means over " << result.runs << " runs"
         << (paper ? " (ours / the paper's printed value)" : "") << "\n"
         << table_of_values(level, paper, result.theta, true) << "\n";
@@ -300,7 +311,8 @@ std::string montecarlo_tables(const sid::MonteCarloResult& result) {
         << (paper ? " (ours / the paper's; ~ = the paper gives only the order of magnitude)" : "")
         << "\n"
         << table_of_values(level, paper, result.theta, false) << "\n";
-    out << "Bias and standard deviation in % of the true value\n" << table_of_percentages(level) << "\n";
+    out << "Bias and standard deviation in % of the true value\n"
+        << table_of_percentages(level) << "\n";
     out << ranking(level);
     out << failures(level, result.runs);
   }
@@ -389,8 +401,10 @@ void write_montecarlo_csv(const std::string& dir, const sid::MonteCarloResult& r
     for (const auto& level : result.levels)
       for (const auto& s : level.methods)
         for (Eigen::Index r = 0; r < s.estimates.rows(); ++r) {
-          out << format_double(level.sigma_q2) << "," << sid::study_method_name(s.method) << "," << r;
-          for (Eigen::Index p = 0; p < s.estimates.cols(); ++p) out << "," << format_double(s.estimates(r, p));
+          out << format_double(level.sigma_q2) << "," << sid::study_method_name(s.method) << ","
+              << r;
+          for (Eigen::Index p = 0; p < s.estimates.cols(); ++p)
+            out << "," << format_double(s.estimates(r, p));
           out << "\n";
         }
     if (!out.flush()) throw std::runtime_error("cannot write '" + all + "'");
@@ -399,16 +413,18 @@ void write_montecarlo_csv(const std::string& dir, const sid::MonteCarloResult& r
     for (const auto& s : level.methods) {
       std::vector<std::string> columns_names{"run"};
       columns_names.insert(columns_names.end(), names.begin(), names.end());
-      std::vector<Eigen::VectorXd> columns{
-          Eigen::VectorXd::LinSpaced(s.estimates.rows(), 0.0, static_cast<double>(s.estimates.rows() - 1))};
-      for (Eigen::Index p = 0; p < s.estimates.cols(); ++p) columns.emplace_back(s.estimates.col(p));
-      const std::string file =
-          path_in(dir, std::string(sid::study_method_name(s.method)) + "_" + level_label(level.sigma_q2) + ".csv");
+      std::vector<Eigen::VectorXd> columns{Eigen::VectorXd::LinSpaced(
+          s.estimates.rows(), 0.0, static_cast<double>(s.estimates.rows() - 1))};
+      for (Eigen::Index p = 0; p < s.estimates.cols(); ++p)
+        columns.emplace_back(s.estimates.col(p));
+      const std::string file = path_in(dir, std::string(sid::study_method_name(s.method)) + "_" +
+                                                level_label(level.sigma_q2) + ".csv");
       write_csv(file, columns_names, columns,
-                {"sid_montecarlo: theta-hat of every run, method " + std::string(sid::study_method_name(s.method)) +
+                {"sid_montecarlo: theta-hat of every run, method " +
+                     std::string(sid::study_method_name(s.method)) +
                      ", sigma_q2 = " + level_label(level.sigma_q2) + " rad^2",
-                 "seed = " + std::to_string(result.seed) + ", runs = " + std::to_string(result.runs) +
-                     "; nan = a failed run"});
+                 "seed = " + std::to_string(result.seed) +
+                     ", runs = " + std::to_string(result.runs) + "; nan = a failed run"});
     }
 }
 
@@ -439,11 +455,12 @@ std::vector<PlotResult> write_montecarlo_plots(const std::string& dir,
   const double sigma_q2 = 1e-6;
   const std::size_t level = montecarlo_figure_level_index(options);
   std::mt19937_64 rng = sid::run_generator(options.seed, level, 0);
-  const sid::Trajectory<double> measured =
-      sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{sigma_q2, options.sigma_tau2}, rng);
-  const auto css = sid::study_kinematics(sid::StudyMethod::Css, truth, measured, sigma_q2, options.identify);
-  const auto filtered =
-      sid::study_kinematics(sid::StudyMethod::Filtered, truth, measured, sigma_q2, options.identify);
+  const sid::Trajectory<double> measured = sid::add_measurement_noise(
+      truth, sid::MeasurementNoise<double>{sigma_q2, options.sigma_tau2}, rng);
+  const auto css =
+      sid::study_kinematics(sid::StudyMethod::Css, truth, measured, sigma_q2, options.identify);
+  const auto filtered = sid::study_kinematics(sid::StudyMethod::Filtered, truth, measured, sigma_q2,
+                                              options.identify);
   const double t0 = truth.t[0];
   const double clip = t0 + options.identify.filtered_skip;
   // The start transient (qdd2(0) is about 2205 rad/s^2) dwarfs the rest, so each figure comes
@@ -451,7 +468,8 @@ std::vector<PlotResult> write_montecarlo_plots(const std::string& dir,
   for (int joint = 0; joint < 2; ++joint) {
     const Eigen::VectorXd f = on_grid(truth.t, filtered.t, filtered.qdd.col(joint));
     Eigen::VectorXd kept = f, clipped = f;
-    for (Eigen::Index i = 0; i < truth.t.size(); ++i) (truth.t[i] < clip ? kept[i] : clipped[i]) = std::nan("");
+    for (Eigen::Index i = 0; i < truth.t.size(); ++i)
+      (truth.t[i] < clip ? kept[i] : clipped[i]) = std::nan("");
     // The clipped curve ends at the first kept sample, so the two join.
     for (Eigen::Index i = 0; i < truth.t.size(); ++i)
       if (truth.t[i] >= clip) {
@@ -460,13 +478,15 @@ std::vector<PlotResult> write_montecarlo_plots(const std::string& dir,
       }
     const Eigen::VectorXd spline = on_grid(truth.t, css.t, css.qdd.col(joint));
     Eigen::Index first_kept = 0;
-    while (first_kept < truth.t.size() && truth.t[first_kept] < t0 + options.identify.skip) ++first_kept;
+    while (first_kept < truth.t.size() && truth.t[first_kept] < t0 + options.identify.skip)
+      ++first_kept;
     for (const bool detail : {false, true}) {
       const Eigen::Index from = detail ? std::min(first_kept, truth.t.size() - 1) : 0;
       const Eigen::Index count = truth.t.size() - from;
       LinePlot plot;
-      plot.title = std::string(joint == 0 ? "Fig. 2" : "Fig. 3") + ": qdd" + std::to_string(joint + 1) +
-                   ", sigma_q2 = 1e-6, run 0, seed " + std::to_string(options.seed) +
+      plot.title = std::string(joint == 0 ? "Fig. 2" : "Fig. 3") + ": qdd" +
+                   std::to_string(joint + 1) + ", sigma_q2 = 1e-6, run 0, seed " +
+                   std::to_string(options.seed) +
                    (detail ? " (t >= " + printf_double("%g", truth.t[from]) + " s)" : "");
       plot.x_label = "t [s]";
       plot.y_label = "qdd" + std::to_string(joint + 1) + " [rad/s^2]";
@@ -474,11 +494,13 @@ std::vector<PlotResult> write_montecarlo_plots(const std::string& dir,
       plot.series.push_back({"exact", truth.qdd.col(joint).segment(from, count),
                              "lines linewidth 2 linecolor rgb 'blue'"});
       plot.series.push_back({"CSS", spline.segment(from, count), "lines linecolor rgb 'red'"});
-      plot.series.push_back({"filtered", kept.segment(from, count), "lines dashtype 2 linecolor rgb 'black'"});
       plot.series.push_back(
-          {"filtered, clipped", clipped.segment(from, count), "lines dashtype 2 linecolor rgb '#00a000'"});
+          {"filtered", kept.segment(from, count), "lines dashtype 2 linecolor rgb 'black'"});
+      plot.series.push_back({"filtered, clipped", clipped.segment(from, count),
+                             "lines dashtype 2 linecolor rgb '#00a000'"});
       plot.marked.push_back({truth.t[from], clip, "clipped (filtered)"});
-      const std::string name = std::string(joint == 0 ? "fig2_qdd1" : "fig3_qdd2") + (detail ? "_detail" : "");
+      const std::string name =
+          std::string(joint == 0 ? "fig2_qdd1" : "fig3_qdd2") + (detail ? "_detail" : "");
       plots.push_back(plot_lines(plot, path_in(dir, name + ".png")));
     }
   }
@@ -486,13 +508,15 @@ std::vector<PlotResult> write_montecarlo_plots(const std::string& dir,
   const auto names = montecarlo_parameter_names();
   for (int p = 0; p < kParameters; ++p) {
     BoxPlot plot;
-    plot.title = names[static_cast<std::size_t>(p)] + ": estimates of " + std::to_string(result.runs) +
-                 " runs by method and sigma_q2 (seed " + std::to_string(result.seed) + ")";
+    plot.title = names[static_cast<std::size_t>(p)] + ": estimates of " +
+                 std::to_string(result.runs) + " runs by method and sigma_q2 (seed " +
+                 std::to_string(result.seed) + ")";
     plot.y_label = names[static_cast<std::size_t>(p)] + " [" + parameter_unit(p) + "]";
     for (const auto& l : result.levels)
       for (const auto& s : l.methods)
-        plot.groups.push_back({std::string(sid::study_method_name(s.method)) + " " + level_label(l.sigma_q2),
-                               s.estimates.col(p)});
+        plot.groups.push_back(
+            {std::string(sid::study_method_name(s.method)) + " " + level_label(l.sigma_q2),
+             s.estimates.col(p)});
     plot.has_reference = true;
     plot.reference = result.theta[p];
     plot.reference_label = "true value " + printf_double("%.6g", result.theta[p]);

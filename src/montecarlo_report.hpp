@@ -65,8 +65,8 @@ std::size_t montecarlo_figure_level_index(const sid::MonteCarloOptions& options)
 /// @brief Draws the figures: fig2_qdd1.png and fig3_qdd2.png (the paper's Fig. 2 and 3: exact,
 /// CSS and filtered accelerations of run 0 at sigma_q2 = 1e-6 over 0 <= t <= 10 s, the filtered
 /// method's clipped start marked), fig2_qdd1_detail.png and fig3_qdd2_detail.png (the same from
-/// t = 0.25 s, where the start transient no longer sets the scale) and theta1.png .. theta7.png (box plots of theta-hat by method and level, the
-/// true value as reference line).
+/// t = 0.25 s, where the start transient no longer sets the scale) and theta1.png .. theta7.png
+/// (box plots of theta-hat by method and level, the true value as reference line).
 /// @return one PlotResult per figure (a missing gnuplot is reported there, never thrown).
 std::vector<PlotResult> write_montecarlo_plots(const std::string& dir,
                                                const sid::Kinematics<double>& truth,

@@ -18,7 +18,8 @@ struct PaperLevel {
   std::array<std::array<PaperEntry, 3>, 7> variance;  // [parameter][raw, filtered, css]
 };
 
-/// The "true value" column as printed (θ2 and θ5 are rounded wrongly there; see docs/paper-reproduction.md).
+/// The "true value" column as printed (θ2 and θ5 are rounded wrongly there; see
+/// docs/paper-reproduction.md).
 inline constexpr std::array<double, 7> kPaperPrintedTrue = {0.0340, 0.0030, 0.0045, 0.1329,
                                                             0.0170, 0.6189, 0.6189};
 

@@ -56,11 +56,14 @@ void runs_table(const RunsDiagnoseReportInput& in, std::ostringstream& out, nloh
   const sid::RunsDiagnosis& d = in.diagnosis;
   const bool left_out = d.final.left_out_prediction_rms.size() == in.runs.size();
   const int w = file_width(in);
-  out << "\ntorque per run [N m], joint 1 / joint 2: the floor (content above the cutoff, which no model on\n"
+  out << "\ntorque per run [N m], joint 1 / joint 2: the floor (content above the cutoff, which no "
+         "model on\n"
          "the smoothed angles can explain), the residual RMS of the nominal and the final model"
-      << (left_out ? ", and the final\nmodel's prediction of the run from the other runs' fit" : "") << "\n";
+      << (left_out ? ", and the final\nmodel's prediction of the run from the other runs' fit" : "")
+      << "\n";
   char line[512];
-  std::snprintf(line, sizeof line, "  %-*s %7s %15s %15s %15s", w, "run", "used", "floor", "nominal", "final");
+  std::snprintf(line, sizeof line, "  %-*s %7s %15s %15s %15s", w, "run", "used", "floor",
+                "nominal", "final");
   out << line << (left_out ? "        left out" : "") << "\n";
   nlohmann::json rows = nlohmann::json::array();
   sid::Vector2<double> mean_left_out = sid::Vector2<double>::Zero();
@@ -68,9 +71,9 @@ void runs_table(const RunsDiagnoseReportInput& in, std::ostringstream& out, nloh
     const auto& f = d.floor[r];
     const auto& nominal = d.nominal.residual_rms[r];
     const auto& final = d.final.residual_rms[r];
-    std::snprintf(line, sizeof line, "  %-*s %7ld %7.4f %7.4f %7.4f %7.4f %7.4f %7.4f", w, in.runs[r].file.c_str(),
-                  static_cast<long>(d.final.kinematics[r].size()), f[0], f[1], nominal[0], nominal[1], final[0],
-                  final[1]);
+    std::snprintf(line, sizeof line, "  %-*s %7ld %7.4f %7.4f %7.4f %7.4f %7.4f %7.4f", w,
+                  in.runs[r].file.c_str(), static_cast<long>(d.final.kinematics[r].size()), f[0],
+                  f[1], nominal[0], nominal[1], final[0], final[1]);
     out << line;
     nlohmann::json row{{"file", in.runs[r].file},
                        {"samples", in.runs[r].data.size()},
@@ -89,22 +92,25 @@ void runs_table(const RunsDiagnoseReportInput& in, std::ostringstream& out, nloh
     rows.push_back(row);
   }
   if (left_out) {
-    std::snprintf(line, sizeof line, "  %-*s %55s %7.4f %7.4f", w, "mean", "", mean_left_out[0], mean_left_out[1]);
+    std::snprintf(line, sizeof line, "  %-*s %55s %7.4f %7.4f", w, "mean", "", mean_left_out[0],
+                  mean_left_out[1]);
     out << line << "\n";
     j["mean_left_out_prediction_rms"] = pair(mean_left_out);
   }
   j["runs"] = rows;
 }
 
-void friction_shape_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlohmann::json& j) {
+void friction_shape_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out,
+                          nlohmann::json& j) {
   nlohmann::json rows = nlohmann::json::array();
   for (const auto& s : in.diagnosis.friction_shapes) {
     const bool atan = s.shape == sid::CoulombShape::Atan;
     out << "  friction shape of " << s.id << ": " << (atan ? "atan" : "tanh") << ", "
         << (s.asymmetric ? "asymmetric" : "symmetric") << " (atan instead of tanh: held-out "
-        << sid::detail::mean_square_change(s.atan_gain) << "; asymmetric: "
-        << sid::detail::mean_square_change(s.asymmetric_gain) << ", Wald p = " << number("%.2g", s.asymmetric_p_value)
-        << ", forward " << number("%.4g", s.forward) << " +- " << number("%.2g", s.forward_std) << ", backward "
+        << sid::detail::mean_square_change(s.atan_gain)
+        << "; asymmetric: " << sid::detail::mean_square_change(s.asymmetric_gain)
+        << ", Wald p = " << number("%.2g", s.asymmetric_p_value) << ", forward "
+        << number("%.4g", s.forward) << " +- " << number("%.2g", s.forward_std) << ", backward "
         << number("%.4g", s.backward) << " +- " << number("%.2g", s.backward_std) << " N m)\n";
     rows.push_back({{"id", s.id},
                     {"shape", atan ? "atan" : "tanh"},
@@ -122,12 +128,14 @@ void friction_shape_lines(const RunsDiagnoseReportInput& in, std::ostringstream&
 
 void effect_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlohmann::json& j) {
   const sid::RunsDiagnosis& d = in.diagnosis;
-  out << "\nnamed effects (significant under the HAC covariance and lowering the held-out torque error):\n";
+  out << "\nnamed effects (significant under the HAC covariance and lowering the held-out torque "
+         "error):\n";
   if (d.named.empty()) out << "  none\n";
   nlohmann::json named = nlohmann::json::array(), rejected = nlohmann::json::array();
   for (const auto& t : d.named) {
     out << "  " << t.id << ": " << sid::effect_name(t.id) << "\n    " << values_text(t)
-        << "; held-out torque mean square " << sid::detail::mean_square_change(t.prediction_gain) << " (joint 1 / 2) when added\n";
+        << "; held-out torque mean square " << sid::detail::mean_square_change(t.prediction_gain)
+        << " (joint 1 / 2) when added\n";
     named.push_back(effect_json(t));
   }
   friction_shape_lines(in, out, j);
@@ -144,19 +152,26 @@ void effect_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nl
 // regression only as an armature on joint 2, Ia = (gr² + gr) Ir (see docs/real-data.md).
 void rotor_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlohmann::json& j) {
   const sid::RunsDiagnosis& d = in.diagnosis;
-  const auto named = std::find_if(d.named.begin(), d.named.end(), [](const auto& t) { return t.id == "armature_j2"; });
-  const sid::RunsEffectTest* t = named != d.named.end() ? &*named : d.rotor_coupling ? &*d.rotor_coupling : nullptr;
+  const auto named = std::find_if(d.named.begin(), d.named.end(),
+                                  [](const auto& t) { return t.id == "armature_j2"; });
+  const sid::RunsEffectTest* t = named != d.named.end() ? &*named
+                                 : d.rotor_coupling     ? &*d.rotor_coupling
+                                                        : nullptr;
   if (!t) return;
   const bool supported = named != d.named.end();
   const double ia = t->estimate.value[0], ia_std = t->estimate.std[0];
-  out << "\nrotor coupling of drive 2 on link 1 (armature_j2): Ia = " << number("%.4g", ia) << " +- "
-      << number("%.2g", ia_std) << " kg m^2";
-  nlohmann::json rj{{"Ia", ia}, {"Ia_std", ia_std}, {"supported", supported},
-                    {"prediction_gain", pair(t->prediction_gain)}, {"p_value", t->p_value}};
+  out << "\nrotor coupling of drive 2 on link 1 (armature_j2): Ia = " << number("%.4g", ia)
+      << " +- " << number("%.2g", ia_std) << " kg m^2";
+  nlohmann::json rj{{"Ia", ia},
+                    {"Ia_std", ia_std},
+                    {"supported", supported},
+                    {"prediction_gain", pair(t->prediction_gain)},
+                    {"p_value", t->p_value}};
   if (in.gear_ratio) {
     const double factor = *in.gear_ratio * *in.gear_ratio + *in.gear_ratio;
-    out << ", so Ir = Ia / (gr^2 + gr) = " << number("%.3g", ia / factor) << " +- " << number("%.2g", ia_std / factor)
-        << " kg m^2 (gear ratio " << number("%g", *in.gear_ratio) << ")";
+    out << ", so Ir = Ia / (gr^2 + gr) = " << number("%.3g", ia / factor) << " +- "
+        << number("%.2g", ia_std / factor) << " kg m^2 (gear ratio " << number("%g", *in.gear_ratio)
+        << ")";
     rj["gear_ratio"] = *in.gear_ratio;
     rj["Ir"] = ia / factor;
     rj["Ir_std"] = ia_std / factor;
@@ -169,11 +184,13 @@ void theta_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlo
   const sid::RunsDiagnosis& d = in.diagnosis;
   const auto names = d.final_model.parameter_names();
   const bool jackknife = d.final.jackknife_std_dev.size() == d.final.fit.theta.size();
-  out << "\nfinal model (all runs): estimate, HAC std" << (jackknife ? ", std over runs left out" : "") << "\n";
+  out << "\nfinal model (all runs): estimate, HAC std"
+      << (jackknife ? ", std over runs left out" : "") << "\n";
   char line[256];
   for (std::size_t k = 0; k < names.size(); ++k) {
     const auto i = static_cast<Eigen::Index>(k);
-    std::snprintf(line, sizeof line, "  %-18s %14.6g %12.3g", names[k].c_str(), d.final.fit.theta[i],
+    std::snprintf(line, sizeof line, "  %-18s %14.6g %12.3g", names[k].c_str(),
+                  d.final.fit.theta[i],
                   d.final.hac_std_dev.size() > i ? d.final.hac_std_dev[i] : std::nan(""));
     out << line;
     if (jackknife) {
@@ -185,15 +202,18 @@ void theta_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlo
   j["final"] = {{"parameter_names", names},
                 {"theta", to_json_array(d.final.fit.theta)},
                 {"std", to_json_array(d.final.hac_std_dev)},
-                {"jackknife_std", jackknife ? to_json_array(d.final.jackknife_std_dev) : nlohmann::json(nullptr)}};
+                {"jackknife_std",
+                 jackknife ? to_json_array(d.final.jackknife_std_dev) : nlohmann::json(nullptr)}};
   j["nominal"] = {{"parameter_names", d.nominal_model.parameter_names()},
                   {"theta", to_json_array(d.nominal.fit.theta)},
                   {"std", to_json_array(d.nominal.hac_std_dev)}};
 }
 
-void simulation_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlohmann::json& j) {
+void simulation_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out,
+                      nlohmann::json& j) {
   if (in.simulations.empty()) return;
-  out << "\nfree simulation of the final model (driven by the measured torque, restarted from the smoothed\n"
+  out << "\nfree simulation of the final model (driven by the measured torque, restarted from the "
+         "smoothed\n"
          "state every "
       << number("%g", in.segment) << " s), q error RMS [rad]:\n";
   nlohmann::json rows = nlohmann::json::array();
@@ -213,18 +233,21 @@ void simulation_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out
   j["simulation"] = rows;
 }
 
-void validation_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlohmann::json& j) {
+void validation_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out,
+                      nlohmann::json& j) {
   nlohmann::json rows = nlohmann::json::array();
   if (!in.validation.empty()) {
-    out << "\nvalidation (runs not used in the fit): torque prediction RMS [N m], joint 1 / joint 2\n";
+    out << "\nvalidation (runs not used in the fit): torque prediction RMS [N m], joint 1 / joint "
+           "2\n";
     const int w = file_width(in);
     char line[512];
-    std::snprintf(line, sizeof line, "  %-*s %8s %17s %17s", w, "file", "samples", "final", "nominal");
+    std::snprintf(line, sizeof line, "  %-*s %8s %17s %17s", w, "file", "samples", "final",
+                  "nominal");
     out << line << "\n";
     for (const auto& v : in.validation) {
       std::snprintf(line, sizeof line, "  %-*s %8ld %8.4f %8.4f %8.4f %8.4f", w, v.file.c_str(),
-                    static_cast<long>(v.final.samples), v.final.residual_rms[0], v.final.residual_rms[1],
-                    v.nominal.residual_rms[0], v.nominal.residual_rms[1]);
+                    static_cast<long>(v.final.samples), v.final.residual_rms[0],
+                    v.final.residual_rms[1], v.nominal.residual_rms[0], v.nominal.residual_rms[1]);
       out << line << "\n";
       rows.push_back({{"file", v.file},
                       {"samples", v.final.samples},
@@ -243,8 +266,9 @@ RunsReport make_runs_diagnose_report(const RunsDiagnoseReportInput& in) {
   nlohmann::json j;
   Eigen::Index samples = 0;
   for (const auto& k : d.final.kinematics) samples += k.size();
-  out << "sid_diagnose: " << in.runs.size() << " run" << (in.runs.size() == 1 ? "" : "s") << " diagnosed together ("
-      << samples << " equations per joint), " << number("%.2f", d.seconds) << " s\n";
+  out << "sid_diagnose: " << in.runs.size() << " run" << (in.runs.size() == 1 ? "" : "s")
+      << " diagnosed together (" << samples << " equations per joint), "
+      << number("%.2f", d.seconds) << " s\n";
   out << "smoothing: cutoff " << number("%.3g", d.cutoff_hz) << " Hz"
       << (d.cutoff_chosen ? " (chosen by torque cross-validation)" : " (given)") << "; held out: "
       << (in.runs.size() >= 3 ? "each run in turn"
@@ -258,11 +282,13 @@ RunsReport make_runs_diagnose_report(const RunsDiagnoseReportInput& in) {
   runs_table(in, out, j);
   effect_lines(in, out, j);
   rotor_lines(in, out, j);
-  out << "\nwhat no effect explains (residual excess over the floor, over all runs), joint 1 / joint 2: "
-      << number("%.4f", d.excess_rms[0]) << " / " << number("%.4f", d.excess_rms[1]) << " N m fitted";
+  out << "\nwhat no effect explains (residual excess over the floor, over all runs), joint 1 / "
+         "joint 2: "
+      << number("%.4f", d.excess_rms[0]) << " / " << number("%.4f", d.excess_rms[1])
+      << " N m fitted";
   if (!std::isnan(d.left_out_excess_rms[0]))
-    out << ", " << number("%.4f", d.left_out_excess_rms[0]) << " / " << number("%.4f", d.left_out_excess_rms[1])
-        << " N m held out";
+    out << ", " << number("%.4f", d.left_out_excess_rms[0]) << " / "
+        << number("%.4f", d.left_out_excess_rms[1]) << " N m held out";
   out << "\n";
   j["excess_rms"] = pair(d.excess_rms);
   j["left_out_excess_rms"] = pair(d.left_out_excess_rms);

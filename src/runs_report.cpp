@@ -11,7 +11,8 @@ namespace sid::app {
 namespace {
 
 bool ends_with(const std::string& text, const std::string& tail) {
-  return text.size() >= tail.size() && text.compare(text.size() - tail.size(), tail.size(), tail) == 0;
+  return text.size() >= tail.size() &&
+         text.compare(text.size() - tail.size(), tail.size(), tail) == 0;
 }
 
 std::string number(const char* format, double v) {
@@ -30,23 +31,26 @@ void rotor_line(const RunsReportInput& in, std::ostringstream& out, nlohmann::js
   const auto k = in.model.parameter_offset("armature_j2");
   const double gr = *in.gear_ratio, factor = gr * gr + gr;
   const double ir = in.id.fit.theta[k] / factor, ir_std = in.id.fit.std_dev[k] / factor;
-  out << "rotor of drive 2 on link 1 (gear ratio " << number("%g", gr) << "): Ir = Ia / (gr^2 + gr) = "
-      << number("%.4g", ir) << " +- " << number("%.2g", ir_std) << " kg m^2"
+  out << "rotor of drive 2 on link 1 (gear ratio " << number("%g", gr)
+      << "): Ir = Ia / (gr^2 + gr) = " << number("%.4g", ir) << " +- " << number("%.2g", ir_std)
+      << " kg m^2"
       << (ir > 2.0 * ir_std ? " (supported: positive, more than 2 std from zero)"
-                            : ir < 0.0 ? " (not supported: negative, not physical)"
-                                       : " (not supported: within 2 std of zero)")
+          : ir < 0.0        ? " (not supported: negative, not physical)"
+                            : " (not supported: within 2 std of zero)")
       << "\n";
-  j["rotor"] = {{"gear_ratio", gr}, {"Ir", ir}, {"Ir_std", ir_std}, {"supported", ir > 2.0 * ir_std}};
+  j["rotor"] = {
+      {"gear_ratio", gr}, {"Ir", ir}, {"Ir_std", ir_std}, {"supported", ir > 2.0 * ir_std}};
 }
 
 }  // namespace
 
 void physical_lines(const sid::Model<double>& model, const sid::PhysicalCheck& p,
-                    const std::optional<sid::ConsistentEstimate>& consistent, std::ostringstream& out,
-                    nlohmann::json& j) {
+                    const std::optional<sid::ConsistentEstimate>& consistent,
+                    std::ostringstream& out, nlohmann::json& j) {
   out << "physical plausibility: mass matrix "
-      << (p.mass_matrix_positive_definite ? "positive definite for every q2"
-                                          : "NOT positive definite at q2 = " + number("%.3f", p.min_eigenvalue_q2) + " rad")
+      << (p.mass_matrix_positive_definite
+              ? "positive definite for every q2"
+              : "NOT positive definite at q2 = " + number("%.3f", p.min_eigenvalue_q2) + " rad")
       << " (smallest eigenvalue " << number("%.4g", p.min_eigenvalue) << " kg m^2); ";
   if (p.negative_parameters.empty()) {
     out << "gravity, friction and armature terms non-negative";
@@ -66,10 +70,12 @@ void physical_lines(const sid::Model<double>& model, const sid::PhysicalCheck& p
   if (consistent) {
     const sid::ConsistentEstimate& c = *consistent;
     const std::vector<std::string> names = model.parameter_names();
-    out << "nearest physically consistent estimate (least squares under the constraints; the table above is "
+    out << "nearest physically consistent estimate (least squares under the constraints; the table "
+           "above is "
            "the unconstrained one):\n";
     for (std::size_t k = 0; k < names.size(); ++k)
-      out << "  " << names[k] << " " << number("%.8g", c.theta[static_cast<Eigen::Index>(k)]) << "\n";
+      out << "  " << names[k] << " " << number("%.8g", c.theta[static_cast<Eigen::Index>(k)])
+          << "\n";
     out << "  cost increase " << number("%.4g", c.cost_increase) << " N^2 m^2"
         << (c.converged ? "" : " (iteration limit: feasible, maybe not the closest)") << "\n";
     pj["consistent_theta"] = to_json_array(c.theta);
@@ -82,8 +88,10 @@ void physical_lines(const sid::Model<double>& model, const sid::PhysicalCheck& p
 
 RunFile read_run(const std::string& file, const TrajectoryColumns& columns) {
   const CsvTable table = read_csv(file);
-  RunFile run{table.source == "-" ? "<stdin>" : table.source, trajectory_from_table(table, columns)};
-  require(run.data.size() >= 3, run.file + ": a run needs at least 3 data rows, got " + std::to_string(run.data.size()));
+  RunFile run{table.source == "-" ? "<stdin>" : table.source,
+              trajectory_from_table(table, columns)};
+  require(run.data.size() >= 3,
+          run.file + ": a run needs at least 3 data rows, got " + std::to_string(run.data.size()));
   return run;
 }
 
@@ -103,7 +111,8 @@ void validation_lines(const RunsReportInput& in, std::ostringstream& out, nlohma
   if (!in.validation.empty()) {
     out << "\nvalidation (runs not used in the fit): torque prediction RMS [N m]\n";
     char line[512];
-    std::snprintf(line, sizeof line, "  %-*s %8s %10s %10s", w, "file", "samples", "joint 1", "joint 2");
+    std::snprintf(line, sizeof line, "  %-*s %8s %10s %10s", w, "file", "samples", "joint 1",
+                  "joint 2");
     out << line << (in.reference_theta ? "   reference: joint 1, joint 2" : "") << "\n";
     sid::Vector2<double> mean = sid::Vector2<double>::Zero(), reference_mean = mean;
     for (const auto& v : in.validation) {
@@ -117,7 +126,8 @@ void validation_lines(const RunsReportInput& in, std::ostringstream& out, nlohma
                        {"nominal_residual_rms", pair(v.prediction.residual_rms)}};
       mean += v.prediction.residual_rms / static_cast<double>(in.validation.size());
       if (v.reference) {
-        std::snprintf(line, sizeof line, "   %10.4f %10.4f", v.reference->residual_rms[0], v.reference->residual_rms[1]);
+        std::snprintf(line, sizeof line, "   %10.4f %10.4f", v.reference->residual_rms[0],
+                      v.reference->residual_rms[1]);
         out << line;
         r["reference_residual_rms"] = pair(v.reference->residual_rms);
         reference_mean += v.reference->residual_rms / static_cast<double>(in.validation.size());
@@ -142,15 +152,16 @@ void runs_table(const RunsReportInput& in, std::ostringstream& out, nlohmann::js
   const int w = file_width(in);
   char line[512];
   const bool left_out = in.id.left_out_prediction_rms.size() == in.runs.size();
-  std::snprintf(line, sizeof line, "  %-*s %8s %8s %12s %10s %10s", w, "run (fitted)", "samples", "used", "lambda",
-                "RMS j1", "RMS j2");
-  out << line << (left_out ? "   left out: j1, j2" : "") << (in.reference_theta ? "   reference: j1, j2" : "") << "\n";
+  std::snprintf(line, sizeof line, "  %-*s %8s %8s %12s %10s %10s", w, "run (fitted)", "samples",
+                "used", "lambda", "RMS j1", "RMS j2");
+  out << line << (left_out ? "   left out: j1, j2" : "")
+      << (in.reference_theta ? "   reference: j1, j2" : "") << "\n";
   nlohmann::json runs = nlohmann::json::array();
   for (std::size_t r = 0; r < in.runs.size(); ++r) {
     const auto& rms = in.id.residual_rms[r];
-    std::snprintf(line, sizeof line, "  %-*s %8ld %8ld %12.4g %10.4f %10.4f", w, in.runs[r].file.c_str(),
-                  static_cast<long>(in.runs[r].data.size()), static_cast<long>(in.id.kinematics[r].size()),
-                  in.id.lambda[r], rms[0], rms[1]);
+    std::snprintf(line, sizeof line, "  %-*s %8ld %8ld %12.4g %10.4f %10.4f", w,
+                  in.runs[r].file.c_str(), static_cast<long>(in.runs[r].data.size()),
+                  static_cast<long>(in.id.kinematics[r].size()), in.id.lambda[r], rms[0], rms[1]);
     out << line;
     if (left_out) {
       std::snprintf(line, sizeof line, "   %8.4f %8.4f", in.id.left_out_prediction_rms[r][0],
@@ -162,7 +173,8 @@ void runs_table(const RunsReportInput& in, std::ostringstream& out, nlohmann::js
                        {"samples_used", in.id.kinematics[r].size()},
                        {"lambda", in.id.lambda[r]},
                        {"residual_rms", pair(rms)}};
-    run["left_out_prediction_rms"] = left_out ? pair(in.id.left_out_prediction_rms[r]) : nlohmann::json(nullptr);
+    run["left_out_prediction_rms"] =
+        left_out ? pair(in.id.left_out_prediction_rms[r]) : nlohmann::json(nullptr);
     if (r < in.reference_on_fitted.size()) {
       std::snprintf(line, sizeof line, "   %8.4f %8.4f", in.reference_on_fitted[r].residual_rms[0],
                     in.reference_on_fitted[r].residual_rms[1]);
@@ -183,20 +195,18 @@ void smoothing_lines(const RunsReportInput& in, std::ostringstream& out, nlohman
     if (id.grid_hz[g] == id.cutoff_hz) best = g;
   if (id.cutoff_chosen)
     out << ", chosen by " << in.options.folds_per_run
-        << "-fold cross-validation of the torque prediction over " << number("%g", id.grid_hz.front()) << ".."
-        << number("%g", id.grid_hz.back()) << " Hz (held-out torque RMS " << number("%.4g", id.cross_validation_rms[best])
-        << " N m)";
+        << "-fold cross-validation of the torque prediction over "
+        << number("%g", id.grid_hz.front()) << ".." << number("%g", id.grid_hz.back())
+        << " Hz (held-out torque RMS " << number("%.4g", id.cross_validation_rms[best]) << " N m)";
   else
     out << " (given)";
   if (id.cutoff_chosen && (best == 0 || best + 1 == id.grid_hz.size()))
-    out << "\nwarning: the cutoff is at the end of the searched range; the data may need a wider one";
+    out << "\nwarning: the cutoff is at the end of the searched range; the data may need a wider "
+           "one";
   out << "\n";
-  j["smoothing"] = {{"mode", "torque-cv"},
-                    {"cutoff_hz", id.cutoff_hz},
-                    {"chosen", id.cutoff_chosen},
-                    {"folds_per_run", in.options.folds_per_run},
-                    {"grid_hz", id.grid_hz},
-                    {"cross_validation_rms", id.cross_validation_rms},
+  j["smoothing"] = {{"mode", "torque-cv"},        {"cutoff_hz", id.cutoff_hz},
+                    {"chosen", id.cutoff_chosen}, {"folds_per_run", in.options.folds_per_run},
+                    {"grid_hz", id.grid_hz},      {"cross_validation_rms", id.cross_validation_rms},
                     {"lambda", id.lambda}};
 }
 
@@ -210,8 +220,8 @@ void parameter_table(const RunsReportInput& in, std::ostringstream& out, nlohman
   const Eigen::VectorXd std_dev = hac ? in.id.hac_std_dev : fit.std_dev;
   Eigen::VectorXd relative = 100.0 * std_dev.cwiseQuotient(fit.theta.cwiseAbs());
   char line[256];
-  std::snprintf(line, sizeof line, "%-22s %15s %12s %11s %12s  %-10s", "parameter", "estimate", "std (HAC)",
-                "rel.std %", jackknife ? "std (runs)" : "", "unit");
+  std::snprintf(line, sizeof line, "%-22s %15s %12s %11s %12s  %-10s", "parameter", "estimate",
+                "std (HAC)", "rel.std %", jackknife ? "std (runs)" : "", "unit");
   out << line << (in.reference_theta ? "  reference" : "") << "\n";
   std::vector<std::string> units;
   for (std::size_t k = 0; k < names.size(); ++k) {
@@ -220,15 +230,19 @@ void parameter_table(const RunsReportInput& in, std::ostringstream& out, nlohman
     std::snprintf(line, sizeof line, "%-22s %15s %12s %11s %12s  %-10s", names[k].c_str(),
                   number("%.8g", fit.theta[i]).c_str(), number("%.3g", std_dev[i]).c_str(),
                   number("%.4f", relative[i]).c_str(),
-                  jackknife ? number("%.3g", in.id.jackknife_std_dev[i]).c_str() : "", units.back().c_str());
+                  jackknife ? number("%.3g", in.id.jackknife_std_dev[i]).c_str() : "",
+                  units.back().c_str());
     out << line;
     if (in.reference_theta) out << "  " << number("%.6g", (*in.reference_theta)[i]);
     out << "\n";
   }
-  out << "std (HAC): from the residuals' autocorrelation (Newey-West); the least-squares std assumes none and is "
+  out << "std (HAC): from the residuals' autocorrelation (Newey-West); the least-squares std "
+         "assumes none and is "
       << number("%.2g", (std_dev.cwiseQuotient(fit.std_dev)).minCoeff()) << "-"
       << number("%.2g", (std_dev.cwiseQuotient(fit.std_dev)).maxCoeff()) << "x smaller here"
-      << (jackknife ? ";\nstd (runs): jackknife over the fits that leave one run out (what differs between runs)" : "")
+      << (jackknife ? ";\nstd (runs): jackknife over the fits that leave one run out (what differs "
+                      "between runs)"
+                    : "")
       << "\n";
   j["names"] = names;
   j["units"] = units;
@@ -245,10 +259,12 @@ std::string parameter_unit(const std::string& name) {
   if (name == "theta1" || name == "theta2" || name == "theta3" || ends_with(name, ".Ia") ||
       ends_with(name, ".theta3_sin"))
     return "kg m^2";
-  if (name == "theta4" || name == "theta5" || ends_with(name, ".theta4_sin") || ends_with(name, ".theta5_sin"))
+  if (name == "theta4" || name == "theta5" || ends_with(name, ".theta4_sin") ||
+      ends_with(name, ".theta5_sin"))
     return "kg m";
   if (name == "theta6" || name == "theta7") return "N m s/rad";
-  if (ends_with(name, ".Fc") || ends_with(name, ".Fs_minus_Fc") || ends_with(name, ".b")) return "N m";
+  if (ends_with(name, ".Fc") || ends_with(name, ".Fs_minus_Fc") || ends_with(name, ".b"))
+    return "N m";
   if (ends_with(name, ".k")) return "N m/rad";
   return "";
 }
@@ -259,14 +275,16 @@ RunsReport make_runs_report(const RunsReportInput& in) {
   nlohmann::json j;
   Eigen::Index used = 0;
   for (const auto& k : in.id.kinematics) used += k.size();
-  out << in.program << ": " << in.runs.size() << (in.runs.size() == 1 ? " run" : " runs") << ", " << used
-      << " samples used (" << 2 * used << " equations), method css, estimator ls\n";
+  out << in.program << ": " << in.runs.size() << (in.runs.size() == 1 ? " run" : " runs") << ", "
+      << used << " samples used (" << 2 * used << " equations), method css, estimator ls\n";
   smoothing_lines(in, out, j);
   out << "\n";
   parameter_table(in, out, j);
-  out << "\nresidual RMS [N m] over the fitted runs: joint 1 " << number("%.4g", fit.residual_rms[0]) << ", joint 2 "
-      << number("%.4g", fit.residual_rms[1]) << "\n";
-  out << "condition number (column-scaled regressor): " << number("%.4g", fit.condition_number) << "\n";
+  out << "\nresidual RMS [N m] over the fitted runs: joint 1 "
+      << number("%.4g", fit.residual_rms[0]) << ", joint 2 " << number("%.4g", fit.residual_rms[1])
+      << "\n";
+  out << "condition number (column-scaled regressor): " << number("%.4g", fit.condition_number)
+      << "\n";
   runs_table(in, out, j);
   validation_lines(in, out, j);
   out << "\n";
@@ -286,7 +304,8 @@ RunsReport make_runs_report(const RunsReportInput& in) {
   j["samples_used"] = used;
   j["skip"] = in.options.skip;
   j["skip_end"] = in.options.skip_end;
-  j["reference_theta"] = in.reference_theta ? to_json_array(*in.reference_theta) : nlohmann::json(nullptr);
+  j["reference_theta"] =
+      in.reference_theta ? to_json_array(*in.reference_theta) : nlohmann::json(nullptr);
   return {out.str(), j};
 }
 

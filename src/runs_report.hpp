@@ -25,8 +25,8 @@ struct RunFile {
 /// The torque prediction on one run not used in the fit.
 struct ValidationRow {
   std::string file;
-  sid::TorquePrediction prediction;                   ///< of the identified model
-  std::optional<sid::TorquePrediction> reference;     ///< of --reference-theta, when given
+  sid::TorquePrediction prediction;                ///< of the identified model
+  std::optional<sid::TorquePrediction> reference;  ///< of --reference-theta, when given
 };
 
 /// Everything the report shows; the apps fill it, make_runs_report only formats.
@@ -41,7 +41,7 @@ struct RunsReportInput {
   std::vector<ValidationRow> validation;
   std::optional<Eigen::VectorXd> reference_theta;
   std::vector<sid::TorquePrediction> reference_on_fitted;  ///< per fitted run, with reference
-  std::optional<double> gear_ratio;                         ///< of drive 2, for the rotor line
+  std::optional<double> gear_ratio;                        ///< of drive 2, for the rotor line
 };
 
 struct RunsReport {
@@ -49,7 +49,8 @@ struct RunsReport {
   nlohmann::json json;
 };
 
-/// @brief The unit of a model parameter, from its name ("theta4" → "kg m", "coulomb_j1.Fc" → "N m").
+/// @brief The unit of a model parameter, from its name ("theta4" → "kg m", "coulomb_j1.Fc" → "N
+/// m").
 std::string parameter_unit(const std::string& name);
 
 RunsReport make_runs_report(const RunsReportInput& in);
@@ -57,8 +58,8 @@ RunsReport make_runs_report(const RunsReportInput& in);
 /// @brief The plausibility lines of a report (and "physical" in its JSON): the check and, when
 /// given, the nearest physically consistent estimate, labelled as such.
 void physical_lines(const sid::Model<double>& model, const sid::PhysicalCheck& check,
-                    const std::optional<sid::ConsistentEstimate>& consistent, std::ostringstream& out,
-                    nlohmann::json& j);
+                    const std::optional<sid::ConsistentEstimate>& consistent,
+                    std::ostringstream& out, nlohmann::json& j);
 
 /// @brief Reads one run (columns mapped as given).
 /// @throws InputError on a bad file or fewer than 3 rows.

@@ -54,7 +54,8 @@ class SidDiagnose : public sid_test::AppTest {
     const AppRun r = diagnose(args);
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
     EXPECT_NE(r.err.find("sid_diagnose: error: "), std::string::npos) << args << "\n" << r.err;
-    EXPECT_NE(r.err.find(what), std::string::npos) << args << "\nexpected: " << what << "\ngot: " << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos)
+        << args << "\nexpected: " << what << "\ngot: " << r.err;
     EXPECT_TRUE(r.out.empty()) << args << "\n" << r.out;
   }
 };
@@ -74,9 +75,10 @@ void expect_model_keys(const nlohmann::json& m, std::size_t parameters) {
 TEST_F(SidDiagnose, HelpDescribesTheEffectsAndExitsZero) {
   const AppRun r = diagnose("--help");
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  for (const char* word : {"--reference-theta", "--json", "--plots", "--candidates", "--coulomb-epsilon", "--rest-velocity",
-                           "--force", "coulomb_j2", "stribeck_j1", "angle_offset_q1", "armature_j1",
-                           "Exit codes", "Examples"})
+  for (const char* word :
+       {"--reference-theta", "--json", "--plots", "--candidates", "--coulomb-epsilon",
+        "--rest-velocity", "--force", "coulomb_j2", "stribeck_j1", "angle_offset_q1", "armature_j1",
+        "Exit codes", "Examples"})
     EXPECT_NE(r.out.find(word), std::string::npos) << word;
 }
 
@@ -116,7 +118,8 @@ TEST_F(SidDiagnose, NamesAHiddenCoulombFrictionAndShrinksTheGap) {
   EXPECT_LE(after, kExcessDrop * before) << before << " -> " << after;
   // Open loop the friction is visible too: the simulation error of joint 2 drops, and the
   // nominal model drifts beyond the noise somewhere while the final one does not.
-  EXPECT_LT(j["final"]["sim_error_rms"][1].get<double>(), j["nominal"]["sim_error_rms"][1].get<double>());
+  EXPECT_LT(j["final"]["sim_error_rms"][1].get<double>(),
+            j["nominal"]["sim_error_rms"][1].get<double>());
   int nominal_j2 = 0;
   for (const auto& w : j["nominal"]["sim_windows"]) nominal_j2 += w["joint"] == 2 ? 1 : 0;
   EXPECT_GT(nominal_j2, 0);
@@ -132,7 +135,8 @@ TEST_F(SidDiagnose, NamesAHiddenCoulombFrictionAndShrinksTheGap) {
 TEST_F(SidDiagnose, EffectFreeDataNamesNothingAndDrawsEveryFigure) {
   simulate("plain.csv", "--seed 5 --excitation multisine");
   AppRun run;
-  const nlohmann::json j = diagnose_json("plain.csv --plots figs --reference-theta " + std::string(kPaperTheta), &run);
+  const nlohmann::json j =
+      diagnose_json("plain.csv --plots figs --reference-theta " + std::string(kPaperTheta), &run);
   ASSERT_TRUE(j.contains("effects")) << run.err;
   EXPECT_TRUE(j["effects"].empty()) << j["effects"].dump(1);
   EXPECT_EQ(j["final"]["theta"], j["nominal"]["theta"]);
@@ -143,12 +147,13 @@ TEST_F(SidDiagnose, EffectFreeDataNamesNothingAndDrawsEveryFigure) {
   for (std::size_t p = 0; p < 7; ++p) {
     const auto& d = j["drift"][p];
     EXPECT_EQ(d["name"], "theta" + std::to_string(p + 1));
-    for (const char* key : {"reference", "estimate", "std", "z", "significant"}) EXPECT_TRUE(d.contains(key)) << key;
+    for (const char* key : {"reference", "estimate", "std", "z", "significant"})
+      EXPECT_TRUE(d.contains(key)) << key;
     EXPECT_FALSE(d["significant"].get<bool>()) << d;
   }
   const bool gnuplot = run.err.find("gnuplot") == std::string::npos;
-  for (const char* name : {"residual_j1", "residual_j2", "friction_j1", "friction_j2", "sim_q1", "sim_q2",
-                           "sim_error_q1", "sim_error_q2"}) {
+  for (const char* name : {"residual_j1", "residual_j2", "friction_j1", "friction_j2", "sim_q1",
+                           "sim_q2", "sim_error_q1", "sim_error_q2"}) {
     const std::string base = file("figs/" + std::string(name));
     EXPECT_GT(fs::file_size(base + ".dat"), 0u) << name;
     EXPECT_GT(fs::file_size(base + ".gp"), 0u) << name;

@@ -49,7 +49,8 @@ class SidIdentifyRuns : public sid_test::AppTest {
   void expect_input_error(const std::string& args, const std::string& what) const {
     const AppRun r = identify(args);
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
-    EXPECT_NE(r.err.find(what), std::string::npos) << args << "\nexpected: " << what << "\ngot: " << r.err;
+    EXPECT_NE(r.err.find(what), std::string::npos)
+        << args << "\nexpected: " << what << "\ngot: " << r.err;
     EXPECT_TRUE(r.out.empty()) << args << "\n" << r.out;
   }
 };
@@ -57,8 +58,8 @@ class SidIdentifyRuns : public sid_test::AppTest {
 }  // namespace
 
 TEST_F(SidIdentifyRuns, FitsSeveralRunsAndValidatesOnAnother) {
-  const nlohmann::json j = identify_json(std::string(kColumns) + " --validate " + run("05") + " " + run("01") +
-                                         " " + run("03"));
+  const nlohmann::json j = identify_json(std::string(kColumns) + " --validate " + run("05") + " " +
+                                         run("01") + " " + run("03"));
   ASSERT_TRUE(j.contains("validation")) << j.dump();
   EXPECT_EQ(j["input"].size(), 2u);
   EXPECT_EQ(j["smoothing"]["mode"], "torque-cv");
@@ -91,7 +92,8 @@ TEST_F(SidIdentifyRuns, FitsSeveralRunsAndValidatesOnAnother) {
 }
 
 TEST_F(SidIdentifyRuns, ColumnMapGivesTheSameResultAsRenamedColumns) {
-  const sid::app::CsvTable table = sid::app::read_csv(SID_TEST_DATA_DIR "/dfki_double_pendulum/trajectory_01.csv");
+  const sid::app::CsvTable table =
+      sid::app::read_csv(SID_TEST_DATA_DIR "/dfki_double_pendulum/trajectory_01.csv");
   sid::app::write_csv(file("renamed.csv"), {"t", "q1", "q2", "tau1", "tau2"},
                       {table.column("time"), table.column("pos_meas1"), table.column("pos_meas2"),
                        table.column("tau_meas1"), table.column("tau_meas2")});
@@ -104,11 +106,11 @@ TEST_F(SidIdentifyRuns, ColumnMapGivesTheSameResultAsRenamedColumns) {
 }
 
 TEST_F(SidIdentifyRuns, ReferenceThetaIsScoredOnFittedAndValidationRuns) {
-  const AppRun r = identify(std::string(kColumns) + " --reference-theta " + kLabTheta + " --validate " + run("03") +
-                            " " + run("02"));
+  const AppRun r = identify(std::string(kColumns) + " --reference-theta " + kLabTheta +
+                            " --validate " + run("03") + " " + run("02"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  for (const char* word : {"validation (runs not used in the fit)", "reference", "physical plausibility",
-                           "cutoff", "trajectory_03.csv", "theta7"})
+  for (const char* word : {"validation (runs not used in the fit)", "reference",
+                           "physical plausibility", "cutoff", "trajectory_03.csv", "theta7"})
     EXPECT_NE(r.out.find(word), std::string::npos) << "report lacks " << word << "\n" << r.out;
   const nlohmann::json j = identify_json(std::string(kColumns) + " --reference-theta " + kLabTheta +
                                          " --validate " + run("03") + " " + run("02"));
@@ -121,9 +123,9 @@ TEST_F(SidIdentifyRuns, ReferenceThetaIsScoredOnFittedAndValidationRuns) {
 }
 
 TEST_F(SidIdentifyRuns, EffectsAndGearRatioReportTheRotorOfDriveTwo) {
-  const nlohmann::json j = identify_json(std::string(kColumns) +
-                                         " --effects coulomb_j1,coulomb_j2,armature_j2 --gear-ratio 6,6 " +
-                                         run("00") + " " + run("01") + " " + run("12"));
+  const nlohmann::json j = identify_json(
+      std::string(kColumns) + " --effects coulomb_j1,coulomb_j2,armature_j2 --gear-ratio 6,6 " +
+      run("00") + " " + run("01") + " " + run("12"));
   ASSERT_TRUE(j.contains("rotor")) << j.dump();
   EXPECT_EQ(j["jackknife_std"].size(), 10u);
   EXPECT_EQ(j["runs"][2]["left_out_prediction_rms"].size(), 2u);
@@ -144,16 +146,19 @@ TEST_F(SidIdentifyRuns, BadInputIsRefusedWithAMessageNamingIt) {
   expect_input_error(c + "--effects friction " + run("01"), "unknown effect 'friction'");
   expect_input_error(c + "--gear-ratio 6 " + run("01"), "--gear-ratio needs armature_j2");
   expect_input_error(c + "--cutoff -1 " + run("01"), "--cutoff must be a finite number > 0");
-  expect_input_error(c + "--smoothing torque-cv --sigma-q 1e-3 " + run("01"), "do not apply to --smoothing torque-cv");
-  expect_input_error(c + "--smoothing gcv " + run("01") + " " + run("02"), "several runs are fitted together only");
-  expect_input_error(c + "--reference-theta 1,2,3 " + run("01"), "--reference-theta needs 7 values");
+  expect_input_error(c + "--smoothing torque-cv --sigma-q 1e-3 " + run("01"),
+                     "do not apply to --smoothing torque-cv");
+  expect_input_error(c + "--smoothing gcv " + run("01") + " " + run("02"),
+                     "several runs are fitted together only");
+  expect_input_error(c + "--reference-theta 1,2,3 " + run("01"),
+                     "--reference-theta needs 7 values");
   expect_input_error(c + "- -", "standard input ('-') can be read only once");
 }
 
 TEST_F(SidIdentifyRuns, HelpExplainsTheRunOptions) {
   const AppRun r = identify("--help");
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  for (const char* word : {"--columns", "--validate", "--cutoff", "--effects", "--reference-theta", "--gear-ratio",
-                           "torque-cv", "Several runs", "validation", "physical"})
+  for (const char* word : {"--columns", "--validate", "--cutoff", "--effects", "--reference-theta",
+                           "--gear-ratio", "torque-cv", "Several runs", "validation", "physical"})
     EXPECT_NE(r.out.find(word), std::string::npos) << "help lacks " << word;
 }

@@ -60,7 +60,6 @@ class SidIdentify : public sid_test::AppTest {
         << args << "\nexpected: " << what << "\ngot: " << r.err;
     EXPECT_TRUE(r.out.empty()) << args << "\n" << r.out;
   }
-
 };
 
 std::vector<double> numbers(const nlohmann::json& array) {
@@ -78,9 +77,8 @@ std::string synthetic_csv(int n, Q2 q2_of) {
   for (int i = 0; i < n; ++i) {
     const double t = 0.0025 * i;
     text += sid::app::format_double(t) + "," + sid::app::format_double(0.3 * std::sin(2 * t)) +
-            "," + sid::app::format_double(q2_of(t)) + "," +
-            sid::app::format_double(normal(rng)) + "," + sid::app::format_double(normal(rng)) +
-            "\n";
+            "," + sid::app::format_double(q2_of(t)) + "," + sid::app::format_double(normal(rng)) +
+            "," + sid::app::format_double(normal(rng)) + "\n";
   }
   return text;
 }
@@ -90,11 +88,12 @@ std::string synthetic_csv(int n, Q2 q2_of) {
 TEST_F(SidIdentify, HelpExplainsEveryOptionAndExitsZero) {
   const AppRun r = identify("--help");
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  for (const char* word : {"--method", "raw", "filtered", "css", "--sigma-q", "--S", "--skip",
-                           "--true", "--json", "--force", "0.25", "1.7475", "[rad]", "kg m^2",
-                           "N m s/rad", "rel_std_pct", "Exit codes", "--smoothing",
-                           "s-constraint", "gcv", "cv", "--lambda", "sigma_hat", "tr A",
-                           "degrees of freedom"})
+  for (const char* word :
+       {"--method",    "raw",        "filtered",    "css",          "--sigma-q",
+        "--S",         "--skip",     "--true",      "--json",       "--force",
+        "0.25",        "1.7475",     "[rad]",       "kg m^2",       "N m s/rad",
+        "rel_std_pct", "Exit codes", "--smoothing", "s-constraint", "gcv",
+        "cv",          "--lambda",   "sigma_hat",   "tr A",         "degrees of freedom"})
     EXPECT_NE(r.out.find(word), std::string::npos) << "help does not mention " << word;
 }
 
@@ -111,7 +110,8 @@ TEST_F(SidIdentify, NearlyNoiseFreeRoundTripRecoversEveryPaperParameter) {
 TEST_F(SidIdentify, SmallNoiseRoundTripThroughAPipeRecoversThePaperParameters) {
   // sigma_q = 1e-5 rad: the smoothing spline with S = n (the paper's choice) keeps six
   // parameters within a few %; theta2 (the smallest inertia, seen through qdd1 + qdd2) is
-  // biased low by ~25 % by the smoothing, as the corrected paper reports (-23 % at sigma_q^2 = 1e-8).
+  // biased low by ~25 % by the smoothing, as the corrected paper reports (-23 % at sigma_q^2 =
+  // 1e-8).
   const AppRun r = shell(sim() + " -q --sigma-q2 1e-10 --sigma-tau2 1e-8 | " + id() +
                          " --method css --sigma-q 1e-5 --json result.json -");
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -121,8 +121,7 @@ TEST_F(SidIdentify, SmallNoiseRoundTripThroughAPipeRecoversThePaperParameters) {
   ASSERT_EQ(theta.size(), 7u);
   for (int k = 0; k < 7; ++k) {
     const double tolerance = k == 1 ? 0.35 : 0.03;
-    EXPECT_NEAR(theta[static_cast<std::size_t>(k)] / truth[k], 1.0, tolerance)
-        << "theta" << k + 1;
+    EXPECT_NEAR(theta[static_cast<std::size_t>(k)] / truth[k], 1.0, tolerance) << "theta" << k + 1;
   }
   EXPECT_EQ(j["input"], "<stdin>");
 }
@@ -131,13 +130,13 @@ TEST_F(SidIdentify, JsonHasEveryDocumentedKey) {
   simulate("run.csv", "--sigma-q2 1e-10 --sigma-tau2 1e-8");
   const nlohmann::json j =
       identify_json(std::string("--sigma-q 1e-5 --true ") + kPaperTheta + " run.csv");
-  for (const char* key : {"theta", "std", "rel_std_pct", "names", "units", "residual_rms",
-                          "condition_number", "method", "samples_used", "samples_total",
-                          "smoothing_p", "sigma_q", "S", "skip", "ill_conditioned", "warning",
-                          "true", "error_pct", "smoothing"})
+  for (const char* key :
+       {"theta", "std", "rel_std_pct", "names", "units", "residual_rms", "condition_number",
+        "method", "samples_used", "samples_total", "smoothing_p", "sigma_q", "S", "skip",
+        "ill_conditioned", "warning", "true", "error_pct", "smoothing"})
     EXPECT_TRUE(j.contains(key)) << "no key " << key;
-  EXPECT_EQ(j["names"], (std::vector<std::string>{"theta1", "theta2", "theta3", "theta4",
-                                                  "theta5", "theta6", "theta7"}));
+  EXPECT_EQ(j["names"], (std::vector<std::string>{"theta1", "theta2", "theta3", "theta4", "theta5",
+                                                  "theta6", "theta7"}));
   for (const char* key : {"theta", "std", "rel_std_pct", "true", "error_pct"})
     EXPECT_EQ(j[key].size(), 7u) << key;
   EXPECT_EQ(j["residual_rms"].size(), 2u);
@@ -163,9 +162,9 @@ TEST_F(SidIdentify, TablePrintsEstimatesTruthErrorsAndFitStatistics) {
   simulate("run.csv", "--sigma-q2 1e-10 --sigma-tau2 1e-8");
   const AppRun r = identify(std::string("--sigma-q 1e-5 --true ") + kPaperTheta + " run.csv");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  for (const char* word : {"theta1", "theta7", "estimate", "std", "rel.std %", "true", "error %",
-                           "residual RMS", "samples used: 3901", "condition number",
-                           "smoothing (css)", "kg m^2", "0.6189"})
+  for (const char* word :
+       {"theta1", "theta7", "estimate", "std", "rel.std %", "true", "error %", "residual RMS",
+        "samples used: 3901", "condition number", "smoothing (css)", "kg m^2", "0.6189"})
     EXPECT_NE(r.out.find(word), std::string::npos) << "report lacks " << word << "\n" << r.out;
   EXPECT_EQ(r.out.find("warning"), std::string::npos) << r.out;
   const AppRun plain = identify("--sigma-q 1e-5 run.csv");
@@ -230,8 +229,9 @@ TEST_F(SidIdentify, BadInputExitsTwoWithAClearMessage) {
   write("nan.csv", "t,q1,q2,tau1,tau2\n0,1,2,3,4\n1,nan,3,4,5\n2,1,2,3,4\n");
   write("repeat.csv", "t,q1,q2,tau1,tau2\n0,1,2,3,4\n1,1,3,4,5\n1,1,2,3,4\n2,1,2,3,4\n");
   write("two.csv", "t,q1,q2,tau1,tau2\n0,1,2,3,4\n1,1,3,4,5\n");
-  write("five.csv", "t,q1,q2,tau1,tau2\n0,1,2,3,4\n0.1,1,3,4,5\n0.2,1,2,3,4\n0.3,1,2,3,4\n"
-                    "0.4,2,1,3,4\n");
+  write("five.csv",
+        "t,q1,q2,tau1,tau2\n0,1,2,3,4\n0.1,1,3,4,5\n0.2,1,2,3,4\n0.3,1,2,3,4\n"
+        "0.4,2,1,3,4\n");
   write("empty.csv", "");
   write("header_only.csv", "# nothing yet\nt,q1,q2,tau1,tau2\n");
   std::string uneven = "t,q1,q2,tau1,tau2\n";
@@ -444,7 +444,8 @@ TEST_F(SidIdentify, EstimatorsWlsAndIvRunAndReportThemselves) {
       const auto i = static_cast<std::size_t>(k);
       EXPECT_NEAR(theta[i] / truth[k], 1.0, 0.05) << (*j)["estimator"] << " theta" << k + 1;
       // Each estimate lies within 5 of its own reported standard deviations of the truth.
-      EXPECT_LT(std::abs(theta[i] - truth[k]), 5.0 * sd[i]) << (*j)["estimator"] << " theta" << k + 1;
+      EXPECT_LT(std::abs(theta[i] - truth[k]), 5.0 * sd[i])
+          << (*j)["estimator"] << " theta" << k + 1;
     }
   }
   // The estimators differ, so each really ran.
@@ -452,5 +453,6 @@ TEST_F(SidIdentify, EstimatorsWlsAndIvRunAndReportThemselves) {
   EXPECT_NE(numbers(wls["theta"]), numbers(ls["theta"]));
   const AppRun table = identify("--estimator iv run.csv");
   EXPECT_NE(table.out.find("estimator iv ("), std::string::npos) << table.out;
-  expect_input_error("--estimator ml run.csv", "--estimator: unknown estimator 'ml' (expected ls, wls or iv)");
+  expect_input_error("--estimator ml run.csv",
+                     "--estimator: unknown estimator 'ml' (expected ls, wls or iv)");
 }

@@ -45,7 +45,6 @@ class SidMonteCarlo : public sid_test::AppTest {
   nlohmann::json read_json(const std::string& name) const {
     return nlohmann::json::parse(read(file(name)));
   }
-
 };
 
 // stdout without the wall-time line (the only one that may differ between runs).
@@ -78,11 +77,17 @@ int count_data_lines(const std::string& text) {
 TEST_F(SidMonteCarlo, HelpExplainsEveryOptionAndTheMethodsAndExitsZero) {
   const AppRun r = run("--help");
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  for (const char* word :
-       {"--runs", "--levels", "--sigma-tau2", "--methods", "--seed", "--threads", "--json",
-        "--csv-dir", "--plots", "--quiet", "--force", "raw", "filtered", "css", "oracle",
-        "forward differences", "Butterworth", "smoothing spline", "exact q", "1.7475",
-        "gnuplot-nox"})
+  for (const char* word : {"--runs",       "--levels",
+                           "--sigma-tau2", "--methods",
+                           "--seed",       "--threads",
+                           "--json",       "--csv-dir",
+                           "--plots",      "--quiet",
+                           "--force",      "raw",
+                           "filtered",     "css",
+                           "oracle",       "forward differences",
+                           "Butterworth",  "smoothing spline",
+                           "exact q",      "1.7475",
+                           "gnuplot-nox"})
     EXPECT_NE(r.out.find(word), std::string::npos) << "help does not mention " << word;
 }
 
@@ -96,11 +101,12 @@ TEST_F(SidMonteCarlo, OutputIsTheSameForAnyThreadCountAndJsonHasEveryKey) {
   EXPECT_NE(one.out.find("wall time"), std::string::npos) << one.out;
 
   // The terminal report: settings, the paper's values beside ours, the ranking.
-  for (const char* text : {"runs per level   4", "seed             11", "sigma_tau2", "1e-6",
-                           "tables 4 and 5", "Sample means", "Sample variances", "ours / paper",
-                           "0.0366", "~1e-08", "bias %", "std %", "best first", "worst |bias|",
-                           "theta7"})
-    EXPECT_NE(one.out.find(text), std::string::npos) << "stdout lacks '" << text << "'\n" << one.out;
+  for (const char* text :
+       {"runs per level   4", "seed             11", "sigma_tau2", "1e-6", "tables 4 and 5",
+        "Sample means", "Sample variances", "ours / paper", "0.0366", "~1e-08", "bias %", "std %",
+        "best first", "worst |bias|", "theta7"})
+    EXPECT_NE(one.out.find(text), std::string::npos) << "stdout lacks '" << text << "'\n"
+                                                     << one.out;
   std::istringstream lines(one.out);
   for (std::string line; std::getline(lines, line);)
     EXPECT_LE(line.size(), 100u) << "too wide for a 100-column terminal: " << line;
@@ -180,10 +186,9 @@ TEST_F(SidMonteCarlo, CsvDirHoldsEveryEstimateOfEveryRun) {
 }
 
 TEST_F(SidMonteCarlo, PlotsWriteTheFiguresOrTheirDataWithoutGnuplot) {
-  const std::vector<std::string> figures{"fig2_qdd1",      "fig2_qdd1_detail", "fig3_qdd2",
-                                         "fig3_qdd2_detail", "theta1",         "theta2",
-                                         "theta3",         "theta4",           "theta5",
-                                         "theta6",         "theta7"};
+  const std::vector<std::string> figures{
+      "fig2_qdd1", "fig2_qdd1_detail", "fig3_qdd2", "fig3_qdd2_detail", "theta1", "theta2",
+      "theta3",    "theta4",           "theta5",    "theta6",           "theta7"};
   const AppRun r = run("--runs 3 --levels 1e-6 --plots figs");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const bool have_gnuplot = !sid::app::find_gnuplot().empty();
@@ -201,7 +206,8 @@ TEST_F(SidMonteCarlo, PlotsWriteTheFiguresOrTheirDataWithoutGnuplot) {
     EXPECT_NE(fig2.find(series), std::string::npos) << series << "\n" << fig2;
 
   // Without gnuplot the data is still written, the user is told how to install it, exit 0.
-  const AppRun missing = run("--runs 3 --levels 1e-6 --plots nogp", "SID_GNUPLOT=/nonexistent/gnuplot ");
+  const AppRun missing =
+      run("--runs 3 --levels 1e-6 --plots nogp", "SID_GNUPLOT=/nonexistent/gnuplot ");
   EXPECT_EQ(missing.exit_code, 0) << missing.err;
   EXPECT_NE(missing.err.find("gnuplot-nox"), std::string::npos) << missing.err;
   for (const auto& f : figures) EXPECT_TRUE(fs::exists(file("nogp/" + f + ".dat"))) << f;

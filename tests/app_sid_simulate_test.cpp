@@ -26,9 +26,9 @@ namespace fs = std::filesystem;
 namespace {
 
 // CVODE at rtol = atol = 1e-10 against SciPy DOP853 at 1e-12 (tests/data/README.md).
-constexpr double kAngleTol = 1e-8;       // rad
-constexpr double kVelocityTol = 1e-6;    // rad/s
-constexpr double kTorqueTol = 1e-14;     // N m: the same sin/cos at the same t
+constexpr double kAngleTol = 1e-8;     // rad
+constexpr double kVelocityTol = 1e-6;  // rad/s
+constexpr double kTorqueTol = 1e-14;   // N m: the same sin/cos at the same t
 // N m: a torque rebuilt from the written accelerations (17 digits of values up to ~2000 rad/s^2)
 // against the applied one.
 constexpr double kEquationOfMotionTol = 1e-9;
@@ -59,7 +59,6 @@ class SidSimulate : public sid_test::AppTest {
     EXPECT_TRUE(r.out.empty()) << args << "\n" << r.out;
     EXPECT_FALSE(fs::exists(file("out.csv"))) << args << ": wrote an output despite the error";
   }
-
 };
 
 double max_abs_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
@@ -80,23 +79,22 @@ TEST(SidSimulateHelp, ExplainsEveryOptionWithUnitsAndExitsZero) {
   const int status = ::pclose(pipe);
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 0);
-  for (const char* word : {"--T", "--Ts", "--sigma-q2", "--sigma-tau2", "--seed", "--theta",
-                           "--physical", "--truth", "--output", "--force", "--rtol", "--atol",
-                           "--quiet", "rad^2", "(N m)^2", "[s]", "kg m^2", "N m s/rad",
-                           "q1_true", "qdd2", "4001", "Exit codes"})
+  for (const char* word :
+       {"--T",        "--Ts",    "--sigma-q2", "--sigma-tau2", "--seed", "--theta",
+        "--physical", "--truth", "--output",   "--force",      "--rtol", "--atol",
+        "--quiet",    "rad^2",   "(N m)^2",    "[s]",          "kg m^2", "N m s/rad",
+        "q1_true",    "qdd2",    "4001",       "Exit codes"})
     EXPECT_NE(out.find(word), std::string::npos) << "help does not mention " << word;
 }
 
 TEST_F(SidSimulate, NoiseFreeRunMatchesTheReferenceTrajectory) {
-  const sid::app::CsvTable sim =
-      simulate_to("sim.csv", "--sigma-q2 0 --sigma-tau2 0 --truth");
-  const sid::app::CsvTable ref =
-      sid::app::read_csv(SID_TEST_DATA_DIR "/trajectory_noise_free.csv");
+  const sid::app::CsvTable sim = simulate_to("sim.csv", "--sigma-q2 0 --sigma-tau2 0 --truth");
+  const sid::app::CsvTable ref = sid::app::read_csv(SID_TEST_DATA_DIR "/trajectory_noise_free.csv");
   ASSERT_EQ(sim.rows(), 4001);
   ASSERT_EQ(ref.rows(), 4001);
-  EXPECT_EQ(sim.names, (std::vector<std::string>{"t", "q1", "q2", "tau1", "tau2", "q1_true",
-                                                  "q2_true", "qd1", "qd2", "qdd1", "qdd2",
-                                                  "tau1_true", "tau2_true"}));
+  EXPECT_EQ(sim.names,
+            (std::vector<std::string>{"t", "q1", "q2", "tau1", "tau2", "q1_true", "q2_true", "qd1",
+                                      "qd2", "qdd1", "qdd2", "tau1_true", "tau2_true"}));
   EXPECT_EQ(sim.column("t"), ref.column("t"));  // t_k = k Ts exactly, as numpy.arange
   for (const char* q : {"q1", "q2"}) {
     EXPECT_LT(max_abs_difference(sim.column(q), ref.column(q)), kAngleTol) << q;
@@ -163,10 +161,10 @@ TEST_F(SidSimulate, NoiseHasTheRequestedVariances) {
 
 TEST_F(SidSimulate, PhysicalParametersOfThePaperGiveThePaperTrajectory) {
   const sid::app::CsvTable by_theta = simulate_to("a.csv", "--sigma-q2 0 --sigma-tau2 0");
-  const sid::app::CsvTable by_physical = simulate_to(
-      "b.csv",
-      "--sigma-q2 0 --sigma-tau2 0 "
-      "--physical 0.2675,0.0398,0.0392,0.4347,0.4322,0.0024,0.0024,0.6189,0.6189");
+  const sid::app::CsvTable by_physical =
+      simulate_to("b.csv",
+                  "--sigma-q2 0 --sigma-tau2 0 "
+                  "--physical 0.2675,0.0398,0.0392,0.4347,0.4322,0.0024,0.0024,0.6189,0.6189");
   // theta from the physical values differs in the last bits, so CVODE's adaptive steps differ:
   // the two agree to the integration accuracy.
   for (const char* q : {"q1", "q2"})
@@ -175,10 +173,10 @@ TEST_F(SidSimulate, PhysicalParametersOfThePaperGiveThePaperTrajectory) {
 
 TEST_F(SidSimulate, ThetaChangesTheTrajectory) {
   const sid::app::CsvTable paper = simulate_to("a.csv", "--sigma-q2 0 --sigma-tau2 0 --T 2");
-  const sid::app::CsvTable heavier = simulate_to(
-      "b.csv",
-      "--sigma-q2 0 --sigma-tau2 0 --T 2 "
-      "--theta 0.05,0.003064135808,0.0045320492,0.13291456,0.01694224,0.6189,0.6189");
+  const sid::app::CsvTable heavier =
+      simulate_to("b.csv",
+                  "--sigma-q2 0 --sigma-tau2 0 --T 2 "
+                  "--theta 0.05,0.003064135808,0.0045320492,0.13291456,0.01694224,0.6189,0.6189");
   EXPECT_GT(max_abs_difference(paper.column("q1"), heavier.column("q1")), 1e-3);
 }
 
@@ -246,9 +244,7 @@ TEST_F(SidSimulate, FailedSimulationExitsTwoWithTheReason) {
 }
 
 TEST_F(SidSimulate, RefusesToOverwriteWithoutForce) {
-  {
-    std::ofstream(file("out.csv")) << "precious\n";
-  }
+  { std::ofstream(file("out.csv")) << "precious\n"; }
   const AppRun refused = run("--T 0.1 -o out.csv");
   EXPECT_EQ(refused.exit_code, 2) << refused.err;
   EXPECT_NE(refused.err.find("refusing to overwrite"), std::string::npos) << refused.err;
@@ -290,23 +286,39 @@ TEST(SidSimulateHelp, DocumentsEveryEffectWithItsValuesAndUnits) {
   char buffer[4096];
   while (std::size_t got = std::fread(buffer, 1, sizeof buffer, pipe)) out.append(buffer, got);
   ASSERT_EQ(::pclose(pipe), 0);
-  for (const char* word :
-       {"--effect", "--excitation", "--coulomb-epsilon", "multisine", "5 sin 1.3t + 2 sin 3.1t",
-        "3 cos 0.7t + 1.5 sin 2.3t", "tanh(qd_j / eps)", "0.01 rad/s", "exp(-(qd_j / vs)^2)",
-        "coulomb_j1:Fc [N m]", "coulomb_j2:Fc [N m]",
-        "stribeck_j1:Fc [N m],Fs [N m],vs [rad/s]", "stribeck_j2:", "torque_offset_j1:b [N m]",
-        "torque_offset_j2:", "angle_offset_q1:delta [rad]", "angle_offset_q2:",
-        "armature_j1:Ia [kg m^2]", "armature_j2:", "spring_j1:k [N m/rad]", "spring_j2:",
-        "constant load", "base tilt"})
+  for (const char* word : {"--effect",
+                           "--excitation",
+                           "--coulomb-epsilon",
+                           "multisine",
+                           "5 sin 1.3t + 2 sin 3.1t",
+                           "3 cos 0.7t + 1.5 sin 2.3t",
+                           "tanh(qd_j / eps)",
+                           "0.01 rad/s",
+                           "exp(-(qd_j / vs)^2)",
+                           "coulomb_j1:Fc [N m]",
+                           "coulomb_j2:Fc [N m]",
+                           "stribeck_j1:Fc [N m],Fs [N m],vs [rad/s]",
+                           "stribeck_j2:",
+                           "torque_offset_j1:b [N m]",
+                           "torque_offset_j2:",
+                           "angle_offset_q1:delta [rad]",
+                           "angle_offset_q2:",
+                           "armature_j1:Ia [kg m^2]",
+                           "armature_j2:",
+                           "spring_j1:k [N m/rad]",
+                           "spring_j2:",
+                           "constant load",
+                           "base tilt"})
     EXPECT_NE(out.find(word), std::string::npos) << "help does not mention " << word;
 }
 
 TEST_F(SidSimulate, TorqueOffsetIsMeasuredMinusAppliedTorqueAndLeavesTheMotion) {
-  const sid::app::CsvTable plain = simulate_to("a.csv", "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth");
-  const sid::app::CsvTable t = simulate_to(
-      "b.csv",
-      "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth --effect torque_offset_j1:0.07 "
-      "--effect torque_offset_j2:-0.05");
+  const sid::app::CsvTable plain =
+      simulate_to("a.csv", "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth");
+  const sid::app::CsvTable t =
+      simulate_to("b.csv",
+                  "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth --effect torque_offset_j1:0.07 "
+                  "--effect torque_offset_j2:-0.05");
   const Eigen::VectorXd d1 = difference(t, "tau1", "tau1_true");
   const Eigen::VectorXd d2 = difference(t, "tau2", "tau2_true");
   EXPECT_LT((d1.array() - 0.07).abs().maxCoeff(), kOffsetTol);
@@ -317,11 +329,12 @@ TEST_F(SidSimulate, TorqueOffsetIsMeasuredMinusAppliedTorqueAndLeavesTheMotion) 
 }
 
 TEST_F(SidSimulate, AngleOffsetIsMinusDeltaOnTheMeasuredAngle) {
-  const sid::app::CsvTable plain = simulate_to("a.csv", "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth");
-  const sid::app::CsvTable t = simulate_to(
-      "b.csv",
-      "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth --effect angle_offset_q1:0.05 "
-      "--effect angle_offset_q2:-0.02");
+  const sid::app::CsvTable plain =
+      simulate_to("a.csv", "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth");
+  const sid::app::CsvTable t =
+      simulate_to("b.csv",
+                  "--sigma-q2 0 --sigma-tau2 0 --T 2 --truth --effect angle_offset_q1:0.05 "
+                  "--effect angle_offset_q2:-0.02");
   EXPECT_LT((difference(t, "q1", "q1_true").array() + 0.05).abs().maxCoeff(), kOffsetTol);
   EXPECT_LT((difference(t, "q2", "q2_true").array() - 0.02).abs().maxCoeff(), kOffsetTol);
   for (const char* c : {"q1_true", "q2_true", "tau1", "tau2"})
@@ -331,8 +344,8 @@ TEST_F(SidSimulate, AngleOffsetIsMinusDeltaOnTheMeasuredAngle) {
 TEST_F(SidSimulate, SensorOffsetsDoNotChangeTheNoiseOfASeed) {
   const std::string noisy = "--sigma-q2 1e-4 --sigma-tau2 0.04 --seed 3 --T 1 ";
   const sid::app::CsvTable plain = simulate_to("a.csv", noisy);
-  const sid::app::CsvTable t = simulate_to(
-      "b.csv", noisy + "--effect torque_offset_j2:0.3 --effect angle_offset_q1:-0.1");
+  const sid::app::CsvTable t =
+      simulate_to("b.csv", noisy + "--effect torque_offset_j2:0.3 --effect angle_offset_q1:-0.1");
   EXPECT_LT(((t.column("tau2") - plain.column("tau2")).array() - 0.3).abs().maxCoeff(), kOffsetTol);
   // measured q = true q - delta, delta = -0.1.
   EXPECT_LT(((t.column("q1") - plain.column("q1")).array() - 0.1).abs().maxCoeff(), kOffsetTol);
@@ -361,9 +374,10 @@ TEST_F(SidSimulate, MultisineExcitationAppliesItsFormula) {
 
 TEST_F(SidSimulate, CoulombFrictionIsTheTorqueTheRigidArmDoesNotExplain) {
   const double fc1 = 0.3, fc2 = 0.1, eps = 0.02;
-  const sid::app::CsvTable t = simulate_to(
-      "c.csv", "--sigma-q2 0 --sigma-tau2 0 --truth --effect coulomb_j1:0.3 "
-               "--effect coulomb_j2:0.1 --coulomb-epsilon 0.02");
+  const sid::app::CsvTable t =
+      simulate_to("c.csv",
+                  "--sigma-q2 0 --sigma-tau2 0 --truth --effect coulomb_j1:0.3 "
+                  "--effect coulomb_j2:0.1 --coulomb-epsilon 0.02");
   const Eigen::MatrixX2d rigid = paper_arm_torque(t);
   const Eigen::VectorXd qd1 = t.column("qd1"), qd2 = t.column("qd2");
   const Eigen::VectorXd f1 = fc1 * (qd1 / eps).array().tanh();
@@ -379,14 +393,14 @@ TEST_F(SidSimulate, CoulombFrictionIsTheTorqueTheRigidArmDoesNotExplain) {
 
 TEST_F(SidSimulate, StribeckArmatureAndSpringEnterTheEquationOfMotion) {
   const double fc = 0.1, fs = 0.3, vs = 0.2, eps = 0.01, ia = 0.006, k = 0.5;
-  const sid::app::CsvTable t = simulate_to(
-      "s.csv", "--sigma-q2 0 --sigma-tau2 0 --truth --excitation multisine "
-               "--effect stribeck_j1:0.1,0.3,0.2 --effect armature_j2:0.006 "
-               "--effect spring_j2:0.5");
+  const sid::app::CsvTable t =
+      simulate_to("s.csv",
+                  "--sigma-q2 0 --sigma-tau2 0 --truth --excitation multisine "
+                  "--effect stribeck_j1:0.1,0.3,0.2 --effect armature_j2:0.006 "
+                  "--effect spring_j2:0.5");
   const Eigen::MatrixX2d rigid = paper_arm_torque(t);
   const Eigen::ArrayXd v = t.column("qd1").array();
-  const Eigen::VectorXd stribeck =
-      (fc + (fs - fc) * (-(v / vs).square()).exp()) * (v / eps).tanh();
+  const Eigen::VectorXd stribeck = (fc + (fs - fc) * (-(v / vs).square()).exp()) * (v / eps).tanh();
   const Eigen::VectorXd joint2 = ia * t.column("qdd2") + k * t.column("q2_true");
   EXPECT_LT(max_abs_difference(t.column("tau1") - rigid.col(0), stribeck), kEquationOfMotionTol);
   EXPECT_LT(max_abs_difference(t.column("tau2") - rigid.col(1), joint2), kEquationOfMotionTol);
@@ -397,8 +411,9 @@ TEST_F(SidSimulate, CommentsRecordTheEffectsAndTheExcitation) {
   ASSERT_EQ(none.exit_code, 0) << none.err;
   EXPECT_NE(none.out.find("# excitation = paper\n"), std::string::npos) << none.out.substr(0, 800);
   EXPECT_NE(none.out.find("# effects = none\n"), std::string::npos) << none.out.substr(0, 800);
-  const AppRun r = run("--T 0.1 -q --excitation multisine --effect coulomb_j2:0.1 "
-                       "--effect stribeck_j1:0.1,0.3,0.2 --effect angle_offset_q1:0.05");
+  const AppRun r =
+      run("--T 0.1 -q --excitation multisine --effect coulomb_j2:0.1 "
+          "--effect stribeck_j1:0.1,0.3,0.2 --effect angle_offset_q1:0.05");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string header = r.out.substr(0, r.out.find("\nt,"));
   for (const char* word :
@@ -411,8 +426,9 @@ TEST_F(SidSimulate, CommentsRecordTheEffectsAndTheExcitation) {
 }
 
 TEST_F(SidSimulate, SameSeedAndEffectsGiveIdenticalBytes) {
-  const std::string args = "--seed 9 -q --T 3 --excitation multisine --effect coulomb_j1:0.2 "
-                           "--effect torque_offset_j2:0.05 ";
+  const std::string args =
+      "--seed 9 -q --T 3 --excitation multisine --effect coulomb_j1:0.2 "
+      "--effect torque_offset_j2:0.05 ";
   ASSERT_EQ(run(args + "-o a.csv").exit_code, 0);
   ASSERT_EQ(run(args + "-o b.csv").exit_code, 0);
   const std::string a = read(file("a.csv"));

@@ -44,7 +44,6 @@ class SidSmooth : public sid_test::AppTest {
     std::istringstream in(text);
     return sid::app::parse_csv(in, "sid_smooth output");
   }
-
 };
 
 // Uneven sampling so the derivatives are not helped by symmetric spacing.
@@ -109,10 +108,10 @@ std::pair<double, double> sine_derivative_rms(const sid::app::CsvTable& table,
 TEST_F(SidSmooth, HelpExplainsEveryOptionAndExitsZero) {
   const AppRun r = run("--help");
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  for (const char* word : {"--time", "--signal", "--sigma", "--weights", "--S", "--lambda",
-                           "--output", "--force", "--quiet", "S = n", "lambda = 1/p", "_dd",
-                           "--smoothing", "s-constraint", "gcv", "cv", "tr A", "sigma_hat",
-                           "degrees of freedom"})
+  for (const char* word :
+       {"--time", "--signal", "--sigma", "--weights", "--S", "--lambda", "--output", "--force",
+        "--quiet", "S = n", "lambda = 1/p", "_dd", "--smoothing", "s-constraint", "gcv", "cv",
+        "tr A", "sigma_hat", "degrees of freedom"})
     EXPECT_NE(r.out.find(word), std::string::npos) << "help does not mention " << word;
 }
 

@@ -35,7 +35,8 @@ struct PaperFilter {
 };
 
 const std::vector<PaperFilter>& paper_filters() {
-  static const std::vector<PaperFilter> filters = {{"q", 3, 0.05}, {"qd", 3, 0.015}, {"qdd", 4, 0.01}};
+  static const std::vector<PaperFilter> filters = {
+      {"q", 3, 0.05}, {"qd", 3, 0.015}, {"qdd", 4, 0.01}};
   return filters;
 }
 
@@ -49,7 +50,8 @@ Reference scipy_reference(const PaperFilter& f) {
   Reference ref;
   std::vector<double> b, a, zi, zi_scipy;
   for (Eigen::Index i = 0; i < table.data.rows(); ++i) {
-    if (table.data(i, table.column("order")) != f.order || table.data(i, table.column("wn")) != f.cutoff)
+    if (table.data(i, table.column("order")) != f.order ||
+        table.data(i, table.column("wn")) != f.cutoff)
       continue;
     b.push_back(table.data(i, table.column("b")));
     a.push_back(table.data(i, table.column("a")));
@@ -61,7 +63,8 @@ Reference scipy_reference(const PaperFilter& f) {
   ref.b = Eigen::Map<Eigen::VectorXd>(b.data(), static_cast<Eigen::Index>(b.size()));
   ref.a = Eigen::Map<Eigen::VectorXd>(a.data(), static_cast<Eigen::Index>(a.size()));
   ref.zi = Eigen::Map<Eigen::VectorXd>(zi.data(), static_cast<Eigen::Index>(zi.size()));
-  ref.zi_scipy = Eigen::Map<Eigen::VectorXd>(zi_scipy.data(), static_cast<Eigen::Index>(zi_scipy.size()));
+  ref.zi_scipy =
+      Eigen::Map<Eigen::VectorXd>(zi_scipy.data(), static_cast<Eigen::Index>(zi_scipy.size()));
   return ref;
 }
 
@@ -100,8 +103,10 @@ TEST(Butterworth, CoefficientsMatchScipyButter) {
     ASSERT_EQ(tf.a.size(), f.order + 1);
     EXPECT_EQ(tf.a(0), 1.0);
     for (Eigen::Index i = 0; i <= f.order; ++i) {
-      EXPECT_NEAR(tf.b(i), ref.b(i), kCoefficientRelTol * std::abs(ref.b(i))) << f.name << " b[" << i << "]";
-      EXPECT_NEAR(tf.a(i), ref.a(i), kCoefficientRelTol * std::abs(ref.a(i))) << f.name << " a[" << i << "]";
+      EXPECT_NEAR(tf.b(i), ref.b(i), kCoefficientRelTol * std::abs(ref.b(i)))
+          << f.name << " b[" << i << "]";
+      EXPECT_NEAR(tf.a(i), ref.a(i), kCoefficientRelTol * std::abs(ref.a(i)))
+          << f.name << " a[" << i << "]";
     }
   }
 }
@@ -117,7 +122,8 @@ TEST(Butterworth, DcGainIsOneUpToCoefficientRounding) {
       sum_a += tf.a(i);
     }
     const double gain = static_cast<double>(sum_b / sum_a);
-    const double tol = kDcGainRoundings * kEps * tf.a.cwiseAbs().sum() / std::abs(static_cast<double>(sum_a));
+    const double tol =
+        kDcGainRoundings * kEps * tf.a.cwiseAbs().sum() / std::abs(static_cast<double>(sum_a));
     EXPECT_NEAR(gain, 1.0, tol) << f.name;
   }
 }
@@ -199,8 +205,10 @@ TEST(Butterworth, LfilterMatchesScipyColumnwise) {
     const Eigen::MatrixXd y = sid::lfilter(ref.b, ref.a, x);
     ASSERT_EQ(y.rows(), x.rows());
     ASSERT_EQ(y.cols(), 2);
-    EXPECT_LT(max_rel_error(y.col(0), table.col("lfilter_" + f.name + "1")), kSignalRelTol) << f.name;
-    EXPECT_LT(max_rel_error(y.col(1), table.col("lfilter_" + f.name + "2")), kSignalRelTol) << f.name;
+    EXPECT_LT(max_rel_error(y.col(0), table.col("lfilter_" + f.name + "1")), kSignalRelTol)
+        << f.name;
+    EXPECT_LT(max_rel_error(y.col(1), table.col("lfilter_" + f.name + "2")), kSignalRelTol)
+        << f.name;
   }
 }
 
@@ -230,8 +238,10 @@ TEST(Butterworth, FiltfiltMatchesScipyAlgorithmColumnwise) {
     const Eigen::MatrixXd y = sid::filtfilt(ref.b, ref.a, x);
     ASSERT_EQ(y.rows(), x.rows());
     ASSERT_EQ(y.cols(), 2);
-    EXPECT_LT(max_rel_error(y.col(0), table.col("filtfilt_exactzi_" + f.name + "1")), kSignalRelTol) << f.name;
-    EXPECT_LT(max_rel_error(y.col(1), table.col("filtfilt_exactzi_" + f.name + "2")), kSignalRelTol) << f.name;
+    EXPECT_LT(max_rel_error(y.col(0), table.col("filtfilt_exactzi_" + f.name + "1")), kSignalRelTol)
+        << f.name;
+    EXPECT_LT(max_rel_error(y.col(1), table.col("filtfilt_exactzi_" + f.name + "2")), kSignalRelTol)
+        << f.name;
   }
 }
 
@@ -261,7 +271,8 @@ TEST(Butterworth, FiltfiltKeepsConstantsWithoutEdgeTransient) {
     }
     const double gain2 = std::pow(static_cast<double>(sum_b / sum_a), 2);
     const Eigen::MatrixXd y = sid::filtfilt(tf.b, tf.a, x);
-    const double tol = kDcGainRoundings * kEps * tf.a.cwiseAbs().sum() / std::abs(static_cast<double>(sum_a));
+    const double tol =
+        kDcGainRoundings * kEps * tf.a.cwiseAbs().sum() / std::abs(static_cast<double>(sum_a));
     EXPECT_LT((y.col(0).array() - 2.5 * gain2).abs().maxCoeff(), tol * 2.5) << f.name;
   }
 }
@@ -310,7 +321,8 @@ TEST(Butterworth, ThrowsOnBadFilterInput) {
   a_zero(0) = 0.0;
   EXPECT_THROW((void)sid::lfilter(tf.b, a_zero, x), std::invalid_argument);
   EXPECT_THROW((void)sid::lfilter_zi(Eigen::VectorXd(), tf.a), std::invalid_argument);
-  EXPECT_THROW((void)sid::lfilter(tf.b, tf.a, x, Eigen::MatrixXd::Zero(2, 1)), std::invalid_argument);
+  EXPECT_THROW((void)sid::lfilter(tf.b, tf.a, x, Eigen::MatrixXd::Zero(2, 1)),
+               std::invalid_argument);
   x(4) = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW((void)sid::filtfilt(tf, x), std::invalid_argument);
   EXPECT_THROW((void)sid::lfilter(tf.b, tf.a, x), std::invalid_argument);

@@ -13,10 +13,14 @@ sid::CubicSpline<double> two_piece_cubic() {
   auto g = [](double t, int order) {
     const double x = t - 1.0;
     switch (order) {
-      case 0: return 1.0 + 2.0 * x - x * x + 0.5 * x * x * x;
-      case 1: return 2.0 - 2.0 * x + 1.5 * x * x;
-      case 2: return -2.0 + 3.0 * x;
-      default: return 3.0;
+      case 0:
+        return 1.0 + 2.0 * x - x * x + 0.5 * x * x * x;
+      case 1:
+        return 2.0 - 2.0 * x + 1.5 * x * x;
+      case 2:
+        return -2.0 + 3.0 * x;
+      default:
+        return 3.0;
     }
   };
   Eigen::VectorXd knots(3), a(2), b(2), c(2), d(2);
@@ -48,7 +52,8 @@ TEST(CubicSpline, KnotFastPathAgreesWithGeneralEvaluation) {
   for (int order = 0; order <= 3; ++order) {
     const Eigen::VectorXd fast = s.derivatives_at_knots(order);
     for (Eigen::Index i = 0; i < s.size(); ++i)
-      EXPECT_NEAR(fast[i], s.derivative(s.knots()[i], order), kTol) << "order " << order << " knot " << i;
+      EXPECT_NEAR(fast[i], s.derivative(s.knots()[i], order), kTol)
+          << "order " << order << " knot " << i;
   }
 }
 

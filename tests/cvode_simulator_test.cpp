@@ -47,7 +47,8 @@ struct DampedOscillator {
 double max_error_to_oscillator(const sid::SimulationResult& r, const DampedOscillator& model) {
   double worst = 0.0;
   for (Eigen::Index k = 0; k < r.t.size(); ++k)
-    worst = std::max(worst, (r.states.row(k).transpose() - model.exact(r.t[k])).cwiseAbs().maxCoeff());
+    worst =
+        std::max(worst, (r.states.row(k).transpose() - model.exact(r.t[k])).cwiseAbs().maxCoeff());
   return worst;
 }
 
@@ -193,7 +194,8 @@ TEST(CvodeSimulator, TooFewStepsGivesTooMuchWork) {
   const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(2, 0.0, 100.0);
   sid::SimulatorOptions options;
   options.max_steps = 10;
-  const sid::SimulationResult r = sid::simulate(DampedOscillator(), Eigen::Vector2d(1.0, 0.0), t, options);
+  const sid::SimulationResult r =
+      sid::simulate(DampedOscillator(), Eigen::Vector2d(1.0, 0.0), t, options);
   EXPECT_EQ(r.status, sid::SimulationStatus::TooMuchWork);
   EXPECT_EQ(r.flag_name, "CV_TOO_MUCH_WORK");
   EXPECT_EQ(r.completed, 1);
@@ -211,7 +213,8 @@ TEST(CvodeSimulator, ThrowingRhsGivesRhsFailureWithMessage) {
   for (const auto method : kAllMethods) {
     sid::SimulatorOptions options;
     options.method = method;
-    const sid::SimulationResult r = sid::simulate(throws_late, Eigen::VectorXd::Ones(1), t, options);
+    const sid::SimulationResult r =
+        sid::simulate(throws_late, Eigen::VectorXd::Ones(1), t, options);
     EXPECT_EQ(r.status, sid::SimulationStatus::RhsFailure);
     EXPECT_NE(r.message.find("model undefined beyond 0.75 s"), std::string::npos) << r.message;
     // CVODE names the consequence (CV_RHSFUNC_FAIL for Newton, CV_CONV_FAILURE for fixed point).
@@ -310,7 +313,8 @@ TEST(CvodeSimulator, ThrowsOnBadInput) {
 TEST(CvodeSimulator, MaxStepLimitsTheStepSize) {
   // With hmax = 0.01 s over 10 s at least 1000 steps are needed; without it far fewer.
   const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(2, 0.0, 10.0);
-  const sid::SimulationResult free_run = sid::simulate(DampedOscillator(), Eigen::Vector2d(1.0, 0.0), t);
+  const sid::SimulationResult free_run =
+      sid::simulate(DampedOscillator(), Eigen::Vector2d(1.0, 0.0), t);
   sid::SimulatorOptions limited;
   limited.max_step = 0.01;
   const sid::SimulationResult limited_run =

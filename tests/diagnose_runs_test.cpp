@@ -17,8 +17,9 @@ namespace {
 
 // Three runs of the paper's arm with one effect of the given value added, torques with white
 // noise of sigma_tau [N m] (fixed seed).
-std::vector<sid::Trajectory<double>> runs_with(const std::string& effect, const Eigen::VectorXd& values,
-                                               double sigma_tau, const sid::EffectSettings& settings = {}) {
+std::vector<sid::Trajectory<double>> runs_with(const std::string& effect,
+                                               const Eigen::VectorXd& values, double sigma_tau,
+                                               const sid::EffectSettings& settings = {}) {
   sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
   model.add(sid::effect_term(effect, settings));
   Eigen::VectorXd theta(7 + values.size());
@@ -34,7 +35,8 @@ std::vector<sid::Trajectory<double>> runs_with(const std::string& effect, const 
   return runs;
 }
 
-std::vector<sid::Trajectory<double>> runs_with(const std::string& effect, double value, double sigma_tau) {
+std::vector<sid::Trajectory<double>> runs_with(const std::string& effect, double value,
+                                               double sigma_tau) {
   return runs_with(effect, Eigen::VectorXd::Constant(1, value), sigma_tau);
 }
 
@@ -68,8 +70,8 @@ TEST(DiagnoseRuns, KeepsTanhForTanhFrictionAndFindsAtanFriction) {
   atan.coulomb_epsilon = 0.05;
   sid::RunsDiagnoseOptions options;
   options.effects.coulomb_epsilon = 0.05;
-  const sid::RunsDiagnosis d =
-      sid::diagnose_runs(runs_with("coulomb_j2", Eigen::VectorXd::Constant(1, 0.1), 0.01, atan), options);
+  const sid::RunsDiagnosis d = sid::diagnose_runs(
+      runs_with("coulomb_j2", Eigen::VectorXd::Constant(1, 0.1), 0.01, atan), options);
   ASSERT_EQ(named_ids(d), std::vector<std::string>{"coulomb_j2"});
   ASSERT_EQ(d.friction_shapes.size(), 1u);
   EXPECT_EQ(d.friction_shapes[0].shape, sid::CoulombShape::Atan);
@@ -85,8 +87,8 @@ TEST(DiagnoseRuns, FindsFrictionThatDiffersByDirection) {
   asymmetric.coulomb_asymmetric = true;
   sid::RunsDiagnoseOptions options;
   options.candidates = {"coulomb_j1", "spring_j2"};
-  const sid::RunsDiagnosis d =
-      sid::diagnose_runs(runs_with("coulomb_j1", Eigen::Vector2d(0.1, 0.05), 0.01, asymmetric), options);
+  const sid::RunsDiagnosis d = sid::diagnose_runs(
+      runs_with("coulomb_j1", Eigen::Vector2d(0.1, 0.05), 0.01, asymmetric), options);
   ASSERT_EQ(named_ids(d), std::vector<std::string>{"coulomb_j1"});
   ASSERT_EQ(d.friction_shapes.size(), 1u);
   const sid::FrictionShapeTest& s = d.friction_shapes[0];
@@ -148,7 +150,8 @@ class RealRunsDiagnosis : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     std::vector<sid::Trajectory<double>> runs;
-    for (const char* id : {"00", "01", "02", "03", "05", "12"}) runs.push_back(sid_test::load_run(id));
+    for (const char* id : {"00", "01", "02", "03", "05", "12"})
+      runs.push_back(sid_test::load_run(id));
     diagnosis_ = sid::diagnose_runs(runs);
   }
   static sid::RunsDiagnosis diagnosis_;
@@ -175,14 +178,16 @@ TEST_F(RealRunsDiagnosis, NamesCoulombFrictionOnBothJointsAndNoSpringOrAngleOffs
   EXPECT_EQ(d.friction_shapes.size(), 2u);
   // The spring on joint 1 is significant but predicts the held-out runs worse: the case the
   // held-out criterion exists for.
-  const auto spring = std::find_if(d.not_named.begin(), d.not_named.end(), [](const auto& e) { return e.id == "spring_j1"; });
+  const auto spring = std::find_if(d.not_named.begin(), d.not_named.end(),
+                                   [](const auto& e) { return e.id == "spring_j1"; });
   ASSERT_NE(spring, d.not_named.end());
   EXPECT_LT(spring->gain, 0.0);
 }
 
 TEST_F(RealRunsDiagnosis, SaysWhetherTheRotorCouplingIsSupported) {
   const sid::RunsDiagnosis& d = diagnosis_;
-  const bool named = std::any_of(d.named.begin(), d.named.end(), [](const auto& e) { return e.id == "armature_j2"; });
+  const bool named = std::any_of(d.named.begin(), d.named.end(),
+                                 [](const auto& e) { return e.id == "armature_j2"; });
   ASSERT_TRUE(named || d.rotor_coupling.has_value());
   if (!named) {
     EXPECT_FALSE(d.rotor_coupling->reason.empty());

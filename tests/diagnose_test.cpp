@@ -121,12 +121,15 @@ Outcome run_case(const EffectCase& c, Excitation excitation, unsigned seed) {
 /// The data sets a parametrized case runs: both excitations with both seeds, or under the
 /// sanitizers (which check memory and undefined behaviour, not the numbers, at about 18 times
 /// the run time) two that still cover both excitations and both seeds.
-std::vector<std::pair<Excitation, unsigned>> case_data_sets(unsigned first_seed, unsigned second_seed) {
+std::vector<std::pair<Excitation, unsigned>> case_data_sets(unsigned first_seed,
+                                                            unsigned second_seed) {
 #ifdef SID_SANITIZED_TESTS
   return {{Excitation::Paper, first_seed}, {Excitation::Multisine, second_seed}};
 #else
-  return {{Excitation::Paper, first_seed}, {Excitation::Paper, second_seed},
-          {Excitation::Multisine, first_seed}, {Excitation::Multisine, second_seed}};
+  return {{Excitation::Paper, first_seed},
+          {Excitation::Paper, second_seed},
+          {Excitation::Multisine, first_seed},
+          {Excitation::Multisine, second_seed}};
 #endif
 }
 
@@ -288,10 +291,11 @@ TEST(Diagnose, ReportsJointOneArmatureAsNotSeparableAndAsThetaOneDrift) {
 
 sid::DiagnosisResult run_stribeck(int joint, Excitation excitation, unsigned seed) {
   const std::string spec = "stribeck_j" + std::to_string(joint) + ":0.1,0.3,0.2";
-  const sid::DiagnosisResult r = sid::diagnose(simulate({sid::parse_effect(spec)}, excitation, seed));
+  const sid::DiagnosisResult r =
+      sid::diagnose(simulate({sid::parse_effect(spec)}, excitation, seed));
   std::ostringstream line;
-  line << spec << " | " << excitation_name(excitation) << " " << seed << " | "
-       << join(named_ids(r)) << " | ";
+  line << spec << " | " << excitation_name(excitation) << " " << seed << " | " << join(named_ids(r))
+       << " | ";
   for (const auto& e : r.effects) line << e.estimate.transpose() << " ";
   line << "| " << r.nominal.excess_rms[joint - 1] << " -> " << r.final.excess_rms[joint - 1];
   summary().add(spec, r, line.str());
@@ -368,9 +372,9 @@ TEST(Diagnose, DoesNotTryAStribeckBumpTheSamplesDoNotResolve) {
   sid::DiagnoseOptions options;
   options.candidates = {"coulomb_j2", "stribeck_j2"};
   options.stribeck_min_support = 100000;  // more samples than the data have
-  const sid::DiagnosisResult r =
-      sid::diagnose(simulate({sid::parse_effect("stribeck_j2:0.1,0.3,0.2")}, Excitation::Multisine, 11u),
-                    options);
+  const sid::DiagnosisResult r = sid::diagnose(
+      simulate({sid::parse_effect("stribeck_j2:0.1,0.3,0.2")}, Excitation::Multisine, 11u),
+      options);
   EXPECT_EQ(named_ids(r), std::vector<std::string>{"coulomb_j2"});
   const auto s = std::find_if(r.not_named.begin(), r.not_named.end(),
                               [](const auto& u) { return u.id == "stribeck_j2"; });

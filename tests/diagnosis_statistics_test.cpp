@@ -161,13 +161,13 @@ TEST(KinematicFloor, MatchesTheSmoothersDerivativeVarianceForAPureInertiaAndADam
   // Left-out rows do not count: with joint 1's rows all out its floor is 0.
   Eigen::VectorXd none = weight;
   none.head(count).setZero();
-  EXPECT_EQ(sid::kinematic_noise_rms(model, theta, k, {sigma, sigma}, {p, p}, first, count, none,
-                                     2, 7u)[0],
+  EXPECT_EQ(sid::kinematic_noise_rms(model, theta, k, {sigma, sigma}, {p, p}, first, count, none, 2,
+                                     7u)[0],
             0.0);
   sid_test::expect_invalid_argument(
       [&] {
-        (void)sid::kinematic_noise_rms(model, theta, k, {sigma, sigma}, {p, p}, first, n, weight,
-                                       2, 7u);
+        (void)sid::kinematic_noise_rms(model, theta, k, {sigma, sigma}, {p, p}, first, n, weight, 2,
+                                       7u);
       },
       "sid::kinematic_noise_rms", "rows");
   sid_test::expect_invalid_argument(

@@ -59,7 +59,8 @@ Eigen::MatrixXd columns(const sid::Term<double>& term, const State& s) {
   return out;
 }
 
-// The columns of each effect written out from the effect table (docs/discrepancy-workflow.md), independently of the header.
+// The columns of each effect written out from the effect table (docs/discrepancy-workflow.md),
+// independently of the header.
 Eigen::MatrixXd expected_columns(const std::string& id, const State& s, double eps, double vs) {
   const int j = id.back() == '1' ? 0 : 1;
   const double v = s.qd[j];
@@ -191,8 +192,7 @@ TEST(Effects, UnknownIdIsRefusedWithTheListOfValidIds) {
            {"sid::effect_value_names", [] { (void)sid::effect_value_names("coulomb_j3"); }},
            {"sid::parse_effect", [] { (void)sid::parse_effect("coulomb_j3:0.1"); }}}) {
     sid_test::expect_invalid_argument(call.second, call.first, "unknown effect id 'coulomb_j3'");
-    for (const auto& id : all_ids())
-      sid_test::expect_invalid_argument(call.second, call.first, id);
+    for (const auto& id : all_ids()) sid_test::expect_invalid_argument(call.second, call.first, id);
   }
 }
 
@@ -244,8 +244,7 @@ TEST(Effects, AngleOffsetColumnsAreExact) {
       const V2 want = sid::two_link_inverse_dynamics(theta, q_true, s.qd, s.qdd, kG);
       const V2 got = model.inverse_dynamics(aug, s.q, s.qd, s.qdd);
       EXPECT_LT((got - want).cwiseAbs().maxCoeff(), kRoundoffTol)
-          << id << " delta=" << delta << " got " << got.transpose() << " want "
-          << want.transpose();
+          << id << " delta=" << delta << " got " << got.transpose() << " want " << want.transpose();
     }
   }
 }
@@ -273,12 +272,10 @@ TEST(Effects, ArmatureAddsToTheMassMatrixDiagonal) {
 
 TEST(Effects, EffectfulArmAddsTheDynamicEffectsAndReturnsTheOffsets) {
   const sid::TwoLinkParameters<double> theta = sid::paper_arm_parameters();
-  const std::vector<sid::EffectSpec> specs{{"coulomb_j1", {0.2}},
-                                           {"stribeck_j2", {0.1, 0.4, 0.3}},
-                                           {"spring_j1", {0.5}},
-                                           {"torque_offset_j2", {-0.08}},
-                                           {"angle_offset_q1", {0.03}},
-                                           {"angle_offset_q2", {-0.02}}};
+  const std::vector<sid::EffectSpec> specs{
+      {"coulomb_j1", {0.2}},       {"stribeck_j2", {0.1, 0.4, 0.3}},
+      {"spring_j1", {0.5}},        {"torque_offset_j2", {-0.08}},
+      {"angle_offset_q1", {0.03}}, {"angle_offset_q2", {-0.02}}};
   sid::EffectSettings settings;
   settings.coulomb_epsilon = 0.02;
   const sid::EffectfulArm arm = sid::effectful_arm(theta, specs, settings);
@@ -305,16 +302,25 @@ TEST(Effects, EffectfulArmAddsTheDynamicEffectsAndReturnsTheOffsets) {
 TEST(Effects, EffectfulArmRefusesDuplicatesAndBadSpecs) {
   const sid::TwoLinkParameters<double> theta = sid::paper_arm_parameters();
   sid_test::expect_invalid_argument(
-      [&] { (void)sid::effectful_arm(theta, {{"coulomb_j1", {0.1}}, {"coulomb_j1", {0.2}}}); },
+      [&] {
+        (void)sid::effectful_arm(theta, {{"coulomb_j1", {0.1}}, {"coulomb_j1", {0.2}}});
+      },
       "sid::effectful_arm", "'coulomb_j1' is given more than once");
   sid_test::expect_invalid_argument(
-      [&] { (void)sid::effectful_arm(theta, {{"coulomb_j1", {-0.1}}}); }, "sid::effectful_arm",
-      "Fc must be > 0");
+      [&] {
+        (void)sid::effectful_arm(theta, {{"coulomb_j1", {-0.1}}});
+      },
+      "sid::effectful_arm", "Fc must be > 0");
   sid_test::expect_invalid_argument(
-      [&] { (void)sid::effectful_arm(theta, {{"spring_j2", {1.0, 2.0}}}); },
+      [&] {
+        (void)sid::effectful_arm(theta, {{"spring_j2", {1.0, 2.0}}});
+      },
       "sid::effectful_arm", "needs 1 value");
-  sid_test::expect_invalid_argument([&] { (void)sid::effectful_arm(theta, {{"friction", {1.0}}}); },
-                                    "sid::effectful_arm", "unknown effect id");
+  sid_test::expect_invalid_argument(
+      [&] {
+        (void)sid::effectful_arm(theta, {{"friction", {1.0}}});
+      },
+      "sid::effectful_arm", "unknown effect id");
   const sid::EffectfulArm none = sid::effectful_arm(theta, {});
   EXPECT_EQ(none.theta, Eigen::VectorXd(theta));
   EXPECT_EQ(none.model.num_parameters(), 7);
@@ -368,8 +374,10 @@ TEST(Effects, EstimateRecoversEveryEffectFromExactTorques) {
     for (const double scale : {1.0, -1.0}) {
       sid::EffectSpec spec = example_spec(id);
       // Offsets and angles take either sign; the other effects must stay admissible.
-      if (id.find("offset") != std::string::npos) spec.values[0] *= scale;
-      else if (scale < 0) continue;
+      if (id.find("offset") != std::string::npos)
+        spec.values[0] *= scale;
+      else if (scale < 0)
+        continue;
       sid::EffectSettings settings;
       if (id.rfind("stribeck", 0) == 0) settings.stribeck_velocity = spec.values[2];
       std::vector<V2> tau;
@@ -400,7 +408,8 @@ TEST(Effects, EstimateStandardDeviationsAreFiniteAndConsistentWithNoisyTorques) 
     sid::EffectSettings settings;
     if (id.rfind("stribeck", 0) == 0) settings.stribeck_velocity = spec.values[2];
     std::vector<V2> tau;
-    for (const auto& s : states) tau.push_back(measured_torque(spec, s) + V2(noise(rng), noise(rng)));
+    for (const auto& s : states)
+      tau.push_back(measured_torque(spec, s) + V2(noise(rng), noise(rng)));
     const Fit fit = fit_with_effect(id, states, tau, settings);
     ASSERT_TRUE(fit.ls.ok()) << id;
     const sid::EffectEstimate e =
@@ -453,8 +462,8 @@ TEST(Effects, EstimateRefusesAModelWithoutTheTermOrWrongSizes) {
   const Eigen::VectorXd theta = Eigen::VectorXd::Ones(7);
   const Eigen::MatrixXd cov = Eigen::MatrixXd::Identity(7, 7);
   sid_test::expect_invalid_argument(
-      [&] { (void)sid::effect_estimate("coulomb_j1", theta, cov, model); },
-      "sid::effect_estimate", "no term 'coulomb_j1'");
+      [&] { (void)sid::effect_estimate("coulomb_j1", theta, cov, model); }, "sid::effect_estimate",
+      "no term 'coulomb_j1'");
   sid_test::expect_invalid_argument(
       [&] { (void)sid::effect_estimate("coulomb_j1", Eigen::VectorXd::Ones(6), cov, model); },
       "sid::effect_estimate", "theta_full has 6 entries");

@@ -1,7 +1,7 @@
 // Tests of sid::simulate_arm_experiment (include/sid/cvode/experiment.hpp): the paper's
 // experiment against an independent SciPy reference, and energy conservation of the
-// frictionless, unforced arm. The arm model is written here from the paper's corrected equations, on
-// purpose independent of include/sid/model/.
+// frictionless, unforced arm. The arm model is written here from the paper's corrected equations,
+// on purpose independent of include/sid/model/.
 
 #include <sid/cvode/experiment.hpp>
 
@@ -28,9 +28,9 @@ constexpr Theta kPaperTheta = {0.034015193438, 0.003064135808, 0.0045320492, 0.1
 
 // Against the SciPy DOP853 reference (its own error is <= 1.3e-13 rad, 2.6e-11 rad/s): the
 // brief's bounds at the default rtol = atol = 1e-10 ...
-constexpr double kQTol = 1e-8;     // [rad]
-constexpr double kQdTol = 1e-6;    // [rad/s]
-constexpr double kQddTol = 1e-4;   // [rad/s^2]; qdd is 1e3 larger at the start transient
+constexpr double kQTol = 1e-8;    // [rad]
+constexpr double kQdTol = 1e-6;   // [rad/s]
+constexpr double kQddTol = 1e-4;  // [rad/s^2]; qdd is 1e3 larger at the start transient
 // ... and at rtol = atol = 1e-12: the default AdamsNewton (measured 7e-11 rad, 3e-10 rad/s; the
 // digits move with the rounding of the model) and every method (BDF worst: 2e-10, 7e-10).
 constexpr double kTightQTol = 2e-10;
@@ -207,8 +207,8 @@ TEST(ArmExperiment, ConservesEnergyWithoutFrictionAndInput) {
   ArmForwardDynamics frictionless;
   frictionless.th[5] = frictionless.th[6] = 0.0;
   sid::ArmExperiment experiment;
-  experiment.q0 = Eigen::Vector2d(1.0, -0.5);    // [rad], well away from rest: big swings
-  experiment.qd0 = Eigen::Vector2d(2.0, 3.0);    // [rad/s]
+  experiment.q0 = Eigen::Vector2d(1.0, -0.5);  // [rad], well away from rest: big swings
+  experiment.qd0 = Eigen::Vector2d(2.0, 3.0);  // [rad/s]
   experiment.simulator.rtol = experiment.simulator.atol = 1e-12;
   const sid::ExperimentResult run =
       sid::simulate_arm_experiment(frictionless, ZeroInput(), experiment);
@@ -220,7 +220,8 @@ TEST(ArmExperiment, ConservesEnergyWithoutFrictionAndInput) {
   for (Eigen::Index k = 0; k < run.truth.size(); ++k) {
     const Eigen::Vector2d q = run.truth.q.row(k).transpose();
     const Eigen::Vector2d qd = run.truth.qd.row(k).transpose();
-    scale = std::max({scale, std::abs(potential(th, q)), std::abs(energy(th, q, qd) - potential(th, q))});
+    scale = std::max(
+        {scale, std::abs(potential(th, q)), std::abs(energy(th, q, qd) - potential(th, q))});
     drift = std::max(drift, std::abs(energy(th, q, qd) - e0));
   }
   EXPECT_LT(drift, kEnergyRelTol * scale) << "drift " << drift << " J, scale " << scale << " J";

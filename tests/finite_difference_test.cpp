@@ -24,7 +24,9 @@ Eigen::VectorXd times() { return Eigen::VectorXd::LinSpaced(kSamples, 0.0, kTs *
 Eigen::ArrayXd quadratic(const Eigen::ArrayXd& t) { return 0.3 - 1.2 * t + 2.5 * t.square(); }
 Eigen::ArrayXd quadratic_d1(const Eigen::ArrayXd& t) { return -1.2 + 5.0 * t; }
 constexpr double kQuadraticD2 = 5.0;
-Eigen::ArrayXd cubic(const Eigen::ArrayXd& t) { return 1.0 + 0.5 * t - 3.0 * t.square() + 4.0 * t.cube(); }
+Eigen::ArrayXd cubic(const Eigen::ArrayXd& t) {
+  return 1.0 + 0.5 * t - 3.0 * t.square() + 4.0 * t.cube();
+}
 Eigen::ArrayXd cubic_d1(const Eigen::ArrayXd& t) { return 0.5 - 6.0 * t + 12.0 * t.square(); }
 Eigen::ArrayXd cubic_d2(const Eigen::ArrayXd& t) { return -6.0 + 24.0 * t; }
 constexpr double kCubicD3 = 24.0;
@@ -146,6 +148,7 @@ TEST(FiniteDifference, ThrowsOnBadInput) {
     (void)sid::forward_differences(ok, -1.0);
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
-    EXPECT_EQ(std::string(e.what()), "sid::forward_differences: ts must be positive and finite, got -1");
+    EXPECT_EQ(std::string(e.what()),
+              "sid::forward_differences: ts must be positive and finite, got -1");
   }
 }

@@ -163,7 +163,8 @@ TEST_F(FreeSimulationPaper, TorqueFilterKeepsWhatTheNoiseDoesToTheAngles) {
     EXPECT_NEAR(filtered.error_rms[j] / raw.error_rms[j], 1.0, kFilterRmsRelTol) << j;
   }
   for (int j = 0; j < 2; ++j) {
-    const double difference = std::sqrt((filtered.q - raw.q).col(j).squaredNorm() / static_cast<double>(raw.q.rows()));
+    const double difference =
+        std::sqrt((filtered.q - raw.q).col(j).squaredNorm() / static_cast<double>(raw.q.rows()));
     EXPECT_LT(difference, kFilterDifferenceFraction * raw.error_rms[j]) << j;
   }
   EXPECT_LT(filtered.statistics.steps, raw.statistics.steps / 2) << "the point of the filter";
@@ -191,8 +192,7 @@ TEST_F(FreeSimulationPaper, BlowUpIsReportedNotThrownAndDoesNotHang) {
   EXPECT_LT(seconds, 20.0) << "a diverging model must stop early";
   // The rows a failed segment did not reach are NaN; every segment starts on the measured state.
   EXPECT_FALSE(sim.q.allFinite());
-  for (Eigen::Index begin : sim.segment_starts)
-    EXPECT_EQ(sim.error.row(begin).norm(), 0.0);
+  for (Eigen::Index begin : sim.segment_starts) EXPECT_EQ(sim.error.row(begin).norm(), 0.0);
 }
 
 TEST_F(FreeSimulationPaper, SingularMassMatrixIsAStatusNotACrash) {
@@ -216,7 +216,8 @@ TEST(FreeSimulation, ThrowsOnBadInput) {
   k.tau = k.q;
   const std::string who = "sid::free_simulation";
   using sid_test::expect_invalid_argument;
-  expect_invalid_argument([&] { (void)sid::free_simulation(model, theta.head(6), k); }, who, "theta");
+  expect_invalid_argument([&] { (void)sid::free_simulation(model, theta.head(6), k); }, who,
+                          "theta");
   Eigen::VectorXd nan_theta = theta;
   nan_theta[2] = std::nan("");
   expect_invalid_argument([&] { (void)sid::free_simulation(model, nan_theta, k); }, who, "theta");
@@ -291,8 +292,11 @@ TEST(TorqueInterpolator, C2JoinsInterpolateReproduceLinesAndAreFourthOrderInside
       inner_c1 = std::max(inner_c1, std::fabs(c1(middle)[0] - std::sin(1.3 * middle)));
       // Second differences just left and right of the sample t[i].
       const double e = 1e-3 * h;
-      const auto second = [&](double at) { return (c2(at + e)[0] - 2.0 * c2(at)[0] + c2(at - e)[0]) / (e * e); };
-      curvature_jump = std::max(curvature_jump, std::fabs(second(t[i] - 2 * e) - second(t[i] + 2 * e)));
+      const auto second = [&](double at) {
+        return (c2(at + e)[0] - 2.0 * c2(at)[0] + c2(at - e)[0]) / (e * e);
+      };
+      curvature_jump =
+          std::max(curvature_jump, std::fabs(second(t[i] - 2 * e) - second(t[i] + 2 * e)));
     }
   }
   EXPECT_LT(knot_error, 1e-14);
@@ -341,8 +345,9 @@ TEST(SimulationWindows, FlagsExactlyTheWindowsBeyondThresholdTimesTheNoise) {
   sid_test::expect_invalid_argument(
       [&] { (void)sid::simulation_windows(sim, expected_ms.topRows(3), 1.0, check); },
       "sid::simulation_windows", "rows");
-  sid_test::expect_invalid_argument([&] { (void)sid::simulation_windows(sim, expected_ms, 0.0, check); },
-                                    "sid::simulation_windows", "window_length");
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::simulation_windows(sim, expected_ms, 0.0, check); },
+      "sid::simulation_windows", "window_length");
 }
 
 // The whole check judges both models against what the torque noise does to the final one. A
@@ -389,7 +394,8 @@ TEST(DiagnoseWithSimulation, SimulatesTheNominalModelBesideTheFrictionTestAsOnIt
   ASSERT_EQ(details.nominal.q.rows(), nominal.q.rows());
   EXPECT_EQ((details.nominal.q - nominal.q).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_EQ(details.nominal.statistics.steps, nominal.statistics.steps);
-  for (int j = 0; j < 2; ++j) EXPECT_EQ(r.nominal.sim_error_rms[j], nominal.error_rms[j]) << "joint " << j + 1;
+  for (int j = 0; j < 2; ++j)
+    EXPECT_EQ(r.nominal.sim_error_rms[j], nominal.error_rms[j]) << "joint " << j + 1;
   // And the final model's simulation is another one: it fits where the nominal one drifts.
   EXPECT_LT(r.final.sim_error_rms[1], 0.5 * r.nominal.sim_error_rms[1]);
 }

@@ -22,7 +22,7 @@ using sid::test::Excitation;
 using sid::test::simulate;
 
 constexpr double kFrictionLevelTolerance = 0.15;  // relative error allowed on Fc and Fs
-constexpr double kVelocityTolerance = 0.25;  // on vs, the bump's width (its std is 5-15 %)
+constexpr double kVelocityTolerance = 0.25;       // on vs, the bump's width (its std is 5-15 %)
 
 struct Refined {
   sid::DiagnosisResult before, after;
@@ -107,7 +107,8 @@ TEST(FrictionRefinement, KeepsCoulombFrictionCoulomb) {
 // but when Coulomb is chosen its values are those of a Coulomb fit taken to its minimum, as if
 // Coulomb had been named.
 TEST(FrictionRefinement, ChoosesCoulombOverANamedBumpWithTheValuesOfAFullCoulombFit) {
-  const sid::Trajectory<double> data = simulate({sid::parse_effect("coulomb_j2:0.2")}, Excitation::Paper, 11u);
+  const sid::Trajectory<double> data =
+      simulate({sid::parse_effect("coulomb_j2:0.2")}, Excitation::Paper, 11u);
   const sid::DiagnosisResult coulomb = sid::diagnose(data);
   ASSERT_EQ(ids(coulomb), std::vector<std::string>{"coulomb_j2"});
   sid::DiagnosisResult bump = coulomb;
@@ -134,7 +135,8 @@ TEST(FrictionRefinement, ChoosesCoulombOverANamedBumpWithTheValuesOfAFullCoulomb
   ASSERT_EQ(as_named_stribeck.estimate.size(), 1);
   EXPECT_NEAR(as_named_stribeck.estimate[0], 0.2, kFrictionLevelTolerance * 0.2);
   // The same minimum from either start: within a fifth of its std.
-  EXPECT_NEAR(as_named_stribeck.estimate[0], as_named_coulomb.estimate[0], 0.2 * as_named_coulomb.std[0]);
+  EXPECT_NEAR(as_named_stribeck.estimate[0], as_named_coulomb.estimate[0],
+              0.2 * as_named_coulomb.std[0]);
   EXPECT_NEAR(as_named_stribeck.coulomb.cost, as_named_coulomb.coulomb.cost, 1.0);
 }
 

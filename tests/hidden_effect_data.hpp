@@ -17,7 +17,9 @@ constexpr double kQVariance = 1e-6;    // σq² [rad²]
 
 enum class Excitation { Paper, Multisine };
 
-inline std::string excitation_name(Excitation e) { return e == Excitation::Paper ? "paper" : "multisine"; }
+inline std::string excitation_name(Excitation e) {
+  return e == Excitation::Paper ? "paper" : "multisine";
+}
 
 /// Measured data of the paper's arm with hidden effects: CVODE through effectful_arm's model,
 /// then measured τ = applied + b, measured q = true q − δ, then Gaussian noise.

@@ -22,10 +22,11 @@ constexpr double kPi = 3.14159265358979323846;
 using sid_test::load_run;
 
 // A run of the paper's arm (see sid_test::synthetic_run).
-sid::Trajectory<double> synthetic_run(double phase, int n, double period, unsigned seed, double quantum = 0.0) {
+sid::Trajectory<double> synthetic_run(double phase, int n, double period, unsigned seed,
+                                      double quantum = 0.0) {
   const sid::TwoLinkParameters<double> theta = sid::paper_arm_parameters();
-  return sid_test::synthetic_run(sid::two_link_arm_model<double>(sid::kPaperGravity), theta, phase, n, period, seed,
-                                 quantum);
+  return sid_test::synthetic_run(sid::two_link_arm_model<double>(sid::kPaperGravity), theta, phase,
+                                 n, period, seed, quantum);
 }
 
 TEST(SmoothingLambdaForCutoff, HalvesASinusoidAtTheCutoff) {
@@ -42,7 +43,8 @@ TEST(SmoothingLambdaForCutoff, HalvesASinusoidAtTheCutoff) {
     const sid::VectorX<double> y = (2.0 * kPi * f * t.array()).sin().matrix();
     const auto fit = spline.fit_penalized(y, 1.0, 1.0 / lambda);
     const sid::VectorX<double> g = fit.spline.derivatives_at_knots(0);
-    const double gain = g.segment(1000, 2001).dot(y.segment(1000, 2001)) / y.segment(1000, 2001).squaredNorm();
+    const double gain =
+        g.segment(1000, 2001).dot(y.segment(1000, 2001)) / y.segment(1000, 2001).squaredNorm();
     EXPECT_NEAR(gain, 1.0 / (1.0 + std::pow(ratio, 4)), 2e-3) << "f = " << f;
   }
 }
@@ -60,7 +62,8 @@ TEST(KinematicsAtCutoff, ReproducesAStraightLineExactly) {
 
 TEST(IdentifyRuns, StacksRunsAsOneRegressionWhateverTheirOrder) {
   const sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
-  const sid::Trajectory<double> a = synthetic_run(0.0, 1500, 0.002, 1), b = synthetic_run(1.0, 1200, 0.0025, 2);
+  const sid::Trajectory<double> a = synthetic_run(0.0, 1500, 0.002, 1),
+                                b = synthetic_run(1.0, 1200, 0.0025, 2);
   sid::RunsIdentifyOptions options;
   options.cutoff_hz = 8.0;
   const sid::RunsIdentification ab = sid::identify_runs({a, b}, model, options);
@@ -70,8 +73,8 @@ TEST(IdentifyRuns, StacksRunsAsOneRegressionWhateverTheirOrder) {
   Eigen::MatrixXd X(0, 7);
   Eigen::VectorXd y(0);
   for (const auto* run : {&a, &b}) {
-    const sid::Kinematics<double> k = sid::window(sid::kinematics_at_cutoff(*run, 8.0), run->t[0] + 0.1,
-                                                  run->t[run->size() - 1] - 0.1);
+    const sid::Kinematics<double> k = sid::window(sid::kinematics_at_cutoff(*run, 8.0),
+                                                  run->t[0] + 0.1, run->t[run->size() - 1] - 0.1);
     const auto r = sid::stack_regression(model, k);
     Eigen::MatrixXd X2(X.rows() + r.X.rows(), 7);
     X2 << X, r.X;
@@ -99,8 +102,8 @@ TEST(IdentifyRuns, RecoversThePaperArmFromQuantisedAnglesOnJitteredGrids) {
   EXPECT_EQ(id.grid_hz.size(), id.cross_validation_rms.size());
   const sid::TwoLinkParameters<double> truth = sid::paper_arm_parameters();
   for (int k = 0; k < 7; ++k)
-    EXPECT_LT(std::abs(id.fit.theta[k] - truth[k]), 0.03 * std::abs(truth[k])) << "theta" << k + 1 << " at "
-                                                                                << id.cutoff_hz << " Hz";
+    EXPECT_LT(std::abs(id.fit.theta[k] - truth[k]), 0.03 * std::abs(truth[k]))
+        << "theta" << k + 1 << " at " << id.cutoff_hz << " Hz";
   // Nearly interpolating (the cutoff at the top of the grid) is far worse on the same data.
   sid::RunsIdentifyOptions rough;
   rough.cutoff_hz = 64.0;
@@ -125,9 +128,11 @@ TEST(IdentifyRuns, RejectsBadInput) {
   sid::Trajectory<double> backwards = run;
   backwards.t[20] = backwards.t[19];
   EXPECT_THROW((void)sid::identify_runs({backwards}, model), std::invalid_argument);
-  const sid::Trajectory<double> short_run = synthetic_run(0.0, 100, 0.002, 1);  // 0.2 s: nothing left
+  const sid::Trajectory<double> short_run =
+      synthetic_run(0.0, 100, 0.002, 1);  // 0.2 s: nothing left
   EXPECT_THROW((void)sid::identify_runs({short_run}, model), std::invalid_argument);
-  EXPECT_THROW((void)sid::predict_torque(run, model, Eigen::VectorXd::Zero(6), 5.0), std::invalid_argument);
+  EXPECT_THROW((void)sid::predict_torque(run, model, Eigen::VectorXd::Zero(6), 5.0),
+               std::invalid_argument);
 }
 
 // The lab's own model of the DFKI arm (its published parameters; friction cf atan(100 qd), the
@@ -143,10 +148,11 @@ sid::Vector2<double> lab_model_torque(const sid::Vector2<double>& q, const sid::
   const double h = m2 * l1 * r2 * s2;
   sid::Vector2<double> tau;
   tau[0] = m11 * qdd[0] + m12 * qdd[1] - 2 * h * qd[1] * qd[0] - h * qd[1] * qd[1] +
-           g * m1 * r1 * std::sin(q[0]) + g * m2 * (l1 * std::sin(q[0]) + r2 * std::sin(q[0] + q[1])) + b * qd[0] +
+           g * m1 * r1 * std::sin(q[0]) +
+           g * m2 * (l1 * std::sin(q[0]) + r2 * std::sin(q[0] + q[1])) + b * qd[0] +
            cf1 * std::atan(100 * qd[0]);
-  tau[1] = m12 * qdd[0] + m22 * qdd[1] + h * qd[0] * qd[0] + g * m2 * r2 * std::sin(q[0] + q[1]) + b * qd[1] +
-           cf2 * std::atan(100 * qd[1]);
+  tau[1] = m12 * qdd[0] + m22 * qdd[1] + h * qd[0] * qd[0] + g * m2 * r2 * std::sin(q[0] + q[1]) +
+           b * qd[1] + cf2 * std::atan(100 * qd[1]);
   return tau;
 }
 
@@ -177,7 +183,8 @@ TEST_F(RealRuns, LeaveOneRunOutPredictsTorquesBetterThanTheLabsModel) {
     ASSERT_TRUE(id.fit.ok());
     EXPECT_GT(id.cutoff_hz, 1.0);
     EXPECT_LT(id.cutoff_hz, 20.0);
-    const sid::TorquePrediction p = sid::predict_torque(runs_[r], model, id.fit.theta, id.cutoff_hz);
+    const sid::TorquePrediction p =
+        sid::predict_torque(runs_[r], model, id.fit.theta, id.cutoff_hz);
     sid_mean += p.residual_rms / runs;
     const sid::Kinematics<double> k =
         sid::window(sid::kinematics_at_cutoff(runs_[r], id.cutoff_hz), runs_[r].t[0] + 0.1,
@@ -185,7 +192,8 @@ TEST_F(RealRuns, LeaveOneRunOutPredictsTorquesBetterThanTheLabsModel) {
     ASSERT_EQ(k.size(), p.samples);
     sid::Vector2<double> sse = sid::Vector2<double>::Zero();
     for (Eigen::Index i = 0; i < k.size(); ++i) {
-      const sid::Vector2<double> e = lab_model_torque(k.q.row(i), k.qd.row(i), k.qdd.row(i)) - k.tau.row(i).transpose();
+      const sid::Vector2<double> e =
+          lab_model_torque(k.q.row(i), k.qd.row(i), k.qdd.row(i)) - k.tau.row(i).transpose();
       sse += e.cwiseProduct(e);
     }
     lab_mean += (sse / static_cast<double>(k.size())).cwiseSqrt() / runs;
@@ -204,7 +212,8 @@ TEST_F(RealRuns, AllRunsTogetherGiveAPhysicallyPlausibleEstimateNearTheLabs) {
   const sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
   const sid::RunsIdentification id = sid::identify_runs(runs_, model);
   ASSERT_TRUE(id.fit.ok());
-  const sid::PhysicalCheck check = sid::check_physical(model, id.fit.theta, sid::default_physical_constraints(model));
+  const sid::PhysicalCheck check =
+      sid::check_physical(model, id.fit.theta, sid::default_physical_constraints(model));
   EXPECT_TRUE(check.plausible());
   // The gravity terms are the best-determined physical quantities: m1 r1 + m2 l1 = 0.2411 and
   // m2 r2 = 0.1812 kg m by the lab's masses; the torques are the drives' own estimates, so a
@@ -218,7 +227,8 @@ TEST_F(RealRuns, EveryPairOfRunsGivesAPlausibleOrAConsistentEstimate) {
   // estimate may leave the physical set. Then the nearest consistent one must be physical and
   // cost more than the unconstrained fit (it is a constrained minimum of the same cost).
   sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
-  for (const char* id : {"coulomb_j1", "coulomb_j2", "armature_j2"}) model.add(sid::effect_term(id));
+  for (const char* id : {"coulomb_j1", "coulomb_j2", "armature_j2"})
+    model.add(sid::effect_term(id));
   const sid::PhysicalConstraints constraints = sid::default_physical_constraints(model);
   int implausible = 0;
   for (std::size_t a = 0; a < runs_.size(); ++a)
@@ -256,7 +266,8 @@ TEST(IdentifyRuns, HacStandardDeviationsMatchTheSpreadOfEstimates) {
   Eigen::VectorXd hac_mean = Eigen::VectorXd::Zero(7), ls_mean = hac_mean;
   for (int d = 0; d < draws; ++d) {
     sid::Trajectory<double> run = clean;
-    for (Eigen::Index i = 0; i < run.size(); ++i) run.tau.row(i) += sid::Vector2<double>(noise(rng), noise(rng)).transpose();
+    for (Eigen::Index i = 0; i < run.size(); ++i)
+      run.tau.row(i) += sid::Vector2<double>(noise(rng), noise(rng)).transpose();
     const sid::RunsIdentification id = sid::identify_runs({run}, model, options);
     ASSERT_EQ(id.hac_std_dev.size(), 7);
     thetas.row(d) = id.fit.theta.transpose();
@@ -278,7 +289,8 @@ TEST_F(RealRuns, HacStandardDeviationsExceedTheLeastSquaresOnesOnMeasuredRuns) {
   const sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
   const sid::RunsIdentification id = sid::identify_runs(runs_, model);
   ASSERT_EQ(id.hac_std_dev.size(), 7);
-  for (int k = 0; k < 7; ++k) EXPECT_GT(id.hac_std_dev[k], 2.0 * id.fit.std_dev[k]) << "theta" << k + 1;
+  for (int k = 0; k < 7; ++k)
+    EXPECT_GT(id.hac_std_dev[k], 2.0 * id.fit.std_dev[k]) << "theta" << k + 1;
   // Each run left out in turn, at the chosen cutoff: the same as fitting the other five with
   // that cutoff given and predicting the sixth.
   ASSERT_EQ(id.left_out_prediction_rms.size(), runs_.size());
@@ -292,13 +304,15 @@ TEST_F(RealRuns, HacStandardDeviationsExceedTheLeastSquaresOnesOnMeasuredRuns) {
       if (k != r) others.push_back(runs_[k]);
     const sid::RunsIdentification without = sid::identify_runs(others, model, fixed);
     estimates.row(static_cast<Eigen::Index>(r)) = without.fit.theta.transpose();
-    const sid::TorquePrediction p = sid::predict_torque(runs_[r], model, without.fit.theta, id.cutoff_hz);
+    const sid::TorquePrediction p =
+        sid::predict_torque(runs_[r], model, without.fit.theta, id.cutoff_hz);
     EXPECT_NEAR(p.residual_rms[0], id.left_out_prediction_rms[r][0], 1e-9) << "run " << r;
     EXPECT_NEAR(p.residual_rms[1], id.left_out_prediction_rms[r][1], 1e-9) << "run " << r;
   }
   const Eigen::RowVectorXd mean = estimates.colwise().mean();
   for (int k = 0; k < 7; ++k) {
-    const double jackknife = std::sqrt((estimates.col(k).array() - mean[k]).square().sum() * 5.0 / 6.0);
+    const double jackknife =
+        std::sqrt((estimates.col(k).array() - mean[k]).square().sum() * 5.0 / 6.0);
     EXPECT_NEAR(id.jackknife_std_dev[k], jackknife, 1e-9 * jackknife) << "theta" << k + 1;
   }
   // What differs between the runs' motions dominates the gravity terms' uncertainty.

@@ -28,7 +28,8 @@ sid::Trajectory<double> reference_trajectory_with_angle_noise(unsigned seed, dou
   auto data = reference_trajectory();
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> noise(0.0, sigma);
-  for (Eigen::Index i = 0; i < data.size(); ++i) data.q(i, 0) += noise(rng), data.q(i, 1) += noise(rng);
+  for (Eigen::Index i = 0; i < data.size(); ++i)
+    data.q(i, 0) += noise(rng), data.q(i, 1) += noise(rng);
   return data;
 }
 
@@ -56,7 +57,8 @@ TEST(Identify, CssOnNoiseFreeAnglesRecoversTheta) {
   const auto result = sid::identify(reference_trajectory(), options);
   ASSERT_TRUE(result.fit.ok()) << result.fit.message;
   const Eigen::VectorXd truth = sid::paper_arm_parameters<double>();
-  EXPECT_LT(max_relative_error(result.fit.theta, truth), kCssNoiseFreeTol) << result.fit.theta.transpose();
+  EXPECT_LT(max_relative_error(result.fit.theta, truth), kCssNoiseFreeTol)
+      << result.fit.theta.transpose();
   EXPECT_EQ(result.samples_used(), 4001 - 100 - 20);  // 0.25 <= t <= 9.95
   EXPECT_TRUE(std::isfinite(result.smoothing_p[0]) && std::isfinite(result.smoothing_p[1]));
 }
@@ -74,7 +76,8 @@ TEST(Identify, CssKinematicsMatchTheExactDerivatives) {
     const Eigen::VectorXd qd = table.col("qd" + joint).segment(offset, k.size());
     const Eigen::VectorXd qdd = table.col("qdd" + joint).segment(offset, k.size());
     EXPECT_LT((k.qd.col(j) - qd).cwiseAbs().maxCoeff(), 1e-8 * qd.cwiseAbs().maxCoeff()) << joint;
-    EXPECT_LT((k.qdd.col(j) - qdd).cwiseAbs().maxCoeff(), 1e-4 * qdd.cwiseAbs().maxCoeff()) << joint;
+    EXPECT_LT((k.qdd.col(j) - qdd).cwiseAbs().maxCoeff(), 1e-4 * qdd.cwiseAbs().maxCoeff())
+        << joint;
   }
   // ... while at the very end the natural condition g'' = 0 is visibly wrong.
   const Eigen::Index last = all.size() - 1;
@@ -179,7 +182,8 @@ TEST(Identify, WeightedLeastSquaresDownWeightsTheNoisierJointAndHelps) {
   std::normal_distribution<double> noise(0.0, 1.0);
   for (int run = 0; run < kRuns; ++run) {
     auto noisy = k;
-    for (Eigen::Index i = 0; i < k.size(); ++i) noisy.tau(i, 0) += 0.01 * noise(rng), noisy.tau(i, 1) += 0.1 * noise(rng);
+    for (Eigen::Index i = 0; i < k.size(); ++i)
+      noisy.tau(i, 0) += 0.01 * noise(rng), noisy.tau(i, 1) += 0.1 * noise(rng);
     const auto ols = sid::fit_two_link(noisy, sid::kPaperGravity);
     const auto wls = sid::fit_two_link_weighted(noisy, sid::kPaperGravity);
     ASSERT_TRUE(ols.ok() && wls.ok());
@@ -217,8 +221,10 @@ TEST(Identify, CrossValidationLambdaScaleSmoothsLessAtTheScaledLambda) {
     const auto fit = spline.fit_penalized(qj, 1.0, 1.0 / (0.25 * chosen.lambda[j]));
     Eigen::VectorXd qdd(used);
     fit.spline.derivatives_at_knots(2, qdd);
-    EXPECT_LT((k.qdd.col(j) - qdd).cwiseAbs().maxCoeff(), 1e-9 * qdd.cwiseAbs().maxCoeff()) << "joint " << j + 1;
+    EXPECT_LT((k.qdd.col(j) - qdd).cwiseAbs().maxCoeff(), 1e-9 * qdd.cwiseAbs().maxCoeff())
+        << "joint " << j + 1;
   }
   options.cross_validation_lambda_scale = 0.0;
-  expect_invalid([&] { (void)sid::estimate_kinematics(data, options); }, "cross_validation_lambda_scale");
+  expect_invalid([&] { (void)sid::estimate_kinematics(data, options); },
+                 "cross_validation_lambda_scale");
 }

@@ -35,7 +35,8 @@ TEST(InstrumentalVariables, ExactDataGiveTheTrueParametersAndConvergeAtOnce) {
   EXPECT_TRUE(iv.converged);
   EXPECT_LE(iv.iterations, 2);
   const auto theta = sid::paper_arm_parameters<double>();
-  for (int p = 0; p < 7; ++p) EXPECT_NEAR(iv.fit.theta[p], theta[p], 1e-8 * std::abs(theta[p])) << "theta" << p + 1;
+  for (int p = 0; p < 7; ++p)
+    EXPECT_NEAR(iv.fit.theta[p], theta[p], 1e-8 * std::abs(theta[p])) << "theta" << p + 1;
   EXPECT_LT(iv.fit.residual_rms.maxCoeff(), 1e-8);
 }
 
@@ -54,7 +55,8 @@ TEST(InstrumentalVariables, ReducesTheErrorsInVariablesBiasOfTheta2) {
   ASSERT_EQ(iv.failed_runs, 0) << (iv.failures.empty() ? "" : iv.failures[0]);
   const double theta2 = r.theta[1];
   const double ls_bias = ls.mean[1] - theta2, iv_bias = iv.mean[1] - theta2;
-  EXPECT_LT(ls_bias, -3.0 * ls.standard_error[1]) << "least squares is no longer biased: the test lost its point";
+  EXPECT_LT(ls_bias, -3.0 * ls.standard_error[1])
+      << "least squares is no longer biased: the test lost its point";
   EXPECT_LT(std::abs(iv_bias), std::abs(ls_bias) / 2.0);
   EXPECT_LT(std::abs(iv_bias), 3.0 * iv.standard_error[1]);
   EXPECT_LT(iv.rms_rel_error_pct, ls.rms_rel_error_pct);
@@ -79,12 +81,14 @@ TEST(InstrumentalVariables, BadInputIsRefusedWithItsReason) {
   const auto first = sid::fit_two_link(k, sid::kPaperGravity);
   sid::InstrumentalVariableOptions options;
   options.segment = 0.0;
-  sid_test::expect_invalid_argument([&] { (void)sid::refine_instrumental_variables(k, first, options); },
-                                    "sid::refine_instrumental_variables", "segment");
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::refine_instrumental_variables(k, first, options); },
+      "sid::refine_instrumental_variables", "segment");
   options = {};
   options.max_iterations = 0;
-  sid_test::expect_invalid_argument([&] { (void)sid::refine_instrumental_variables(k, first, options); },
-                                    "sid::refine_instrumental_variables", "max_iterations");
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::refine_instrumental_variables(k, first, options); },
+      "sid::refine_instrumental_variables", "max_iterations");
   sid::LeastSquaresResult<double> short_fit = first;
   short_fit.theta.conservativeResize(6);
   sid_test::expect_invalid_argument([&] { (void)sid::refine_instrumental_variables(k, short_fit); },
@@ -97,8 +101,8 @@ TEST(InstrumentalVariables, BadInputIsRefusedWithItsReason) {
 TEST(InstrumentalVariables, TheStudyRefusesCssIvWithoutTheStep) {
   sid::MonteCarloOptions options;
   options.methods = {sid::StudyMethod::CssIv};
-  sid_test::expect_invalid_argument([&] { (void)sid::run_monte_carlo(truth(), options); }, "sid::run_monte_carlo",
-                                    "css_iv");
+  sid_test::expect_invalid_argument([&] { (void)sid::run_monte_carlo(truth(), options); },
+                                    "sid::run_monte_carlo", "css_iv");
   EXPECT_EQ(sid::parse_study_method("css_iv"), sid::StudyMethod::CssIv);
   EXPECT_EQ(sid::parse_study_method("css_wls"), sid::StudyMethod::CssWls);
 }

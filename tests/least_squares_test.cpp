@@ -28,7 +28,8 @@ const std::vector<std::string> kNames = {"theta1", "theta2", "theta3", "theta4",
                                          "theta5", "theta6", "theta7"};
 
 // m x p standard-normal regressor with column j multiplied by scales(j).
-Eigen::MatrixXd random_regressor(Eigen::Index m, const Eigen::VectorXd& scales, std::mt19937_64& rng) {
+Eigen::MatrixXd random_regressor(Eigen::Index m, const Eigen::VectorXd& scales,
+                                 std::mt19937_64& rng) {
   std::normal_distribution<double> normal;
   Eigen::MatrixXd x(m, scales.size());
   for (Eigen::Index j = 0; j < x.cols(); ++j)
@@ -49,14 +50,17 @@ Eigen::VectorXd column_norms(const Eigen::MatrixXd& x) { return x.colwise().norm
 // (X^T X)^-1 = D^-1 (Xs^T Xs)^-1 D^-1 with (Xs^T Xs)^-1 = V S^-2 V^T from Xs = U S V^T.
 Eigen::MatrixXd inverse_gram(const Eigen::MatrixXd& x) {
   const Eigen::VectorXd inv_d = column_norms(x).cwiseInverse();
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(x * inv_d.asDiagonal(), Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(x * inv_d.asDiagonal(),
+                                              Eigen::ComputeThinU | Eigen::ComputeThinV);
   const Eigen::VectorXd inv_s2 = svd.singularValues().array().square().inverse();
-  return inv_d.asDiagonal() * (svd.matrixV() * inv_s2.asDiagonal() * svd.matrixV().transpose()) * inv_d.asDiagonal();
+  return inv_d.asDiagonal() * (svd.matrixV() * inv_s2.asDiagonal() * svd.matrixV().transpose()) *
+         inv_d.asDiagonal();
 }
 
 Eigen::VectorXd svd_solve(const Eigen::MatrixXd& x, const Eigen::VectorXd& y) {
   const Eigen::VectorXd inv_d = column_norms(x).cwiseInverse();
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(x * inv_d.asDiagonal(), Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(x * inv_d.asDiagonal(),
+                                              Eigen::ComputeThinU | Eigen::ComputeThinV);
   return inv_d.asDiagonal() * svd.solve(y);
 }
 
@@ -112,7 +116,8 @@ TEST(LeastSquares, ReportsAllColumnsOfACombinationAndZeroColumns) {
   const auto combo = sid::least_squares(x, x.col(1), 1, options);
   EXPECT_EQ(combo.status, sid::LeastSquaresStatus::RankDeficient);
   EXPECT_EQ(combo.dependent_columns, (std::vector<Eigen::Index>{0, 3, 6}));
-  EXPECT_NE(combo.message.find("columns theta1, theta4, theta7 are linearly dependent"), std::string::npos)
+  EXPECT_NE(combo.message.find("columns theta1, theta4, theta7 are linearly dependent"),
+            std::string::npos)
       << combo.message;
 
   x = random_regressor(60, Eigen::VectorXd::Ones(7), rng);
@@ -177,14 +182,15 @@ TEST(LeastSquares, CovarianceMatchesMonteCarloSpreadOfEstimates) {
   const Eigen::MatrixXd sample_cov = centered.transpose() * centered / (kRuns - 1);
   for (Eigen::Index i = 0; i < 3; ++i)
     for (Eigen::Index j = 0; j < 3; ++j) {
-      const double sd = std::sqrt((sigma_ref(i, i) * sigma_ref(j, j) + sigma_ref(i, j) * sigma_ref(i, j)) /
-                                  (kRuns - 1));
+      const double sd = std::sqrt(
+          (sigma_ref(i, i) * sigma_ref(j, j) + sigma_ref(i, j) * sigma_ref(i, j)) / (kRuns - 1));
       EXPECT_NEAR(sample_cov(i, j), sigma_ref(i, j), kSigmas * sd) << i << "," << j;
     }
   const double rel_sd = std::sqrt(2.0 / (kRows - 3) / kRuns);
   for (Eigen::Index i = 0; i < 3; ++i)
     for (Eigen::Index j = 0; j < 3; ++j)
-      EXPECT_NEAR(mean_reported(i, j), sigma_ref(i, j), kSigmas * rel_sd * std::abs(sigma_ref(i, j)))
+      EXPECT_NEAR(mean_reported(i, j), sigma_ref(i, j),
+                  kSigmas * rel_sd * std::abs(sigma_ref(i, j)))
           << i << "," << j;
 }
 
@@ -195,7 +201,8 @@ TEST(LeastSquares, PerJointStatisticsUseTheirRowBlocks) {
   std::normal_distribution<double> normal;
   // theta ~ 1 / scale keeps y = O(1): a residual is only as accurate as eps |y|.
   Eigen::VectorXd y = x * wild_scales().cwiseInverse();
-  for (Eigen::Index i = 0; i < 2 * kPerJoint; ++i) y(i) += (i < kPerJoint ? 0.01 : 0.5) * normal(rng);
+  for (Eigen::Index i = 0; i < 2 * kPerJoint; ++i)
+    y(i) += (i < kPerJoint ? 0.01 : 0.5) * normal(rng);
   const auto fit = sid::least_squares(x, y, 2);
   ASSERT_TRUE(fit.ok());
   const Eigen::VectorXd r = y - x * svd_solve(x, y);
@@ -203,10 +210,12 @@ TEST(LeastSquares, PerJointStatisticsUseTheirRowBlocks) {
   for (Eigen::Index j = 0; j < 2; ++j) {
     const double rss_j = r.segment(j * kPerJoint, kPerJoint).squaredNorm();
     EXPECT_NEAR(fit.sigma2_per_joint(j), rss_j / dof_j, kAlgebraRelTol * rss_j / dof_j) << j;
-    EXPECT_NEAR(fit.residual_rms(j), std::sqrt(rss_j / kPerJoint), kAlgebraRelTol * std::sqrt(rss_j / kPerJoint));
+    EXPECT_NEAR(fit.residual_rms(j), std::sqrt(rss_j / kPerJoint),
+                kAlgebraRelTol * std::sqrt(rss_j / kPerJoint));
   }
   // The pooled estimate is the dof-weighted mean of the per-joint ones.
-  EXPECT_NEAR(fit.sigma2, (fit.sigma2_per_joint.sum() * dof_j) / (2 * kPerJoint - 7), kAlgebraRelTol * fit.sigma2);
+  EXPECT_NEAR(fit.sigma2, (fit.sigma2_per_joint.sum() * dof_j) / (2 * kPerJoint - 7),
+              kAlgebraRelTol * fit.sigma2);
 }
 
 TEST(LeastSquares, PerJointSigma2HasItsExactExpectation) {
@@ -223,7 +232,8 @@ TEST(LeastSquares, PerJointSigma2HasItsExactExpectation) {
   const Eigen::MatrixXd i_minus_h =
       Eigen::MatrixXd::Identity(kRows, kRows) - svd.matrixU() * svd.matrixU().transpose();
   Eigen::VectorXd d(kRows);
-  d << Eigen::VectorXd::Constant(kPerJoint, sigma(0) * sigma(0)), Eigen::VectorXd::Constant(kPerJoint, sigma(1) * sigma(1));
+  d << Eigen::VectorXd::Constant(kPerJoint, sigma(0) * sigma(0)),
+      Eigen::VectorXd::Constant(kPerJoint, sigma(1) * sigma(1));
   const Eigen::MatrixXd c = i_minus_h * d.asDiagonal() * i_minus_h;
   const double dof_j = kPerJoint - 4.0 / 2.0;
 
@@ -301,7 +311,8 @@ TEST(LeastSquares, WeightedFitIsTheFitOfWhitenedRows) {
                           s.asDiagonal() * (sigma2 * inverse_gram(xw)) * s.asDiagonal()),
             kAlgebraRelTol);
   // residual stays in the units of y
-  EXPECT_LT((weighted.residual - (y - x * weighted.theta)).cwiseAbs().maxCoeff(), kAlgebraRelTol * y.norm());
+  EXPECT_LT((weighted.residual - (y - x * weighted.theta)).cwiseAbs().maxCoeff(),
+            kAlgebraRelTol * y.norm());
 }
 
 TEST(LeastSquares, WorksInFloat) {
@@ -332,8 +343,10 @@ TEST(LeastSquares, ThrowsOnBadInput) {
   Eigen::VectorXd y_inf = y;
   y_inf(0) = std::numeric_limits<double>::infinity();
   EXPECT_THROW((void)sid::least_squares(x, y_inf), std::invalid_argument);
-  EXPECT_THROW((void)sid::weighted_least_squares(x, y, Eigen::VectorXd::Ones(9)), std::invalid_argument);
-  EXPECT_THROW((void)sid::weighted_least_squares(x, y, Eigen::VectorXd::Zero(10)), std::invalid_argument);
+  EXPECT_THROW((void)sid::weighted_least_squares(x, y, Eigen::VectorXd::Ones(9)),
+               std::invalid_argument);
+  EXPECT_THROW((void)sid::weighted_least_squares(x, y, Eigen::VectorXd::Zero(10)),
+               std::invalid_argument);
   try {
     (void)sid::least_squares(x, y, 3);
     FAIL() << "no exception";

@@ -74,21 +74,23 @@ TEST(MeasurementNoise, SampleMeanAndVarianceMatchTheVariances) {
   // Independent channels: the correlation of the q1 and q2 noise is within 5 / sqrt(n) of 0.
   const Eigen::VectorXd e1 = measured.q.col(0) - truth.q.col(0);
   const Eigen::VectorXd e2 = measured.q.col(1) - truth.q.col(1);
-  const double correlation = (e1.array() - e1.mean()).matrix().dot((e2.array() - e2.mean()).matrix()) /
-                             std::sqrt((e1.array() - e1.mean()).square().sum() *
-                                       (e2.array() - e2.mean()).square().sum());
+  const double correlation =
+      (e1.array() - e1.mean()).matrix().dot((e2.array() - e2.mean()).matrix()) /
+      std::sqrt((e1.array() - e1.mean()).square().sum() * (e2.array() - e2.mean()).square().sum());
   EXPECT_LT(std::abs(correlation), kStandardErrors / std::sqrt(n));
 }
 
 TEST(MeasurementNoise, ZeroVarianceReturnsExactValues) {
   const auto truth = smooth_truth(500);
   std::mt19937_64 rng(1);
-  const auto exact = sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{0.0, 0.0}, rng);
+  const auto exact =
+      sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{0.0, 0.0}, rng);
   EXPECT_EQ(exact.q, truth.q);
   EXPECT_EQ(exact.tau, truth.tau);
   // Zero variance on one channel only: that channel stays exact, the other is noisy.
   std::mt19937_64 rng_q(5);
-  const auto q_only = sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{1e-6, 0.0}, rng_q);
+  const auto q_only =
+      sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{1e-6, 0.0}, rng_q);
   EXPECT_NE(q_only.q, truth.q);
   EXPECT_EQ(q_only.tau, truth.tau);
 }
@@ -96,8 +98,10 @@ TEST(MeasurementNoise, ZeroVarianceReturnsExactValues) {
 TEST(MeasurementNoise, QNoiseOfASeedDoesNotDependOnTauVariance) {
   const auto truth = smooth_truth(300);
   std::mt19937_64 a(9), b(9);
-  const auto with_tau = sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{1e-6, 1e-2}, a);
-  const auto without_tau = sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{1e-6, 0.0}, b);
+  const auto with_tau =
+      sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{1e-6, 1e-2}, a);
+  const auto without_tau =
+      sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{1e-6, 0.0}, b);
   EXPECT_EQ(with_tau.q, without_tau.q);
 }
 
@@ -105,8 +109,10 @@ TEST(MeasurementNoise, NoiseScalesWithStandardDeviation) {
   // Same seed, variance x100: the noise is exactly 10 times larger (value + sigma z).
   const auto truth = smooth_truth(100);
   std::mt19937_64 a(3), b(3);
-  const auto small = sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{1e-8, 1e-4}, a);
-  const auto large = sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{1e-6, 1e-2}, b);
+  const auto small =
+      sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{1e-8, 1e-4}, a);
+  const auto large =
+      sid::add_measurement_noise(truth, sid::MeasurementNoise<double>{1e-6, 1e-2}, b);
   constexpr double kRoundingTol = 1e-12;
   EXPECT_TRUE((large.q - truth.q).isApprox(10.0 * (small.q - truth.q), kRoundingTol));
   EXPECT_TRUE((large.tau - truth.tau).isApprox(10.0 * (small.tau - truth.tau), kRoundingTol));
@@ -118,7 +124,8 @@ TEST(MeasurementNoise, WorksForFloat) {
   truth.q = sid::MatrixX2<float>::Ones(10, 2);
   truth.tau = sid::MatrixX2<float>::Zero(10, 2);
   std::mt19937 rng(1);
-  const auto measured = sid::add_measurement_noise(truth, sid::MeasurementNoise<float>{1e-2f, 0.0f}, rng);
+  const auto measured =
+      sid::add_measurement_noise(truth, sid::MeasurementNoise<float>{1e-2f, 0.0f}, rng);
   EXPECT_NE(measured.q, truth.q);
   EXPECT_EQ(measured.tau, truth.tau);
 }

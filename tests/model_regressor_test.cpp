@@ -20,7 +20,6 @@ constexpr double kExactRecoveryRelTol = 1e-9;  // theta from exact q, qd, qdd, t
 constexpr double kRoundoffTol = 1e-13;
 constexpr double kDropBefore = 0.25;  // s, as every method of the paper
 
-
 sid::Kinematics<double> random_kinematics(Eigen::Index n, unsigned seed) {
   std::srand(seed);
   sid::Kinematics<double> k;
@@ -126,22 +125,24 @@ TEST(StackRegressor, ThrowsOnMismatchedSizes) {
   sid_test::expect_invalid_argument(
       [&] { sid::stack_two_link_regressor<double>(k.q, short_qd, k.qdd, 9.81, x); },
       "sid::stack_two_link_regressor", "q has 10 rows but qd has 9");
-  sid_test::expect_invalid_argument([&] { sid::stack_regressor<double>(model, k.q, k.qd, short_qd, x); },
-                          "sid::stack_regressor", "qdd has 9");
-  sid_test::expect_invalid_argument([&] { sid::stack_regressor<double>(model, k.q, k.qd, k.qdd, x_bad); },
-                          "sid::stack_regressor", "X is 20 x 6");
+  sid_test::expect_invalid_argument(
+      [&] { sid::stack_regressor<double>(model, k.q, k.qd, short_qd, x); }, "sid::stack_regressor",
+      "qdd has 9");
+  sid_test::expect_invalid_argument(
+      [&] { sid::stack_regressor<double>(model, k.q, k.qd, k.qdd, x_bad); }, "sid::stack_regressor",
+      "X is 20 x 6");
   sid_test::expect_invalid_argument(
       [&] { sid::stack_two_link_regressor<double>(k.q, k.qd, k.qdd, 9.81, x_bad); },
       "sid::stack_two_link_regressor", "X");
   Eigen::VectorXd y_bad(19);
-  sid_test::expect_invalid_argument([&] { sid::stack_torque<double>(k.tau, y_bad); }, "sid::stack_torque",
-                          "y has 19");
+  sid_test::expect_invalid_argument([&] { sid::stack_torque<double>(k.tau, y_bad); },
+                                    "sid::stack_torque", "y has 19");
   auto k_bad = k;
   k_bad.tau.conservativeResize(8, 2);
   sid_test::expect_invalid_argument([&] { (void)sid::stack_two_link_regression(k_bad); },
-                          "sid::stack_two_link_regression", "tau has 8");
+                                    "sid::stack_two_link_regression", "tau has 8");
   sid_test::expect_invalid_argument([&] { (void)sid::stack_regression(model, k_bad); },
-                          "sid::stack_regression", "tau");
+                                    "sid::stack_regression", "tau");
 }
 
 }  // namespace

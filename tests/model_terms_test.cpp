@@ -25,7 +25,6 @@ template class sid::Model<double>;
 template struct sid::Term<float>;
 template struct sid::Term<double>;
 
-
 namespace {
 
 constexpr double kPinocchioAbsTol = 1e-12;  // N m and regressor entries
@@ -47,7 +46,6 @@ sid::Term<double> coulomb_term(double eps) {
             out << std::tanh(qd[0] / eps), 0.0, 0.0, std::tanh(qd[1] / eps);
           }};
 }
-
 
 TEST(Model, ArmModelHasPaperParametersInOrder) {
   const auto model = sid::two_link_arm_model<double>();
@@ -81,9 +79,9 @@ TEST(Model, InverseDynamicsMatchesPinocchioRnea) {
   const auto model = sid::two_link_arm_model<double>();
   const Eigen::VectorXd theta = sid::paper_arm_parameters<double>();
   for (Eigen::Index i = 0; i < table.data.rows(); ++i) {
-    const V2 tau = model.inverse_dynamics(theta, pair(table, i, "q1", "q2"),
-                                          pair(table, i, "qd1", "qd2"),
-                                          pair(table, i, "qdd1", "qdd2"));
+    const V2 tau =
+        model.inverse_dynamics(theta, pair(table, i, "q1", "q2"), pair(table, i, "qd1", "qd2"),
+                               pair(table, i, "qdd1", "qdd2"));
     const V2 expected = pair(table, i, "tau1", "tau2");
     EXPECT_NEAR(tau[0], expected[0], kPinocchioAbsTol) << "case " << i;
     EXPECT_NEAR(tau[1], expected[1], kPinocchioAbsTol) << "case " << i;
@@ -186,13 +184,13 @@ TEST(Model, ThrowsOnWrongThetaLength) {
   const Eigen::VectorXd theta = Eigen::VectorXd::Ones(6);
   const V2 z = V2::Zero();
   sid_test::expect_invalid_argument([&] { (void)model.inverse_dynamics(theta, z, z, z); },
-                          "sid::Model::inverse_dynamics", "theta has 6");
-  sid_test::expect_invalid_argument([&] { (void)model.mass_matrix(theta, z); }, "sid::Model::mass_matrix",
-                          "theta");
-  sid_test::expect_invalid_argument([&] { (void)model.bias_torque(theta, z, z); }, "sid::Model::bias_torque",
-                          "theta");
+                                    "sid::Model::inverse_dynamics", "theta has 6");
+  sid_test::expect_invalid_argument([&] { (void)model.mass_matrix(theta, z); },
+                                    "sid::Model::mass_matrix", "theta");
+  sid_test::expect_invalid_argument([&] { (void)model.bias_torque(theta, z, z); },
+                                    "sid::Model::bias_torque", "theta");
   sid_test::expect_invalid_argument([&] { (void)model.forward_dynamics(theta, z, z, z); },
-                          "sid::Model::forward_dynamics", "theta");
+                                    "sid::Model::forward_dynamics", "theta");
   sid_test::expect_invalid_argument(
       [&] { (void)model.state_derivative(theta, sid::ArmState<double>::Zero(), z); },
       "sid::Model::state_derivative", "theta");
@@ -203,28 +201,30 @@ TEST(Model, ThrowsOnWrongRegressorStorage) {
   Eigen::Matrix<double, 2, 6> z;
   const V2 v = V2::Zero();
   sid_test::expect_invalid_argument([&] { model.regressor(v, v, v, z); }, "sid::Model::regressor",
-                          "out has 6 columns");
+                                    "out has 6 columns");
 }
 
 TEST(Model, RejectsInvalidTerms) {
   auto model = sid::two_link_arm_model<double>();
   sid_test::expect_invalid_argument([&] { model.add(sid::viscous_friction_term<double>()); },
-                          "sid::Model::add", "viscous_friction");
+                                    "sid::Model::add", "viscous_friction");
   auto nameless = coulomb_term(0.1);
   nameless.name.clear();
   sid_test::expect_invalid_argument([&] { model.add(nameless); }, "sid::Model::add", "name");
   auto no_columns = coulomb_term(0.1);
   no_columns.columns = nullptr;
-  sid_test::expect_invalid_argument([&] { model.add(no_columns); }, "sid::Model::add", "column function");
+  sid_test::expect_invalid_argument([&] { model.add(no_columns); }, "sid::Model::add",
+                                    "column function");
   auto no_parameters = coulomb_term(0.1);
   no_parameters.parameter_names.clear();
-  sid_test::expect_invalid_argument([&] { model.add(no_parameters); }, "sid::Model::add", "no parameters");
+  sid_test::expect_invalid_argument([&] { model.add(no_parameters); }, "sid::Model::add",
+                                    "no parameters");
   auto huge = coulomb_term(0.1);
   huge.parameter_names.assign(sid::kMaxModelParameters, "p");
   sid_test::expect_invalid_argument([&] { model.add(huge); }, "sid::Model::add", "at most");
   EXPECT_EQ(model.num_parameters(), 7);  // failed adds leave the model unchanged
   sid_test::expect_invalid_argument([&] { (void)model.parameter_offset("spring"); },
-                          "sid::Model::parameter_offset", "spring");
+                                    "sid::Model::parameter_offset", "spring");
 }
 
 }  // namespace

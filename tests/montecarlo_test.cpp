@@ -17,7 +17,8 @@ constexpr double kStandardErrors = 4.0;
 
 const sid::Kinematics<double>& truth() { return sid_test::paper_truth(); }
 
-const sid::MethodSummary& summary(const sid::MonteCarloResult& r, std::size_t level, sid::StudyMethod m) {
+const sid::MethodSummary& summary(const sid::MonteCarloResult& r, std::size_t level,
+                                  sid::StudyMethod m) {
   for (const auto& s : r.levels.at(level).methods)
     if (s.method == m) return s;
   throw std::runtime_error("method not in result");
@@ -72,7 +73,8 @@ TEST(MonteCarlo, StatisticsMatchThePapersQualitativeFindings) {
   // CSS at sigma_q2 = 1e-6: theta1, theta4, theta6, theta7 unbiased.
   const auto& css = summary(r, 0, sid::StudyMethod::Css);
   for (int k : {0, 3, 5, 6})
-    EXPECT_LE(std::abs(css.mean[k] - theta[k]), kStandardErrors * css.standard_error[k]) << "css theta" << k + 1;
+    EXPECT_LE(std::abs(css.mean[k] - theta[k]), kStandardErrors * css.standard_error[k])
+        << "css theta" << k + 1;
   // Raw differences at 1e-4 amplify the angle noise into q-double-dot: theta1 collapses to ~0.
   const auto& raw = summary(r, 1, sid::StudyMethod::Raw);
   EXPECT_LT(std::abs(raw.mean[0]), 0.1 * theta[0]);
@@ -114,7 +116,8 @@ TEST(MonteCarlo, TorqueCrossValidatedSmoothingNeedsNoNoiseLevelAndNearsTheOracle
   for (std::size_t level = 0; level < 2; ++level) {
     const auto& tcv = summary(r, level, sid::StudyMethod::CssTorqueCv);
     EXPECT_EQ(tcv.failed_runs, 0);
-    EXPECT_LT(tcv.rms_rel_error_pct, 1.3 * summary(r, level, sid::StudyMethod::Oracle).rms_rel_error_pct)
+    EXPECT_LT(tcv.rms_rel_error_pct,
+              1.3 * summary(r, level, sid::StudyMethod::Oracle).rms_rel_error_pct)
         << "level " << level;
   }
   const double theta2 = options.theta[1];

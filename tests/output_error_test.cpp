@@ -119,8 +119,8 @@ TEST(OutputError, WindowSensitivitiesMatchCentralDifferencesOfTheSimulation) {
   parameters.log_step = log_step;
   const Eigen::Vector2d offset(0.01, -0.02), slope(0.05, 0.03);
   Eigen::MatrixXd jacobian;
-  ASSERT_TRUE(sid::detail::window_jacobian(model, theta, parameters, torque, p.t, w, w.q0, w.qd0, offset, slope,
-                                           p.sigma_q, tight, jacobian));
+  ASSERT_TRUE(sid::detail::window_jacobian(model, theta, parameters, torque, p.t, w, w.q0, w.qd0,
+                                           offset, slope, p.sigma_q, tight, jacobian));
   const Eigen::Index m = w.end - w.begin;
   ASSERT_EQ(jacobian.rows(), 2 * m);
   ASSERT_EQ(jacobian.cols(), 3 + 1 + 8);
@@ -130,12 +130,16 @@ TEST(OutputError, WindowSensitivitiesMatchCentralDifferencesOfTheSimulation) {
     double vs = kVs;
     Eigen::Matrix<double, 8, 1> local;
     local << w.q0, w.qd0, offset, slope;
-    if (c < 3) th[6 + c] += h;
-    else if (c == 3) vs *= std::exp(h);
-    else local[c - 4] += h;
+    if (c < 3)
+      th[6 + c] += h;
+    else if (c == 3)
+      vs *= std::exp(h);
+    else
+      local[c - 4] += h;
     Eigen::MatrixXd q;
-    EXPECT_TRUE(sid::detail::simulate_window(model_at(vs), th, torque, p.t, w, local.segment<2>(0), local.segment<2>(2),
-                                             local.segment<2>(4), local.segment<2>(6), tight, q));
+    EXPECT_TRUE(sid::detail::simulate_window(model_at(vs), th, torque, p.t, w, local.segment<2>(0),
+                                             local.segment<2>(2), local.segment<2>(4),
+                                             local.segment<2>(6), tight, q));
     Eigen::VectorXd stacked(2 * m);
     stacked << q.col(0) / p.sigma_q[0], q.col(1) / p.sigma_q[1];
     return stacked;
@@ -176,7 +180,8 @@ sid::OutputErrorProblem coulomb_problem(const ExactRun& run) {
 }
 
 /// The score test at a Coulomb fit of a Stribeck bump at the true vs.
-sid::OutputErrorScore bump_score(const sid::OutputErrorProblem& coulomb, const sid::OutputErrorFit& fit) {
+sid::OutputErrorScore bump_score(const sid::OutputErrorProblem& coulomb,
+                                 const sid::OutputErrorFit& fit) {
   Eigen::VectorXd with_bump(9);
   with_bump << fit.theta, 0.0;
   return sid::output_error_score_test(coulomb, fit, model_at(kVs), with_bump, 8, 0.005);
@@ -215,7 +220,9 @@ TEST(OutputError, ScoreTestPredictsTheCostDropOfARefitWithTheAddedParameter) {
 
   Eigen::VectorXd wrong = Eigen::VectorXd::Zero(12);
   sid_test::expect_invalid_argument(
-      [&] { (void)sid::output_error_score_test(coulomb, null_fit, model_at(kVs), wrong, 8, 0.005); },
+      [&] {
+        (void)sid::output_error_score_test(coulomb, null_fit, model_at(kVs), wrong, 8, 0.005);
+      },
       "sid::output_error_score_test: ", "plus one");
 }
 
@@ -231,10 +238,12 @@ TEST(OutputError, ScoreTestDoesNotDependOnWhereTheFitStopped) {
   loose.absolute_tolerance = 10.0;
   const sid::OutputErrorFit early = sid::fit_output_error(coulomb, loose);
   ASSERT_TRUE(early.ok) << early.message;
-  const sid::OutputErrorScore at_minimum_score = bump_score(coulomb, converged), at_stop_score = bump_score(coulomb, early);
+  const sid::OutputErrorScore at_minimum_score = bump_score(coulomb, converged),
+                              at_stop_score = bump_score(coulomb, early);
   ASSERT_TRUE(at_minimum_score.ok && at_stop_score.ok);
   const double at_minimum = at_minimum_score.statistic, at_stop = at_stop_score.statistic;
-  ASSERT_GT(early.cost - converged.cost, 0.1 * at_minimum) << "the early fit must stop short for the test to mean something";
+  ASSERT_GT(early.cost - converged.cost, 0.1 * at_minimum)
+      << "the early fit must stop short for the test to mean something";
   EXPECT_NEAR(at_stop, at_minimum, 0.02 * at_minimum);
 }
 
@@ -250,7 +259,8 @@ TEST(OutputError, NestedStartReadjustsTheOtherUnknownsToTheHeldValues) {
   ASSERT_TRUE(full.ok && full.converged) << full.message;
   const sid::OutputErrorStart start = sid::nested_start(full, {8}, Eigen::VectorXd::Zero(1));
   EXPECT_EQ(start.theta[8], 0.0);
-  for (Eigen::Index u = 0; u < 6; ++u) EXPECT_EQ(start.theta[u], full.theta[u]) << "held by the fit " << u;
+  for (Eigen::Index u = 0; u < 6; ++u)
+    EXPECT_EQ(start.theta[u], full.theta[u]) << "held by the fit " << u;
   EXPECT_NE(start.theta[7], full.theta[7]) << "Fc takes up part of the bump";
 
   sid::OutputErrorProblem dropped = coulomb_problem(run), nested = coulomb_problem(run);
@@ -258,19 +268,22 @@ TEST(OutputError, NestedStartReadjustsTheOtherUnknownsToTheHeldValues) {
   dropped.windows = full.windows;
   nested.theta0 = start.theta.head(8);
   nested.windows = start.windows;
-  const sid::OutputErrorFit from_dropped = sid::fit_output_error(dropped), from_nested = sid::fit_output_error(nested);
+  const sid::OutputErrorFit from_dropped = sid::fit_output_error(dropped),
+                            from_nested = sid::fit_output_error(nested);
   ASSERT_TRUE(from_dropped.converged && from_nested.converged);
   EXPECT_LT(from_nested.initial_cost, 0.6 * from_dropped.initial_cost);
   EXPECT_NEAR(from_nested.cost, from_dropped.cost, 1e-3 * from_dropped.cost);
   EXPECT_NEAR(from_nested.theta[7], from_dropped.theta[7], 1e-2 * from_dropped.theta[7]);
 
-  sid_test::expect_invalid_argument([&] { (void)sid::nested_start(full, {9}, Eigen::VectorXd::Zero(1)); },
-                                    "sid::nested_start: ", "not one of the fit's parameters");
-  sid_test::expect_invalid_argument([&] { (void)sid::nested_start(full, {8}, Eigen::VectorXd::Zero(2)); },
-                                    "sid::nested_start: ", "differ in size");
   sid_test::expect_invalid_argument(
-      [&] { (void)sid::nested_start(sid::OutputErrorFit(), {}, Eigen::VectorXd()); }, "sid::nested_start: ",
-      "no normal matrix");
+      [&] { (void)sid::nested_start(full, {9}, Eigen::VectorXd::Zero(1)); },
+      "sid::nested_start: ", "not one of the fit's parameters");
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::nested_start(full, {8}, Eigen::VectorXd::Zero(2)); },
+      "sid::nested_start: ", "differ in size");
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::nested_start(sid::OutputErrorFit(), {}, Eigen::VectorXd()); },
+      "sid::nested_start: ", "no normal matrix");
 }
 
 // The worse side of a likelihood ratio need only be known to a fraction of the gap: the Coulomb
@@ -301,28 +314,35 @@ TEST(OutputError, RefusesBadProblems) {
   const sid::OutputErrorProblem good = exact_problem(run);
   auto bad = good;
   bad.windows.clear();
-  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "no windows");
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); },
+                                    "sid::fit_output_error: ", "no windows");
   bad = good;
   bad.windows[0].end = good.t.size() + 5;
-  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "outside the data");
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); },
+                                    "sid::fit_output_error: ", "outside the data");
   bad = good;
   bad.tau.conservativeResize(10, 2);
-  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "same number of rows");
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); },
+                                    "sid::fit_output_error: ", "same number of rows");
   bad = good;
   bad.s0 = 1e9;
-  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "s0");
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); },
+                                    "sid::fit_output_error: ", "s0");
   bad = good;
   bad.prior_mean = Eigen::VectorXd::Zero(3);
   bad.prior_std = Eigen::VectorXd::Ones(3);
-  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "prior");
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); },
+                                    "sid::fit_output_error: ", "prior");
   bad = good;
   bad.fixed_parameters = {42};
-  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "fixed parameter");
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); },
+                                    "sid::fit_output_error: ", "fixed parameter");
   bad = good;
   bad.sigma_q[0] = 0.0;
-  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); }, "sid::fit_output_error: ", "sigma_q");
-  for (const auto& [cost, tolerance] : {std::pair{1.0, -0.1}, std::pair{1.0, 1.0},
-                                        std::pair{std::nan(""), 0.01}}) {
+  sid_test::expect_invalid_argument([&] { (void)sid::fit_output_error(bad); },
+                                    "sid::fit_output_error: ", "sigma_q");
+  for (const auto& [cost, tolerance] :
+       {std::pair{1.0, -0.1}, std::pair{1.0, 1.0}, std::pair{std::nan(""), 0.01}}) {
     sid::OutputErrorOptions options;
     options.comparison_cost = cost;
     options.comparison_tolerance = tolerance;

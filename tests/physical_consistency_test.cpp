@@ -363,9 +363,8 @@ struct OrthonormalDesign {
 
 OrthonormalDesign orthonormal_design(const Eigen::VectorXd& theta_hat, std::mt19937& rng) {
   const Eigen::Index m = 60, p = theta_hat.size();
-  const Eigen::MatrixXd a = Eigen::MatrixXd::NullaryExpr(m, p, [&] {
-    return std::normal_distribution<double>(0.0, 1.0)(rng);
-  });
+  const Eigen::MatrixXd a = Eigen::MatrixXd::NullaryExpr(
+      m, p, [&] { return std::normal_distribution<double>(0.0, 1.0)(rng); });
   OrthonormalDesign d;
   d.x = Eigen::HouseholderQR<Eigen::MatrixXd>(a).householderQ() * Eigen::MatrixXd::Identity(m, p);
   const Eigen::VectorXd e = gaussian(m, 0.1, rng);
@@ -387,8 +386,7 @@ TEST(NearestPhysical, OrthonormalDesignSetsNegativeViscousFrictionToZeroAndKeeps
   Eigen::VectorXd expected = theta_hat;
   expected(5) = 0.0;
   EXPECT_EQ(r.theta(5), 0.0);
-  EXPECT_LT((r.theta - expected).cwiseAbs().maxCoeff(), kParameterAbsTol)
-      << r.theta.transpose();
+  EXPECT_LT((r.theta - expected).cwiseAbs().maxCoeff(), kParameterAbsTol) << r.theta.transpose();
   EXPECT_NEAR(r.cost_increase, 0.09, 1e-8);
   EXPECT_NEAR(r.cost_increase, cost(d.x, d.y, r.theta) - cost(d.x, d.y, r.theta_unconstrained),
               1e-10);
@@ -525,8 +523,8 @@ TEST(NearestPhysical, RejectsBadInput) {
   const std::string prefix = "sid::nearest_physical: ";
   expect_invalid_argument([&] { (void)sid::nearest_physical(model, x.leftCols(6), y); }, prefix);
   expect_invalid_argument([&] { (void)sid::nearest_physical(model, x, y.head(99)); }, prefix);
-  expect_invalid_argument(
-      [&] { (void)sid::nearest_physical(model, x.topRows(7), y.head(7)); }, prefix);
+  expect_invalid_argument([&] { (void)sid::nearest_physical(model, x.topRows(7), y.head(7)); },
+                          prefix);
   Eigen::VectorXd y_nan = y;
   y_nan(3) = std::numeric_limits<double>::quiet_NaN();
   expect_invalid_argument([&] { (void)sid::nearest_physical(model, x, y_nan); }, prefix);

@@ -16,7 +16,8 @@ namespace sid_test {
 
 // A measured run (time, pos_meas1, pos_meas2, tau_meas1, tau_meas2, in that order).
 inline sid::Trajectory<double> load_run(const std::string& id) {
-  const std::string path = std::string(SID_TEST_DATA_DIR) + "/dfki_double_pendulum/trajectory_" + id + ".csv";
+  const std::string path =
+      std::string(SID_TEST_DATA_DIR) + "/dfki_double_pendulum/trajectory_" + id + ".csv";
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open " + path);
   std::string line;
@@ -47,9 +48,9 @@ inline sid::Trajectory<double> load_run(const std::string& id) {
 // A run of `model` with parameters `theta` driven along a known smooth motion: τ from the
 // model's inverse dynamics, so θ is known exactly; the grid is jittered like a logged one and
 // the angles, with quantum > 0, rounded like an encoder's.
-inline sid::Trajectory<double> synthetic_run(const sid::Model<double>& model, const Eigen::VectorXd& theta,
-                                             double phase, int n, double period, unsigned seed,
-                                             double quantum = 0.0) {
+inline sid::Trajectory<double> synthetic_run(const sid::Model<double>& model,
+                                             const Eigen::VectorXd& theta, double phase, int n,
+                                             double period, unsigned seed, double quantum = 0.0) {
   sid::Trajectory<double> run;
   run.t.resize(n);
   run.q.resize(n, 2);
@@ -61,8 +62,10 @@ inline sid::Trajectory<double> synthetic_run(const sid::Model<double>& model, co
     t += period * (0.7 + 0.6 * (state >> 8) / 16777216.0);
     const double w1 = 5.0, w2 = 7.0;
     sid::Vector2<double> q(0.8 * std::sin(w1 * t + phase), 0.6 * std::cos(w2 * t + phase));
-    const sid::Vector2<double> qd(0.8 * w1 * std::cos(w1 * t + phase), -0.6 * w2 * std::sin(w2 * t + phase));
-    const sid::Vector2<double> qdd(-0.8 * w1 * w1 * std::sin(w1 * t + phase), -0.6 * w2 * w2 * std::cos(w2 * t + phase));
+    const sid::Vector2<double> qd(0.8 * w1 * std::cos(w1 * t + phase),
+                                  -0.6 * w2 * std::sin(w2 * t + phase));
+    const sid::Vector2<double> qdd(-0.8 * w1 * w1 * std::sin(w1 * t + phase),
+                                   -0.6 * w2 * w2 * std::cos(w2 * t + phase));
     run.tau.row(i) = model.inverse_dynamics(theta, q, qd, qdd).transpose();
     if (quantum > 0.0) q = (q / quantum).array().round().matrix() * quantum;
     run.t[i] = t;

@@ -27,7 +27,8 @@ struct Oscillator {
 
 // Parameters (k, f, x0, v0): ṡ = A s + ∂f/∂p with A = [[0, 1], [-k, 0]].
 struct OscillatorSensitivity {
-  void operator()(double, const ConstMap& x, const ConstMap&, const Eigen::MatrixXd& s, Eigen::MatrixXd& sdot) const {
+  void operator()(double, const ConstMap& x, const ConstMap&, const Eigen::MatrixXd& s,
+                  Eigen::MatrixXd& sdot) const {
     sdot.row(0) = s.row(1);
     sdot.row(1) = -kStiffness * s.row(0);
     sdot(1, 0) -= x[0];
@@ -53,8 +54,8 @@ TEST(Sensitivity, MatchesTheClosedFormByParameterAndInitialState) {
   for (const auto method : {sid::IntegrationMethod::AdamsNewton, sid::IntegrationMethod::Bdf}) {
     sid::SimulatorOptions options;
     options.method = method;
-    const sid::SensitivityResult r =
-        sid::simulate_with_sensitivities(Oscillator(), OscillatorSensitivity(), x0, initial_sensitivities(), t, options);
+    const sid::SensitivityResult r = sid::simulate_with_sensitivities(
+        Oscillator(), OscillatorSensitivity(), x0, initial_sensitivities(), t, options);
     ASSERT_TRUE(r.ok()) << r.simulation.message;
     ASSERT_EQ(r.sensitivities.rows(), t.size());
     ASSERT_EQ(r.sensitivities.cols(), 8);
@@ -68,8 +69,9 @@ TEST(Sensitivity, MatchesTheClosedFormByParameterAndInitialState) {
         double up[4] = {p[0], p[1], p[2], p[3]}, down[4] = {p[0], p[1], p[2], p[3]};
         up[i] += h;
         down[i] -= h;
-        const double expected =
-            (position(up[0], up[1], up[2], up[3], t[k]) - position(down[0], down[1], down[2], down[3], t[k])) / (2 * h);
+        const double expected = (position(up[0], up[1], up[2], up[3], t[k]) -
+                                 position(down[0], down[1], down[2], down[3], t[k])) /
+                                (2 * h);
         worst = std::max(worst, std::fabs(s(0, i) - expected));
       }
       EXPECT_NEAR(r.simulation.states(k, 0), position(kStiffness, kForce, kX0, kV0, t[k]), 1e-7);
@@ -88,7 +90,8 @@ TEST(Sensitivity, FirstRowIsTheInitialSensitivity) {
 }
 
 TEST(Sensitivity, ThrowingSensitivityRhsIsReportedAsRhsFailure) {
-  const auto throwing = [](double time, const ConstMap&, const ConstMap&, const Eigen::MatrixXd&, Eigen::MatrixXd& sdot) {
+  const auto throwing = [](double time, const ConstMap&, const ConstMap&, const Eigen::MatrixXd&,
+                           Eigen::MatrixXd& sdot) {
     if (time > 0.5) throw std::runtime_error("sensitivity model broke");
     sdot.setZero();
   };
@@ -97,7 +100,8 @@ TEST(Sensitivity, ThrowingSensitivityRhsIsReportedAsRhsFailure) {
       Oscillator(), throwing, Eigen::Vector2d(kX0, kV0), initial_sensitivities(), t);
   EXPECT_FALSE(r.ok());
   EXPECT_EQ(r.simulation.status, sid::SimulationStatus::RhsFailure);
-  EXPECT_NE(r.simulation.message.find("sensitivity model broke"), std::string::npos) << r.simulation.message;
+  EXPECT_NE(r.simulation.message.find("sensitivity model broke"), std::string::npos)
+      << r.simulation.message;
   EXPECT_LT(r.simulation.completed, t.size());
   EXPECT_TRUE(r.sensitivities.bottomRows(1).array().isNaN().all());
 }
@@ -106,7 +110,8 @@ TEST(Sensitivity, RefusesBadArguments) {
   const Eigen::VectorXd t = Eigen::VectorXd::LinSpaced(3, 0.0, 1.0);
   const Eigen::Vector2d x0(kX0, kV0);
   const auto call = [&](const Eigen::MatrixXd& s0, sid::SimulatorOptions options = {}) {
-    return sid::simulate_with_sensitivities(Oscillator(), OscillatorSensitivity(), x0, s0, t, options);
+    return sid::simulate_with_sensitivities(Oscillator(), OscillatorSensitivity(), x0, s0, t,
+                                            options);
   };
   EXPECT_THROW((void)call(Eigen::MatrixXd::Zero(3, 4)), std::invalid_argument);  // rows != states
   EXPECT_THROW((void)call(Eigen::MatrixXd::Zero(2, 0)), std::invalid_argument);  // no parameter

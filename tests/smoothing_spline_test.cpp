@@ -33,9 +33,14 @@ struct Case {
 
 Case load(const std::string& file) {
   const auto table = sid_test::read_table(file);
-  return {table.col("t"), table.col("y"),  table.col("dy"),
-          table.col("g"), table.col("dg"), table.col("d2g"),
-          sid_test::comment_value(table, "S"), sid_test::comment_value(table, "p")};
+  return {table.col("t"),
+          table.col("y"),
+          table.col("dy"),
+          table.col("g"),
+          table.col("dg"),
+          table.col("d2g"),
+          sid_test::comment_value(table, "S"),
+          sid_test::comment_value(table, "p")};
 }
 
 // Noisy samples of a smooth signal on a jittered grid, the kind of data the smoother is for.
@@ -91,7 +96,8 @@ TEST_P(SmoothingSplineReference, PenaltyFormAtReferencePMatchesToo) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ReferenceCases, SmoothingSplineReference,
-                         ::testing::Values("uniform_n101.csv", "nonuniform_n64.csv", "short_n5.csv"));
+                         ::testing::Values("uniform_n101.csv", "nonuniform_n64.csv",
+                                           "short_n5.csv"));
 
 TEST(SmoothingSpline, ZeroSInterpolates) {
   const Noisy s = noisy_signal(200, 0.1, 1);
@@ -111,7 +117,8 @@ TEST(SmoothingSpline, ReproducesStraightLineForAnySOrP) {
     EXPECT_LE((fit.spline.derivatives_at_knots(1).array() + 3.0).abs().maxCoeff(), 1e-10) << what;
     EXPECT_LE(fit.spline.derivatives_at_knots(2).cwiseAbs().maxCoeff(), 1e-9) << what;
   };
-  for (double S : {0.0, 1.0, 50.0, 1e6}) check(spline.fit_constrained(line, 0.1, S), "S=" + std::to_string(S));
+  for (double S : {0.0, 1.0, 50.0, 1e6})
+    check(spline.fit_constrained(line, 0.1, S), "S=" + std::to_string(S));
   for (double p : {0.0, 1e-3, 1.0, 1e3, std::numeric_limits<double>::infinity()})
     check(spline.fit_penalized(line, 0.1, p), "p=" + std::to_string(p));
 }
@@ -123,7 +130,8 @@ TEST(SmoothingSpline, LargeSGivesWeightedLeastSquaresLine) {
   a.col(0).setOnes();
   a.col(1) = s.t;
   const Vec w = dy.cwiseInverse();
-  const Eigen::Vector2d coef = (w.asDiagonal() * a).colPivHouseholderQr().solve(w.asDiagonal() * s.y);
+  const Eigen::Vector2d coef =
+      (w.asDiagonal() * a).colPivHouseholderQr().solve(w.asDiagonal() * s.y);
   const Vec want = a * coef;
   const double f_line = ((want - s.y).cwiseQuotient(dy)).squaredNorm();
   const auto fit = Spline(s.t).fit_constrained(s.y, dy, f_line * (1.0 + 1e-9));
@@ -152,19 +160,24 @@ TEST(SmoothingSpline, ConvergedFitSatisfiesConstraintAndIsC2Natural) {
   EXPECT_GT(fit.iterations, 0);
   const auto& sp = fit.spline;
   EXPECT_EQ(sp.derivative(s.t[0], 2), 0.0);
-  EXPECT_NEAR(sp.derivative(s.t[999], 2), 0.0, 1e-9 * sp.derivatives_at_knots(2).cwiseAbs().maxCoeff());
-  for (Eigen::Index i = 1; i + 1 < sp.size(); ++i) {  // left piece at its end == right piece at start
+  EXPECT_NEAR(sp.derivative(s.t[999], 2), 0.0,
+              1e-9 * sp.derivatives_at_knots(2).cwiseAbs().maxCoeff());
+  for (Eigen::Index i = 1; i + 1 < sp.size();
+       ++i) {  // left piece at its end == right piece at start
     const double h = s.t[i] - s.t[i - 1];
-    const double left[3] = {sp.a()[i - 1] + h * (sp.b()[i - 1] + h * (sp.c()[i - 1] + h * sp.d()[i - 1])),
-                            sp.b()[i - 1] + h * (2 * sp.c()[i - 1] + 3 * h * sp.d()[i - 1]),
-                            2 * sp.c()[i - 1] + 6 * h * sp.d()[i - 1]};
+    const double left[3] = {
+        sp.a()[i - 1] + h * (sp.b()[i - 1] + h * (sp.c()[i - 1] + h * sp.d()[i - 1])),
+        sp.b()[i - 1] + h * (2 * sp.c()[i - 1] + 3 * h * sp.d()[i - 1]),
+        2 * sp.c()[i - 1] + 6 * h * sp.d()[i - 1]};
     const double right[3] = {sp.a()[i], sp.b()[i], 2 * sp.c()[i]};
-    for (int k = 0; k < 3; ++k) EXPECT_NEAR(left[k], right[k], 1e-9 * (1.0 + std::abs(right[k]))) << i << " " << k;
+    for (int k = 0; k < 3; ++k)
+      EXPECT_NEAR(left[k], right[k], 1e-9 * (1.0 + std::abs(right[k]))) << i << " " << k;
   }
   for (int order = 0; order <= 2; ++order) {
     const Vec fast = sp.derivatives_at_knots(order);
     const Vec slow = sp.evaluate(s.t, order);
-    EXPECT_LE((fast - slow).cwiseAbs().maxCoeff(), 1e-10 * (1.0 + fast.cwiseAbs().maxCoeff())) << order;
+    EXPECT_LE((fast - slow).cwiseAbs().maxCoeff(), 1e-10 * (1.0 + fast.cwiseAbs().maxCoeff()))
+        << order;
   }
 }
 
@@ -173,9 +186,12 @@ TEST(SmoothingSpline, ResultDoesNotDependOnTimeUnits) {
   const auto base = Spline(s.t).fit_constrained(s.y, 0.05);
   for (double scale : {1e-6, 1e6}) {
     const auto scaled = Spline(s.t * scale).fit_constrained(s.y, 0.05);
-    EXPECT_LE(rel_max_error(scaled.spline.derivatives_at_knots(0), base.spline.derivatives_at_knots(0)), 1e-9)
+    EXPECT_LE(
+        rel_max_error(scaled.spline.derivatives_at_knots(0), base.spline.derivatives_at_knots(0)),
+        1e-9)
         << scale;
-    EXPECT_LE(rel_max_error(scaled.spline.derivatives_at_knots(1) * scale, base.spline.derivatives_at_knots(1)),
+    EXPECT_LE(rel_max_error(scaled.spline.derivatives_at_knots(1) * scale,
+                            base.spline.derivatives_at_knots(1)),
               1e-8)
         << scale;
   }
@@ -202,7 +218,8 @@ TEST(SmoothingSpline, SeveralSignalsShareOneGrid) {
   // y and dy scaled by 3: the roughness term grows 9-fold, the data term is unchanged.
   const auto b = spline.fit_constrained(y2, 0.15);
   EXPECT_NEAR(b.p, 9.0 * a.p, 1e-10 * b.p);
-  EXPECT_LE(rel_max_error(b.spline.derivatives_at_knots(0), 3.0 * a.spline.derivatives_at_knots(0)), 1e-10);
+  EXPECT_LE(rel_max_error(b.spline.derivatives_at_knots(0), 3.0 * a.spline.derivatives_at_knots(0)),
+            1e-10);
 }
 
 TEST(SmoothingSpline, FloatInstantiationSmooths) {
@@ -225,7 +242,8 @@ TEST(SmoothingSpline, RejectsBadInputWithNamedArgument) {
   nan_t[2] = std::nan("");
   expect_invalid([&] { Spline{nan_t}; }, "t[2] is not finite");
   const Spline s(t);
-  expect_invalid([&] { (void)s.fit_constrained(Vec::Ones(4), 0.1, 5.0); }, "y has 4 samples but t has 5");
+  expect_invalid([&] { (void)s.fit_constrained(Vec::Ones(4), 0.1, 5.0); },
+                 "y has 4 samples but t has 5");
   Vec nan_y = y;
   nan_y[4] = std::numeric_limits<double>::infinity();
   expect_invalid([&] { (void)s.fit_constrained(nan_y, 0.1, 5.0); }, "y[4] is not finite");
@@ -233,7 +251,8 @@ TEST(SmoothingSpline, RejectsBadInputWithNamedArgument) {
   Vec dy = Vec::Constant(5, 0.1);
   dy[1] = -0.1;
   expect_invalid([&] { (void)s.fit_constrained(y, dy, 5.0); }, "dy[1] must be finite and > 0");
-  expect_invalid([&] { (void)s.fit_constrained(y, Vec::Constant(3, 0.1), 5.0); }, "dy has 3 entries");
+  expect_invalid([&] { (void)s.fit_constrained(y, Vec::Constant(3, 0.1), 5.0); },
+                 "dy has 3 entries");
   expect_invalid([&] { (void)s.fit_constrained(y, 0.1, -1.0); }, "S must be finite and >= 0");
   expect_invalid([&] { (void)s.fit_penalized(y, 0.1, -1.0); }, "p must be >= 0");
 }
@@ -296,7 +315,8 @@ TEST(SmoothingSplineGcv, EstimatesTheNoiseLevelWithoutBeingTold) {
   EXPECT_LT(fit.trace, 200.0);
   const Vec truth = (2.0 * s.t.array()).sin() + 0.3 * (5.0 * s.t.array()).cos();
   // The fit is far closer to the truth than the data are (RMS error << sigma).
-  const double rms = std::sqrt((fit.spline.derivatives_at_knots(0) - truth).squaredNorm() / 20000.0);
+  const double rms =
+      std::sqrt((fit.spline.derivatives_at_knots(0) - truth).squaredNorm() / 20000.0);
   EXPECT_LT(rms, 0.1 * kSigma);
 }
 

@@ -12,7 +12,9 @@
 
 namespace sid_test {
 
-inline std::string data_path(const std::string& name) { return std::string(SID_TEST_DATA_DIR) + "/" + name; }
+inline std::string data_path(const std::string& name) {
+  return std::string(SID_TEST_DATA_DIR) + "/" + name;
+}
 
 /// A numeric CSV table: header names, data (rows x columns) and the '#' comment lines.
 struct Table {
@@ -50,7 +52,8 @@ inline Table read_table(const std::string& name) {
     while (std::getline(ss, cell, ',')) row.push_back(std::stod(cell));
     rows.push_back(row);
   }
-  table.data.resize(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(table.names.size()));
+  table.data.resize(static_cast<Eigen::Index>(rows.size()),
+                    static_cast<Eigen::Index>(table.names.size()));
   for (std::size_t i = 0; i < rows.size(); ++i)
     for (std::size_t j = 0; j < rows[i].size(); ++j)
       table.data(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = rows[i][j];

@@ -33,12 +33,13 @@ template sid::ArmState<float> sid::two_link_state_derivative<float>(
     const sid::TwoLinkParameters<float>&, const sid::ArmState<float>&, const sid::Vector2<float>&,
     float) noexcept;
 template sid::Model<float> sid::two_link_arm_model<float>(float);
-template sid::TwoLinkRegressor<double> sid::two_link_regressor<double>(
-    const sid::Vector2<double>&, const sid::Vector2<double>&, const sid::Vector2<double>&,
-    double) noexcept;
+template sid::TwoLinkRegressor<double> sid::two_link_regressor<double>(const sid::Vector2<double>&,
+                                                                       const sid::Vector2<double>&,
+                                                                       const sid::Vector2<double>&,
+                                                                       double) noexcept;
 template sid::Vector2<double> sid::two_link_forward_dynamics<double>(
-    const sid::TwoLinkParameters<double>&, const sid::Vector2<double>&,
-    const sid::Vector2<double>&, const sid::Vector2<double>&, double) noexcept;
+    const sid::TwoLinkParameters<double>&, const sid::Vector2<double>&, const sid::Vector2<double>&,
+    const sid::Vector2<double>&, double) noexcept;
 template sid::Model<double> sid::two_link_arm_model<double>(double);
 
 namespace {
@@ -102,23 +103,22 @@ TEST(TwoLinkArm, GravityTorqueAtRestMatchesHandDerivation) {
   // Arm horizontal (q1 = pi/2) and straight: tau1 = g (theta4 + theta5), tau2 = g theta5.
   const auto theta = sid::paper_arm_parameters<double>();
   const double g = sid::kPaperGravity;
-  const auto tau = sid::two_link_inverse_dynamics(theta, sid::Vector2<double>(M_PI / 2, 0.0),
-                                                  sid::Vector2<double>::Zero(),
-                                                  sid::Vector2<double>::Zero());
+  const auto tau =
+      sid::two_link_inverse_dynamics(theta, sid::Vector2<double>(M_PI / 2, 0.0),
+                                     sid::Vector2<double>::Zero(), sid::Vector2<double>::Zero());
   EXPECT_NEAR(tau[0], g * (theta[3] + theta[4]), kRoundoffTol);
   EXPECT_NEAR(tau[1], g * theta[4], kRoundoffTol);
   // Hanging straight down: no torque at all.
-  const auto tau0 = sid::two_link_inverse_dynamics(theta, sid::Vector2<double>::Zero(),
-                                                   sid::Vector2<double>::Zero(),
-                                                   sid::Vector2<double>::Zero());
+  const auto tau0 =
+      sid::two_link_inverse_dynamics(theta, sid::Vector2<double>::Zero(),
+                                     sid::Vector2<double>::Zero(), sid::Vector2<double>::Zero());
   EXPECT_EQ(tau0.norm(), 0.0);
 }
 
 TEST(TwoLinkArm, PhysicalParametersGiveCorrectedTheta) {
   const auto physical = sid::paper_arm_physical<double>();
   const auto theta = sid::two_link_parameters(physical);
-  EXPECT_LE((theta - sid::paper_arm_parameters<double>()).norm(),
-            kRoundoffTol * theta.norm());
+  EXPECT_LE((theta - sid::paper_arm_parameters<double>()).norm(), kRoundoffTol * theta.norm());
   // Physically theta3 = l1 theta5 (the corrected paper), a check the 7-parameter model leaves free.
   EXPECT_NEAR(theta[2], physical.l1 * theta[4], kRoundoffTol);
 }

@@ -23,10 +23,12 @@ namespace sid {
 ///
 /// Class invariant: after a successful factorize(), every D(j) is finite and > 0.
 /// @tparam Scalar a real floating-point type.
-/// @tparam Bandwidth number of sub-diagonals (>= 1), fixed at compile time so the inner loops unroll.
+/// @tparam Bandwidth number of sub-diagonals (>= 1), fixed at compile time so the inner loops
+/// unroll.
 template <typename Scalar, int Bandwidth>
 class BandedLDLT {
-  static_assert(std::is_floating_point<Scalar>::value, "BandedLDLT needs a real floating-point Scalar");
+  static_assert(std::is_floating_point<Scalar>::value,
+                "BandedLDLT needs a real floating-point Scalar");
   static_assert(Bandwidth >= 1, "BandedLDLT needs at least one sub-diagonal");
 
  public:
@@ -39,7 +41,8 @@ class BandedLDLT {
   explicit BandedLDLT(Eigen::Index n) { resize(n); }
 
   void resize(Eigen::Index n) {
-    if (n < 0) throw std::invalid_argument("sid::BandedLDLT: size must be >= 0, got " + std::to_string(n));
+    if (n < 0)
+      throw std::invalid_argument("sid::BandedLDLT: size must be >= 0, got " + std::to_string(n));
     band_.setZero(Bandwidth + 1, n);  // no reallocation when n is unchanged
     factorized_ = false;
   }
@@ -100,8 +103,10 @@ class BandedLDLT {
   /// @brief Solves A x = b in place (x overwrites b). @pre factorize() returned true.
   template <typename Derived>
   void solve_in_place(Eigen::MatrixBase<Derived>& x) const {
-    static_assert(Derived::InnerStrideAtCompileTime == 1, "solve_in_place needs contiguous columns");
-    if (!factorized_) throw std::logic_error("sid::BandedLDLT::solve_in_place: matrix is not factorized");
+    static_assert(Derived::InnerStrideAtCompileTime == 1,
+                  "solve_in_place needs contiguous columns");
+    if (!factorized_)
+      throw std::logic_error("sid::BandedLDLT::solve_in_place: matrix is not factorized");
     if (x.rows() != size())
       throw std::invalid_argument("sid::BandedLDLT::solve_in_place: right-hand side has " +
                                   std::to_string(x.rows()) + " rows, matrix has " +
@@ -183,7 +188,8 @@ class BandedLDLT {
     const Eigen::Index n = size();
     const Scalar* b = band_.data();
     Scalar z_prev2(0), z_prev1(0);
-    for (Eigen::Index i = 0; i < n; ++i) {  // L z = b; L(i, i-1) = b[(i-1)*3+1], L(i, i-2) = b[(i-2)*3+2]
+    for (Eigen::Index i = 0; i < n;
+         ++i) {  // L z = b; L(i, i-1) = b[(i-1)*3+1], L(i, i-2) = b[(i-2)*3+2]
       const Scalar l1 = i >= 1 ? b[(i - 1) * kRows + 1] : Scalar(0);
       const Scalar l2 = i >= 2 ? b[(i - 2) * kRows + 2] : Scalar(0);
       const Scalar z = v[i] - l1 * z_prev1 - l2 * z_prev2;

@@ -85,7 +85,8 @@ TransferFunction<Scalar> normalized_padded(const Eigen::MatrixBase<DerivedB>& b,
 /// The operation order follows SciPy's C kernel so results agree to the last bits.
 template <typename Scalar, typename DerivedX, typename DerivedY, typename DerivedZ>
 void lfilter_column(const TransferFunction<Scalar>& tf, const Eigen::MatrixBase<DerivedX>& x,
-                    Eigen::MatrixBase<DerivedY> const& y_out, Eigen::MatrixBase<DerivedZ> const& z_out) {
+                    Eigen::MatrixBase<DerivedY> const& y_out,
+                    Eigen::MatrixBase<DerivedZ> const& z_out) {
   auto& y = const_cast<Eigen::MatrixBase<DerivedY>&>(y_out);
   auto& z = const_cast<Eigen::MatrixBase<DerivedZ>&>(z_out);
   const Eigen::Index len = tf.b.size();
@@ -120,7 +121,8 @@ void lfilter_column(const TransferFunction<Scalar>& tf, const Eigen::MatrixBase<
 /// @throws std::invalid_argument if order < 1 or cutoff is outside (0, 1).
 template <typename Scalar>
 TransferFunction<Scalar> butterworth_lowpass(int order, Scalar cutoff) {
-  static_assert(std::is_floating_point_v<Scalar>, "sid::butterworth_lowpass needs a real floating-point Scalar");
+  static_assert(std::is_floating_point_v<Scalar>,
+                "sid::butterworth_lowpass needs a real floating-point Scalar");
   using std::exp;
   using std::tan;
   using Complex = std::complex<Scalar>;
@@ -135,7 +137,8 @@ TransferFunction<Scalar> butterworth_lowpass(int order, Scalar cutoff) {
   const Scalar warped = fs2 * tan(pi * cutoff / Scalar(2));
 
   // poly(z_poles) accumulated in complex arithmetic, as numpy.poly; the imaginary parts cancel.
-  Eigen::Matrix<Complex, Eigen::Dynamic, 1> a_c = Eigen::Matrix<Complex, Eigen::Dynamic, 1>::Zero(order + 1);
+  Eigen::Matrix<Complex, Eigen::Dynamic, 1> a_c =
+      Eigen::Matrix<Complex, Eigen::Dynamic, 1>::Zero(order + 1);
   a_c(0) = Complex(1);
   Complex denominator(1);  // prod(4 - s_k)
   for (int k = 0; k < order; ++k) {
@@ -180,7 +183,8 @@ Eigen::Matrix<typename DerivedB::Scalar, Eigen::Dynamic, 1> lfilter_zi(
     const Eigen::MatrixBase<DerivedB>& b, const Eigen::MatrixBase<DerivedA>& a) {
   using Scalar = typename DerivedB::Scalar;
   using Wide = typename detail::Wider<Scalar>::type;
-  static_assert(std::is_same_v<Scalar, typename DerivedA::Scalar>, "b and a must have the same Scalar");
+  static_assert(std::is_same_v<Scalar, typename DerivedA::Scalar>,
+                "b and a must have the same Scalar");
   detail::check_filter("sid::lfilter_zi", b, a);
   const auto tf = detail::normalized_padded<Scalar>(b, a);
   const Eigen::Index n = tf.a.size() - 1;
@@ -194,7 +198,8 @@ Eigen::Matrix<typename DerivedB::Scalar, Eigen::Dynamic, 1> lfilter_zi(
     sum_rhs += Wide(tf.b(i)) - Wide(tf.a(i)) * b0;
   }
   if (sum_a == Wide(0))
-    throw std::invalid_argument("sid::lfilter_zi: a has a pole at z = 1 (sum of a is 0), no steady state");
+    throw std::invalid_argument(
+        "sid::lfilter_zi: a has a pole at z = 1 (sum of a is 0), no steady state");
   const Wide z0 = sum_rhs / sum_a;
   zi(0) = Scalar(z0);
   Wide partial_a = Wide(tf.a(0));
@@ -249,7 +254,8 @@ FilterState<typename DerivedX::Scalar> lfilter(const Eigen::MatrixBase<DerivedB>
   FilterState<Scalar> out;
   out.y.resize(x.rows(), x.cols());
   out.zf = zi;
-  for (Eigen::Index c = 0; c < x.cols(); ++c) detail::lfilter_column(tf, x.col(c), out.y.col(c), out.zf.col(c));
+  for (Eigen::Index c = 0; c < x.cols(); ++c)
+    detail::lfilter_column(tf, x.col(c), out.y.col(c), out.zf.col(c));
   return out;
 }
 
@@ -289,7 +295,8 @@ Eigen::Matrix<typename DerivedX::Scalar, Eigen::Dynamic, Eigen::Dynamic> filtfil
     const Scalar first = xc(0), last = xc(n - 1);
     for (Eigen::Index i = 0; i < padlen; ++i) ext(i) = Scalar(2) * first - xc(padlen - i);
     ext.segment(padlen, n) = xc;
-    for (Eigen::Index i = 0; i < padlen; ++i) ext(padlen + n + i) = Scalar(2) * last - xc(n - 2 - i);
+    for (Eigen::Index i = 0; i < padlen; ++i)
+      ext(padlen + n + i) = Scalar(2) * last - xc(n - 2 - i);
 
     z = zi * ext(0);
     detail::lfilter_column(tf, ext, forward, z);
@@ -302,8 +309,8 @@ Eigen::Matrix<typename DerivedX::Scalar, Eigen::Dynamic, Eigen::Dynamic> filtfil
 
 /// @brief filtfilt with the coefficients of a TransferFunction (e.g. from butterworth_lowpass).
 template <typename Scalar, typename DerivedX>
-Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> filtfilt(const TransferFunction<Scalar>& filter,
-                                                               const Eigen::MatrixBase<DerivedX>& x) {
+Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> filtfilt(
+    const TransferFunction<Scalar>& filter, const Eigen::MatrixBase<DerivedX>& x) {
   return filtfilt(filter.b, filter.a, x);
 }
 

@@ -41,14 +41,19 @@ class CubicSpline {
   /// @brief Shares knots that the caller has already checked (many splines on one grid keep one
   /// copy of t). @pre *knots strictly increasing.
   CubicSpline(std::shared_ptr<const Vector> knots, Vector a, Vector b, Vector c, Vector d)
-      : t_(std::move(knots)), a_(std::move(a)), b_(std::move(b)), c_(std::move(c)), d_(std::move(d)) {
+      : t_(std::move(knots)),
+        a_(std::move(a)),
+        b_(std::move(b)),
+        c_(std::move(c)),
+        d_(std::move(d)) {
     if (!t_ || t_->size() < 2)
       throw std::invalid_argument("sid::CubicSpline: needs at least 2 knots, got " +
                                   std::to_string(t_ ? t_->size() : 0));
     const Eigen::Index pieces = t_->size() - 1;
     if (a_.size() != pieces || b_.size() != pieces || c_.size() != pieces || d_.size() != pieces)
       throw std::invalid_argument("sid::CubicSpline: need " + std::to_string(pieces) +
-                                  " coefficients per kind for " + std::to_string(t_->size()) + " knots");
+                                  " coefficients per kind for " + std::to_string(t_->size()) +
+                                  " knots");
   }
 
   Eigen::Index size() const { return t_ ? t_->size() : 0; }
@@ -70,13 +75,16 @@ class CubicSpline {
     if (t < knot[0] || t > knot[last]) {  // linear continuation
       const bool left = t < knot[0];
       const Scalar t_end = left ? knot[0] : knot[last];
-      const Scalar g_end = left ? a_[0] : piece_derivative(last - 1, knot[last] - knot[last - 1], 0);
-      const Scalar s_end = left ? b_[0] : piece_derivative(last - 1, knot[last] - knot[last - 1], 1);
+      const Scalar g_end =
+          left ? a_[0] : piece_derivative(last - 1, knot[last] - knot[last - 1], 0);
+      const Scalar s_end =
+          left ? b_[0] : piece_derivative(last - 1, knot[last] - knot[last - 1], 1);
       if (order == 0) return g_end + s_end * (t - t_end);
       return order == 1 ? s_end : Scalar(0);
     }
     const auto it = std::upper_bound(knot.data(), knot.data() + knot.size(), t);
-    const Eigen::Index i = std::min<Eigen::Index>(static_cast<Eigen::Index>(it - knot.data()) - 1, last - 1);
+    const Eigen::Index i =
+        std::min<Eigen::Index>(static_cast<Eigen::Index>(it - knot.data()) - 1, last - 1);
     return piece_derivative(i, t - knot[i], order);
   }
 
@@ -92,15 +100,24 @@ class CubicSpline {
   void derivatives_at_knots(int order, Eigen::Ref<Vector> out) const {
     check_order(order, "derivatives_at_knots");
     if (out.size() != size())
-      throw std::invalid_argument("sid::CubicSpline::derivatives_at_knots: out has " + std::to_string(out.size()) +
-                                  " entries, spline has " + std::to_string(size()) + " knots");
+      throw std::invalid_argument("sid::CubicSpline::derivatives_at_knots: out has " +
+                                  std::to_string(out.size()) + " entries, spline has " +
+                                  std::to_string(size()) + " knots");
     const Vector& knot = *t_;
     const Eigen::Index pieces = knot.size() - 1;
     switch (order) {
-      case 0: out.head(pieces) = a_; break;
-      case 1: out.head(pieces) = b_; break;
-      case 2: out.head(pieces) = Scalar(2) * c_; break;
-      default: out.head(pieces) = Scalar(6) * d_; break;
+      case 0:
+        out.head(pieces) = a_;
+        break;
+      case 1:
+        out.head(pieces) = b_;
+        break;
+      case 2:
+        out.head(pieces) = Scalar(2) * c_;
+        break;
+      default:
+        out.head(pieces) = Scalar(6) * d_;
+        break;
     }
     out[pieces] = piece_derivative(pieces - 1, knot[pieces] - knot[pieces - 1], order);
   }
@@ -121,10 +138,14 @@ class CubicSpline {
 
   Scalar piece_derivative(Eigen::Index i, Scalar dt, int order) const {
     switch (order) {
-      case 0: return a_[i] + dt * (b_[i] + dt * (c_[i] + dt * d_[i]));
-      case 1: return b_[i] + dt * (Scalar(2) * c_[i] + dt * Scalar(3) * d_[i]);
-      case 2: return Scalar(2) * c_[i] + Scalar(6) * d_[i] * dt;
-      default: return Scalar(6) * d_[i];
+      case 0:
+        return a_[i] + dt * (b_[i] + dt * (c_[i] + dt * d_[i]));
+      case 1:
+        return b_[i] + dt * (Scalar(2) * c_[i] + dt * Scalar(3) * d_[i]);
+      case 2:
+        return Scalar(2) * c_[i] + Scalar(6) * d_[i] * dt;
+      default:
+        return Scalar(6) * d_[i];
     }
   }
 

@@ -33,7 +33,7 @@ SID_INLINE std::string superseded_effect(const std::string& id) {
 }
 
 SID_INLINE Eigen::VectorXd effect_signature(const std::string& id,
-                                        const Eigen::Ref<const Eigen::VectorXd>& theta) {
+                                            const Eigen::Ref<const Eigen::VectorXd>& theta) {
   if (starts_with(id, "stribeck_j")) return Eigen::Vector2d(0.0, 1.0);
   if (id == "angle_offset_q1") return Eigen::Vector2d(theta[3], theta[4]);
   if (id == "angle_offset_q2") return Eigen::Vector2d(theta[2], theta[4]);
@@ -49,7 +49,8 @@ SID_INLINE Eigen::MatrixXd stack_term(const Term<double>& term, const Kinematics
 }
 
 SID_INLINE Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::MatrixXd>& rows,
-                                         const Eigen::Ref<const Eigen::VectorXd>& t, int window) {
+                                             const Eigen::Ref<const Eigen::VectorXd>& t,
+                                             int window) {
   if (window <= 1) return rows;
   const Eigen::Index n = t.size(), m = window, count = (n - 1) / m;
   Eigen::MatrixXd out = Eigen::MatrixXd::Zero(2 * count, rows.cols());
@@ -62,8 +63,8 @@ SID_INLINE Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::Matri
 }
 
 SID_INLINE Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::MatrixXd>& rows,
-                                         const Eigen::Ref<const Eigen::VectorXd>& t, int window,
-                                         const Eigen::VectorXd& row_weight) {
+                                             const Eigen::Ref<const Eigen::VectorXd>& t, int window,
+                                             const Eigen::VectorXd& row_weight) {
   if (window <= 1) return rows.array().colwise() * row_weight.array();
   Eigen::MatrixXd out = integrate_windows(rows, t, window);
   const Eigen::Index n = t.size(), count = out.rows() / 2;
@@ -75,14 +76,14 @@ SID_INLINE Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::Matri
 }
 
 SID_INLINE Eigen::MatrixXd time_scores(const Eigen::Ref<const Eigen::MatrixXd>& x,
-                                   const Eigen::Ref<const Eigen::VectorXd>& e) {
+                                       const Eigen::Ref<const Eigen::VectorXd>& e) {
   const Eigen::Index n = x.rows() / 2;
   return x.topRows(n).array().colwise() * e.head(n).array() +
          x.bottomRows(n).array().colwise() * e.tail(n).array();
 }
 
 SID_INLINE HacFit hac_fit(const Eigen::Ref<const Eigen::MatrixXd>& x,
-                      const Eigen::Ref<const Eigen::VectorXd>& y) {
+                          const Eigen::Ref<const Eigen::VectorXd>& y) {
   const Eigen::Index n = x.rows() / 2, p = x.cols();
   const Eigen::VectorXd scale = x.colwise().norm().transpose().cwiseMax(1e-300);
   const Eigen::MatrixXd xs = x * scale.cwiseInverse().asDiagonal();
@@ -104,7 +105,7 @@ SID_INLINE HacFit hac_fit(const Eigen::Ref<const Eigen::MatrixXd>& x,
 }
 
 SID_INLINE double blocked_cv_error(const Eigen::Ref<const Eigen::MatrixXd>& x,
-                               const Eigen::Ref<const Eigen::VectorXd>& y, int blocks) {
+                                   const Eigen::Ref<const Eigen::VectorXd>& y, int blocks) {
   const Eigen::Index n = x.rows() / 2, p = x.cols();
   const Eigen::VectorXd scale = x.colwise().norm().transpose().cwiseMax(1e-300);
   std::vector<Eigen::MatrixXd> gram(static_cast<std::size_t>(blocks));
@@ -144,13 +145,14 @@ SID_INLINE Projector::Projector(const Eigen::Ref<const Eigen::MatrixXd>& x) {
   q = qr.householderQ() * Eigen::MatrixXd::Identity(x.rows(), x.cols());
 }
 
-SID_INLINE Eigen::MatrixXd Projector::residualize(const Eigen::Ref<const Eigen::MatrixXd>& z) const {
+SID_INLINE Eigen::MatrixXd Projector::residualize(
+    const Eigen::Ref<const Eigen::MatrixXd>& z) const {
   return z - q * (q.transpose() * z);
 }
 
-SID_INLINE std::vector<Eigen::Index> separable_columns(const Eigen::Ref<const Eigen::MatrixXd>& z,
-                                                   const Eigen::Ref<const Eigen::MatrixXd>& z_resid,
-                                                   double r2, double* max_r2) {
+SID_INLINE std::vector<Eigen::Index> separable_columns(
+    const Eigen::Ref<const Eigen::MatrixXd>& z, const Eigen::Ref<const Eigen::MatrixXd>& z_resid,
+    double r2, double* max_r2) {
   std::vector<Eigen::Index> kept;
   Eigen::MatrixXd basis(z.rows(), 0);
   *max_r2 = 0.0;
@@ -169,7 +171,7 @@ SID_INLINE std::vector<Eigen::Index> separable_columns(const Eigen::Ref<const Ei
 }
 
 SID_INLINE Eigen::MatrixXd select_columns(const Eigen::Ref<const Eigen::MatrixXd>& z,
-                                      const std::vector<Eigen::Index>& cols) {
+                                          const std::vector<Eigen::Index>& cols) {
   Eigen::MatrixXd out(z.rows(), static_cast<Eigen::Index>(cols.size()));
   for (std::size_t i = 0; i < cols.size(); ++i)
     out.col(static_cast<Eigen::Index>(i)) = z.col(cols[i]);
@@ -177,7 +179,8 @@ SID_INLINE Eigen::MatrixXd select_columns(const Eigen::Ref<const Eigen::MatrixXd
 }
 
 SID_INLINE void wald_test(CandidateTest& t, const Eigen::MatrixXd& z_resid_kept,
-                      const Eigen::Ref<const Eigen::VectorXd>& r, const Vector2<double>& rss_old) {
+                          const Eigen::Ref<const Eigen::VectorXd>& r,
+                          const Vector2<double>& rss_old) {
   const Eigen::Index n = r.size() / 2, m = z_resid_kept.cols();
   const Eigen::MatrixXd a = z_resid_kept.transpose() * z_resid_kept;
   const Eigen::LDLT<Eigen::MatrixXd> a_ldlt(a);
@@ -201,7 +204,7 @@ SID_INLINE std::vector<double> default_stribeck_grid() {
 }
 
 SID_INLINE Eigen::VectorXd moving_rows(const Kinematics<double>& k, double rest_velocity,
-                                   double margin) {
+                                       double margin) {
   const Eigen::Index n = k.size();
   Eigen::VectorXd weight = Eigen::VectorXd::Ones(2 * n);
   for (int j = 0; j < 2; ++j) {
@@ -214,7 +217,8 @@ SID_INLINE Eigen::VectorXd moving_rows(const Kinematics<double>& k, double rest_
       Eigen::Index first = i, last = i;
       while (first > 0 && k.t[i] - k.t[first - 1] <= margin) --first;
       while (last + 1 < n && k.t[last + 1] - k.t[i] <= margin) ++last;
-      for (Eigen::Index d = std::max(first, cleared_to + 1); d <= last; ++d) weight[j * n + d] = 0.0;
+      for (Eigen::Index d = std::max(first, cleared_to + 1); d <= last; ++d)
+        weight[j * n + d] = 0.0;
       cleared_to = std::max(cleared_to, last);
     }
   }
@@ -222,7 +226,7 @@ SID_INLINE Eigen::VectorXd moving_rows(const Kinematics<double>& k, double rest_
 }
 
 SID_INLINE Eigen::Index stribeck_support(int joint, double vs, const Kinematics<double>& k,
-                                     const Eigen::VectorXd& row_weight) {
+                                         const Eigen::VectorXd& row_weight) {
   const Eigen::Index n = k.size();
   const double half = vs * std::sqrt(std::log(2.0));
   Eigen::Index count = 0;
@@ -232,11 +236,11 @@ SID_INLINE Eigen::Index stribeck_support(int joint, double vs, const Kinematics<
 }
 
 SID_INLINE double best_stribeck_velocity(const std::string& id, const EffectSettings& base,
-                                     const std::vector<double>& grid, const Kinematics<double>& k,
-                                     int integration_window, const Eigen::VectorXd& row_weight,
-                                     const Projector& proj,
-                                     const Eigen::Ref<const Eigen::VectorXd>& r, double r2,
-                                     Eigen::Index min_support) {
+                                         const std::vector<double>& grid,
+                                         const Kinematics<double>& k, int integration_window,
+                                         const Eigen::VectorXd& row_weight, const Projector& proj,
+                                         const Eigen::Ref<const Eigen::VectorXd>& r, double r2,
+                                         Eigen::Index min_support) {
   const int joint = id.back() == '1' ? 0 : 1;
   const auto explained = [&](double vs) {
     if (stribeck_support(joint, vs, k, row_weight) < min_support) return -1.0;
@@ -284,10 +288,9 @@ SID_INLINE double best_stribeck_velocity(const std::string& id, const EffectSett
   return std::max(f1, f2) >= value[best] ? std::exp(x) : grid[best];
 }
 
-SID_INLINE std::vector<FlaggedWindow> flag_windows(const Eigen::Ref<const Eigen::VectorXd>& t,
-                                               const Eigen::Ref<const Eigen::VectorXd>& residual,
-                                               const Vector2<double>& floor, double length,
-                                               double alpha) {
+SID_INLINE std::vector<FlaggedWindow> flag_windows(
+    const Eigen::Ref<const Eigen::VectorXd>& t, const Eigen::Ref<const Eigen::VectorXd>& residual,
+    const Vector2<double>& floor, double length, double alpha) {
   std::vector<FlaggedWindow> out;
   const Eigen::Index n = t.size();
   if (n < 2) return out;
@@ -360,7 +363,7 @@ SID_INLINE void check_diagnose_options(const DiagnoseOptions& o) {
 }
 
 SID_INLINE Eigen::MatrixXd assemble_columns(const Eigen::MatrixXd& x0,
-                                        const std::vector<SelectedTerm>& terms) {
+                                            const std::vector<SelectedTerm>& terms) {
   Eigen::Index p = x0.cols();
   for (const auto& t : terms) p += t.z.cols();
   Eigen::MatrixXd x(x0.rows(), p);
@@ -395,11 +398,11 @@ SID_INLINE std::string inadmissibility(const EffectEstimate& e) {
 }
 
 SID_INLINE void fill_report(ModelReport& report, const HacFit& fit,
-                        const std::vector<std::string>& names, const Kinematics<double>& k,
-                        const Eigen::Ref<const Eigen::MatrixXd>& x_samples,
-                        const Eigen::Ref<const Eigen::VectorXd>& y_samples,
-                        const Eigen::VectorXd& row_weight, const Vector2<double>& floor,
-                        double window_length, double alpha) {
+                            const std::vector<std::string>& names, const Kinematics<double>& k,
+                            const Eigen::Ref<const Eigen::MatrixXd>& x_samples,
+                            const Eigen::Ref<const Eigen::VectorXd>& y_samples,
+                            const Eigen::VectorXd& row_weight, const Vector2<double>& floor,
+                            double window_length, double alpha) {
   const Eigen::Index n = k.size();
   report.parameter_names = names;
   report.theta = fit.theta;
@@ -417,9 +420,9 @@ SID_INLINE void fill_report(ModelReport& report, const HacFit& fit,
 }
 
 SID_INLINE void fit_final_model(DiagnosisResult& result, const std::vector<SelectedTerm>& selected,
-                            const Eigen::MatrixXd& x0, const Eigen::VectorXd& y,
-                            const Eigen::MatrixXd& x0_samples, const Eigen::VectorXd& y_samples,
-                            const Vector2<double>& floor, const DiagnoseOptions& options) {
+                                const Eigen::MatrixXd& x0, const Eigen::VectorXd& y,
+                                const Eigen::MatrixXd& x0_samples, const Eigen::VectorXd& y_samples,
+                                const Vector2<double>& floor, const DiagnoseOptions& options) {
   const Kinematics<double>& k = result.kinematics;
   result.final_model = assemble_model(options.identify.gravity, selected);
   result.final_settings.clear();
@@ -471,7 +474,7 @@ SID_INLINE void fit_final_model(DiagnosisResult& result, const std::vector<Selec
 }  // namespace detail
 
 SID_INLINE DiagnosisResult diagnose(const Trajectory<double>& data,
-                         const DiagnoseOptions& options) {
+                                    const DiagnoseOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   constexpr const char* who = "sid::diagnose";
   detail::check_diagnose_options(options);
@@ -532,12 +535,11 @@ SID_INLINE DiagnosisResult diagnose(const Trajectory<double>& data,
       io.smoothing == SmoothingMode::Gcv || io.smoothing == SmoothingMode::Cv;
   if (options.kinematic_noise_runs > 0 && io.method == DerivativeMethod::SmoothingSpline &&
       cross_validated && smoothing.sigma.allFinite() && (smoothing.sigma.array() > 0.0).all()) {
-    const Eigen::Index first = std::lower_bound(all.t.data(), all.t.data() + all.size(), k.t[0]) -
-                               all.t.data();
-    result.kinematic_floor =
-        kinematic_noise_rms(result.nominal_model, nominal_fit.theta, all, smoothing.sigma,
-                            smoothing.p, first, n, row_weight, options.kinematic_noise_runs,
-                            options.kinematic_noise_seed);
+    const Eigen::Index first =
+        std::lower_bound(all.t.data(), all.t.data() + all.size(), k.t[0]) - all.t.data();
+    result.kinematic_floor = kinematic_noise_rms(
+        result.nominal_model, nominal_fit.theta, all, smoothing.sigma, smoothing.p, first, n,
+        row_weight, options.kinematic_noise_runs, options.kinematic_noise_seed);
   }
   const Vector2<double> floor =
       (result.noise_floor.array().square() + result.kinematic_floor.array().square()).sqrt();
@@ -713,10 +715,9 @@ SID_INLINE DiagnosisResult diagnose(const Trajectory<double>& data,
 
 SID_INLINE void refit_final_model(DiagnosisResult& result, const DiagnoseOptions& options) {
   if (result.effects.size() != result.final_settings.size())
-    throw std::invalid_argument("sid::refit_final_model: result.effects has " +
-                                std::to_string(result.effects.size()) +
-                                " entries but result.final_settings has " +
-                                std::to_string(result.final_settings.size()));
+    throw std::invalid_argument(
+        "sid::refit_final_model: result.effects has " + std::to_string(result.effects.size()) +
+        " entries but result.final_settings has " + std::to_string(result.final_settings.size()));
   const Kinematics<double>& k = result.kinematics;
   const int iw = options.integration_window;
   const StackedRegression<double> nominal = stack_two_link_regression(k, options.identify.gravity);

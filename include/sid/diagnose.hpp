@@ -98,7 +98,7 @@ SID_INLINE std::string superseded_effect(const std::string& id);
 /// (Fc, Fs − Fc, b, δ for small δ, Ia, k), given the current θ1..θ7: used to turn the Wald test's
 /// covariance into a detection limit in physical units.
 SID_INLINE Eigen::VectorXd effect_signature(const std::string& id,
-                                        const Eigen::Ref<const Eigen::VectorXd>& theta);
+                                            const Eigen::Ref<const Eigen::VectorXd>& theta);
 
 /// The stacked columns (2n x size) of one term over the kinematics.
 SID_INLINE Eigen::MatrixXd stack_term(const Term<double>& term, const Kinematics<double>& k);
@@ -107,18 +107,19 @@ SID_INLINE Eigen::MatrixXd stack_term(const Term<double>& term, const Kinematics
 /// are integrated over consecutive windows of `window` samples by the trapezoidal rule (the
 /// samples left over at the end are dropped). window <= 1 returns the rows unchanged.
 SID_INLINE Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::MatrixXd>& rows,
-                                         const Eigen::Ref<const Eigen::VectorXd>& t, int window);
+                                             const Eigen::Ref<const Eigen::VectorXd>& t,
+                                             int window);
 
 /// The same with equations left out (row_weight 0 instead of 1): a window that contains one of
 /// them is left out as a whole (its integral would miss a piece of the equation).
 SID_INLINE Eigen::MatrixXd integrate_windows(const Eigen::Ref<const Eigen::MatrixXd>& rows,
-                                         const Eigen::Ref<const Eigen::VectorXd>& t, int window,
-                                         const Eigen::VectorXd& row_weight);
+                                             const Eigen::Ref<const Eigen::VectorXd>& t, int window,
+                                             const Eigen::VectorXd& row_weight);
 
 /// Per-time scores g_t = x_t e_t + x_{n+t} e_{n+t}: the two joints' rows of one instant are one
 /// observation, so a correlation between the joints' residuals is covered too.
 SID_INLINE Eigen::MatrixXd time_scores(const Eigen::Ref<const Eigen::MatrixXd>& x,
-                                   const Eigen::Ref<const Eigen::VectorXd>& e);
+                                       const Eigen::Ref<const Eigen::VectorXd>& e);
 
 /// An OLS fit with a Newey–West covariance.
 struct HacFit {
@@ -128,14 +129,14 @@ struct HacFit {
 };
 
 SID_INLINE HacFit hac_fit(const Eigen::Ref<const Eigen::MatrixXd>& x,
-                      const Eigen::Ref<const Eigen::VectorXd>& y);
+                          const Eigen::Ref<const Eigen::VectorXd>& y);
 
 /// Blocked cross-validation: the samples are cut into `blocks` contiguous time blocks (both
 /// joints' rows of a time stay together); each block is predicted from a fit on the others. The
 /// per-block normal equations make every fold a p x p solve.
 /// @return the summed squared prediction error [N² m²].
 SID_INLINE double blocked_cv_error(const Eigen::Ref<const Eigen::MatrixXd>& x,
-                               const Eigen::Ref<const Eigen::VectorXd>& y, int blocks);
+                                   const Eigen::Ref<const Eigen::VectorXd>& y, int blocks);
 
 /// The columns already in a model, as an orthonormal basis, to residualize candidates on.
 struct Projector {
@@ -163,19 +164,20 @@ struct CandidateTest {
 
 /// The columns of z the current model does not explain: column c is dropped when its residual on
 /// the model's columns and on the kept columns before it keeps less than 1 − r2 of its norm².
-SID_INLINE std::vector<Eigen::Index> separable_columns(const Eigen::Ref<const Eigen::MatrixXd>& z,
-                                                   const Eigen::Ref<const Eigen::MatrixXd>& z_resid,
-                                                   double r2, double* max_r2);
+SID_INLINE std::vector<Eigen::Index> separable_columns(
+    const Eigen::Ref<const Eigen::MatrixXd>& z, const Eigen::Ref<const Eigen::MatrixXd>& z_resid,
+    double r2, double* max_r2);
 
 SID_INLINE Eigen::MatrixXd select_columns(const Eigen::Ref<const Eigen::MatrixXd>& z,
-                                      const std::vector<Eigen::Index>& cols);
+                                          const std::vector<Eigen::Index>& cols);
 
 /// Wald test, BIC and the residual sums of the kept columns of a candidate given the current
 /// model's residual r (Frisch–Waugh–Lovell: regressing r on the residualized columns gives the
 /// coefficients and residual of the augmented fit, and the HAC sandwich of that small problem is
 /// the candidate block of the augmented fit's sandwich).
 SID_INLINE void wald_test(CandidateTest& t, const Eigen::MatrixXd& z_resid_kept,
-                      const Eigen::Ref<const Eigen::VectorXd>& r, const Vector2<double>& rss_old);
+                          const Eigen::Ref<const Eigen::VectorXd>& r,
+                          const Vector2<double>& rss_old);
 
 SID_INLINE std::vector<double> default_stribeck_grid();
 
@@ -183,31 +185,30 @@ SID_INLINE std::vector<double> default_stribeck_grid();
 /// rest (|q̇| < rest_velocity, or q̇ changes sign next to the sample) or within margin [s] of
 /// such a sample. rest_velocity = 0 keeps every equation.
 SID_INLINE Eigen::VectorXd moving_rows(const Kinematics<double>& k, double rest_velocity,
-                                   double margin);
+                                       double margin);
 
 /// Samples of joint `joint` (0-based) that the fit keeps and at which a Stribeck bump of width vs
 /// is above half its height (|q̇| < 0.83 vs): what the data say about that bump.
 SID_INLINE Eigen::Index stribeck_support(int joint, double vs, const Kinematics<double>& k,
-                                     const Eigen::VectorXd& row_weight);
+                                         const Eigen::VectorXd& row_weight);
 
 /// The Stribeck velocity that lets the term explain most of r: grid search over vs, then a
 /// golden-section search in log vs between the best point's neighbours. Only widths whose bump
 /// the kept samples resolve (min_support of them within its half height) are tried; NaN when
 /// there is none.
 SID_INLINE double best_stribeck_velocity(const std::string& id, const EffectSettings& base,
-                                     const std::vector<double>& grid, const Kinematics<double>& k,
-                                     int integration_window, const Eigen::VectorXd& row_weight,
-                                     const Projector& proj,
-                                     const Eigen::Ref<const Eigen::VectorXd>& r, double r2,
-                                     Eigen::Index min_support);
+                                         const std::vector<double>& grid,
+                                         const Kinematics<double>& k, int integration_window,
+                                         const Eigen::VectorXd& row_weight, const Projector& proj,
+                                         const Eigen::Ref<const Eigen::VectorXd>& r, double r2,
+                                         Eigen::Index min_support);
 
 /// Windows of `length` seconds in which a joint's residual RMS exceeds the floor by more than
 /// white noise would (chi-square at level alpha / (number of windows) per joint) and by at
 /// least 10 % (smaller excesses are within what smoothing errors add).
-SID_INLINE std::vector<FlaggedWindow> flag_windows(const Eigen::Ref<const Eigen::VectorXd>& t,
-                                               const Eigen::Ref<const Eigen::VectorXd>& residual,
-                                               const Vector2<double>& floor, double length,
-                                               double alpha);
+SID_INLINE std::vector<FlaggedWindow> flag_windows(
+    const Eigen::Ref<const Eigen::VectorXd>& t, const Eigen::Ref<const Eigen::VectorXd>& residual,
+    const Vector2<double>& floor, double length, double alpha);
 
 SID_INLINE void check_diagnose_options(const DiagnoseOptions& o);
 
@@ -219,7 +220,7 @@ struct SelectedTerm {
 };
 
 SID_INLINE Eigen::MatrixXd assemble_columns(const Eigen::MatrixXd& x0,
-                                        const std::vector<SelectedTerm>& terms);
+                                            const std::vector<SelectedTerm>& terms);
 
 SID_INLINE Model<double> assemble_model(double g, const std::vector<SelectedTerm>& terms);
 
@@ -229,20 +230,19 @@ SID_INLINE std::string inadmissibility(const EffectEstimate& e);
 /// The report of a fit; residuals per sample from the per-sample equations (x_samples θ =
 /// y_samples) whatever form the fit used.
 SID_INLINE void fill_report(ModelReport& report, const HacFit& fit,
-                        const std::vector<std::string>& names, const Kinematics<double>& k,
-                        const Eigen::Ref<const Eigen::MatrixXd>& x_samples,
-                        const Eigen::Ref<const Eigen::VectorXd>& y_samples,
-                        const Eigen::VectorXd& row_weight, const Vector2<double>& floor,
-                        double window_length, double alpha);
-
+                            const std::vector<std::string>& names, const Kinematics<double>& k,
+                            const Eigen::Ref<const Eigen::MatrixXd>& x_samples,
+                            const Eigen::Ref<const Eigen::VectorXd>& y_samples,
+                            const Eigen::VectorXd& row_weight, const Vector2<double>& floor,
+                            double window_length, double alpha);
 
 /// The final model of a diagnosis (the nominal model plus `selected`) fitted to the equations,
 /// its report, the estimates of result.effects (in `selected`'s order) and, with a reference
 /// θ, the drift of θ1..θ7.
 SID_INLINE void fit_final_model(DiagnosisResult& result, const std::vector<SelectedTerm>& selected,
-                            const Eigen::MatrixXd& x0, const Eigen::VectorXd& y,
-                            const Eigen::MatrixXd& x0_samples, const Eigen::VectorXd& y_samples,
-                            const Vector2<double>& floor, const DiagnoseOptions& options);
+                                const Eigen::MatrixXd& x0, const Eigen::VectorXd& y,
+                                const Eigen::MatrixXd& x0_samples, const Eigen::VectorXd& y_samples,
+                                const Vector2<double>& floor, const DiagnoseOptions& options);
 
 }  // namespace detail
 
@@ -272,7 +272,7 @@ SID_INLINE void fit_final_model(DiagnosisResult& result, const std::vector<Selec
 ///    the final model are compared with it (z with the HAC std, significant if |z| > 3).
 /// @throws std::invalid_argument on bad data/options (names the problem).
 SID_INLINE DiagnosisResult diagnose(const Trajectory<double>& data,
-                         const DiagnoseOptions& options = {});
+                                    const DiagnoseOptions& options = {});
 
 /// @brief Refits the final model of a diagnosis with the effects result.effects names, each
 /// built with the matching entry of result.final_settings, so that the torque-domain report,

@@ -7,8 +7,9 @@ namespace sid {
 
 namespace detail {
 
-SID_INLINE RunsEquations runs_equations(const Model<double>& model, const std::vector<Kinematics<double>>& kinematics,
-                                    int folds_per_run) {
+SID_INLINE RunsEquations runs_equations(const Model<double>& model,
+                                        const std::vector<Kinematics<double>>& kinematics,
+                                        int folds_per_run) {
   RunsEquations e;
   const Eigen::Index p = model.num_parameters();
   e.scale = Eigen::VectorXd::Zero(p);
@@ -27,7 +28,8 @@ SID_INLINE RunsEquations runs_equations(const Model<double>& model, const std::v
       g.begin = n * b / blocks;
       g.size = n * (b + 1) / blocks - g.begin;
       for (int j = 0; j < 2; ++j) {
-        const Eigen::MatrixXd x = e.runs[r].X.middleRows(j * n + g.begin, g.size) * e.scale.cwiseInverse().asDiagonal();
+        const Eigen::MatrixXd x =
+            e.runs[r].X.middleRows(j * n + g.begin, g.size) * e.scale.cwiseInverse().asDiagonal();
         const auto y = e.runs[r].y.segment(j * n + g.begin, g.size);
         g.gram[j] = x.transpose() * x;
         g.cross[j] = x.transpose() * y;
@@ -54,7 +56,8 @@ SID_INLINE Vector2<double> left_out_mean_square(const RunsEquations& e) {
     if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all())
       return Vector2<double>::Constant(std::numeric_limits<double>::infinity());
     const Eigen::VectorXd beta = ldlt.solve(cross_all - g.cross[0] - g.cross[1]);
-    for (int j = 0; j < 2; ++j) sse[j] += g.yy[j] - 2.0 * beta.dot(g.cross[j]) + beta.dot(g.gram[j] * beta);
+    for (int j = 0; j < 2; ++j)
+      sse[j] += g.yy[j] - 2.0 * beta.dot(g.cross[j]) + beta.dot(g.gram[j] * beta);
     count += static_cast<double>(g.size);
   }
   return sse / count;
@@ -81,25 +84,29 @@ SID_INLINE std::pair<Eigen::VectorXd, Eigen::MatrixXd> fit_with_hac(const RunsEq
   return {unscale * beta, unscale * inverse * long_run * inverse * unscale};
 }
 
-SID_INLINE Model<double> model_with(double g, const std::vector<std::pair<std::string, EffectSettings>>& named) {
+SID_INLINE Model<double> model_with(
+    double g, const std::vector<std::pair<std::string, EffectSettings>>& named) {
   Model<double> model = two_link_arm_model<double>(g);
   for (const auto& [id, settings] : named) model.add(effect_term(id, settings));
   return model;
 }
 
 SID_INLINE std::vector<std::pair<std::string, EffectSettings>> with_candidate(
-    std::vector<std::pair<std::string, EffectSettings>> named, const std::string& id, const EffectSettings& settings) {
+    std::vector<std::pair<std::string, EffectSettings>> named, const std::string& id,
+    const EffectSettings& settings) {
   const std::string superseded = superseded_effect(id);
-  named.erase(std::remove_if(named.begin(), named.end(), [&](const auto& e) { return e.first == superseded; }),
+  named.erase(std::remove_if(named.begin(), named.end(),
+                             [&](const auto& e) { return e.first == superseded; }),
               named.end());
   named.emplace_back(id, settings);
   return named;
 }
 
-SID_INLINE RunsEffectTest test_candidate(const std::string& id, const EffectSettings& settings,
-                                     const std::vector<std::pair<std::string, EffectSettings>>& named,
-                                     const std::vector<Kinematics<double>>& kinematics, const Vector2<double>& base_ms,
-                                     const RunsDiagnoseOptions& options) {
+SID_INLINE RunsEffectTest
+test_candidate(const std::string& id, const EffectSettings& settings,
+               const std::vector<std::pair<std::string, EffectSettings>>& named,
+               const std::vector<Kinematics<double>>& kinematics, const Vector2<double>& base_ms,
+               const RunsDiagnoseOptions& options) {
   RunsEffectTest t;
   t.id = id;
   t.settings = settings;
@@ -111,21 +118,25 @@ SID_INLINE RunsEffectTest test_candidate(const std::string& id, const EffectSett
   const auto [theta, covariance] = fit_with_hac(e);
   const Eigen::Index at = model.parameter_offset(id), size = effect_term(id, settings).size();
   t.wald = wald_statistic(theta.segment(at, size), covariance.block(at, at, size, size));
-  t.p_value = std::isfinite(t.wald) ? chi_square_tail(std::max(0.0, t.wald), static_cast<double>(size)) : 1.0;
+  t.p_value = std::isfinite(t.wald)
+                  ? chi_square_tail(std::max(0.0, t.wald), static_cast<double>(size))
+                  : 1.0;
   t.estimate = effect_estimate(id, theta, covariance, model, settings);
   return t;
 }
 
-SID_INLINE double best_stribeck_width(const std::string& id, const std::vector<std::pair<std::string, EffectSettings>>& named,
-                                  const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options) {
+SID_INLINE double best_stribeck_width(
+    const std::string& id, const std::vector<std::pair<std::string, EffectSettings>>& named,
+    const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options) {
   const std::vector<double> grid =
       options.stribeck_velocities.empty() ? default_stribeck_grid() : options.stribeck_velocities;
   double best = grid.front(), best_ms = std::numeric_limits<double>::infinity();
   for (double vs : grid) {
     EffectSettings s = options.effects;
     s.stribeck_velocity = vs;
-    const Vector2<double> ms = left_out_mean_square(
-        runs_equations(model_with(s.gravity, with_candidate(named, id, s)), kinematics, options.identify.folds_per_run));
+    const Vector2<double> ms =
+        left_out_mean_square(runs_equations(model_with(s.gravity, with_candidate(named, id, s)),
+                                            kinematics, options.identify.folds_per_run));
     if (ms.sum() < best_ms) {
       best_ms = ms.sum();
       best = vs;
@@ -135,9 +146,10 @@ SID_INLINE double best_stribeck_width(const std::string& id, const std::vector<s
 }
 
 SID_INLINE Vector2<double> torque_above_cutoff(const Trajectory<double>& run, double cutoff_hz,
-                                           const RunsIdentifyOptions& options) {
+                                               const RunsIdentifyOptions& options) {
   const Eigen::Index n = run.size();
-  const double lambda = smoothing_lambda_for_cutoff(cutoff_hz, (run.t[n - 1] - run.t[0]) / static_cast<double>(n - 1));
+  const double lambda = smoothing_lambda_for_cutoff(
+      cutoff_hz, (run.t[n - 1] - run.t[0]) / static_cast<double>(n - 1));
   const SmoothingSpline<double> spline(run.t);
   const double t0 = run.t[0] + options.skip, t1 = run.t[n - 1] - options.skip_end;
   Vector2<double> rms = Vector2<double>::Zero();
@@ -159,24 +171,30 @@ SID_INLINE Vector2<double> torque_above_cutoff(const Trajectory<double>& run, do
 
 SID_INLINE void check_runs_diagnose_options(const RunsDiagnoseOptions& o) {
   const std::string who = "sid::diagnose_runs: ";
-  if (!(o.family_alpha > 0.0 && o.family_alpha < 1.0)) throw std::invalid_argument(who + "family_alpha must be in (0, 1)");
+  if (!(o.family_alpha > 0.0 && o.family_alpha < 1.0))
+    throw std::invalid_argument(who + "family_alpha must be in (0, 1)");
   if (!(o.min_prediction_gain >= 0.0 && o.min_prediction_gain < 1.0))
     throw std::invalid_argument(who + "min_prediction_gain must be in [0, 1)");
   for (const auto& id : o.candidates)
-    if (!is_effect_id(id)) throw std::invalid_argument(who + "unknown effect '" + id + "' (known: " + effect_id_list() + ")");
+    if (!is_effect_id(id))
+      throw std::invalid_argument(who + "unknown effect '" + id + "' (known: " + effect_id_list() +
+                                  ")");
   for (double vs : o.stribeck_velocities)
-    if (!(vs > 0.0) || !std::isfinite(vs)) throw std::invalid_argument(who + "stribeck_velocities must be finite and > 0");
+    if (!(vs > 0.0) || !std::isfinite(vs))
+      throw std::invalid_argument(who + "stribeck_velocities must be finite and > 0");
   check_effect_settings(o.effects, "sid::diagnose_runs");
 }
 
 SID_INLINE void holm_adjust(std::vector<RunsEffectTest>& tests) {
   std::vector<std::size_t> order(tests.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return tests[a].p_value < tests[b].p_value; });
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return tests[a].p_value < tests[b].p_value; });
   double running = 0.0;
   const double count = static_cast<double>(tests.size());
   for (std::size_t r = 0; r < order.size(); ++r) {
-    running = std::max(running, std::min(1.0, (count - static_cast<double>(r)) * tests[order[r]].p_value));
+    running = std::max(running,
+                       std::min(1.0, (count - static_cast<double>(r)) * tests[order[r]].p_value));
     tests[order[r]].p_value = running;
   }
 }
@@ -188,24 +206,26 @@ SID_INLINE std::string mean_square_change(const Vector2<double>& gain) {
 }
 
 SID_INLINE std::string rejection(const RunsEffectTest& t, const RunsDiagnoseOptions& o) {
-  if (!(t.p_value < o.family_alpha)) return "not significant (HAC Wald p = " + format_value(t.p_value) + " after Holm)";
+  if (!(t.p_value < o.family_alpha))
+    return "not significant (HAC Wald p = " + format_value(t.p_value) + " after Holm)";
   if (!(t.gain > o.min_prediction_gain))
-    return "does not predict held-out torques better (their mean square " + mean_square_change(t.prediction_gain) +
-           " on joint 1 / 2)";
+    return "does not predict held-out torques better (their mean square " +
+           mean_square_change(t.prediction_gain) + " on joint 1 / 2)";
   const std::string inadmissible = inadmissibility(t.estimate);
   return inadmissible.empty() ? "" : "not admissible: " + inadmissible;
 }
 
-SID_INLINE std::vector<RunsEffectTest> selection_round(const std::vector<std::string>& remaining,
-                                                   const std::vector<std::pair<std::string, EffectSettings>>& named,
-                                                   const std::vector<Kinematics<double>>& kinematics,
-                                                   const RunsDiagnoseOptions& options) {
-  const Vector2<double> base_ms = left_out_mean_square(
-      runs_equations(model_with(options.effects.gravity, named), kinematics, options.identify.folds_per_run));
+SID_INLINE std::vector<RunsEffectTest> selection_round(
+    const std::vector<std::string>& remaining,
+    const std::vector<std::pair<std::string, EffectSettings>>& named,
+    const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options) {
+  const Vector2<double> base_ms = left_out_mean_square(runs_equations(
+      model_with(options.effects.gravity, named), kinematics, options.identify.folds_per_run));
   std::vector<RunsEffectTest> tests;
   for (const auto& id : remaining) {
     EffectSettings settings = options.effects;
-    if (starts_with(id, "stribeck_j")) settings.stribeck_velocity = best_stribeck_width(id, named, kinematics, options);
+    if (starts_with(id, "stribeck_j"))
+      settings.stribeck_velocity = best_stribeck_width(id, named, kinematics, options);
     tests.push_back(test_candidate(id, settings, named, kinematics, base_ms, options));
   }
   holm_adjust(tests);
@@ -213,7 +233,8 @@ SID_INLINE std::vector<RunsEffectTest> selection_round(const std::vector<std::st
   return tests;
 }
 
-SID_INLINE const RunsEffectTest* best_candidate(const std::vector<RunsEffectTest>& tests, double min_gain) {
+SID_INLINE const RunsEffectTest* best_candidate(const std::vector<RunsEffectTest>& tests,
+                                                double min_gain) {
   const RunsEffectTest* best = nullptr;
   for (const auto& t : tests)
     if (t.reason.empty() && (!best || t.gain > best->gain)) best = &t;
@@ -224,22 +245,24 @@ SID_INLINE const RunsEffectTest* best_candidate(const std::vector<RunsEffectTest
   return best;
 }
 
-SID_INLINE void directional_levels(FrictionShapeTest& s, const Eigen::VectorXd& theta, const Eigen::MatrixXd& covariance,
-                               Eigen::Index at) {
+SID_INLINE void directional_levels(FrictionShapeTest& s, const Eigen::VectorXd& theta,
+                                   const Eigen::MatrixXd& covariance, Eigen::Index at) {
   s.forward = theta[at] + theta[at + 1];
   s.backward = theta[at] - theta[at + 1];
   const double cross = covariance(at, at + 1);
-  s.forward_std = std::sqrt(std::max(0.0, covariance(at, at) + covariance(at + 1, at + 1) + 2.0 * cross));
-  s.backward_std = std::sqrt(std::max(0.0, covariance(at, at) + covariance(at + 1, at + 1) - 2.0 * cross));
+  s.forward_std =
+      std::sqrt(std::max(0.0, covariance(at, at) + covariance(at + 1, at + 1) + 2.0 * cross));
+  s.backward_std =
+      std::sqrt(std::max(0.0, covariance(at, at) + covariance(at + 1, at + 1) - 2.0 * cross));
 }
 
-SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(std::vector<std::pair<std::string, EffectSettings>>& named,
-                                                           std::vector<RunsEffectTest>& chosen,
-                                                           const std::vector<Kinematics<double>>& kinematics,
-                                                           const RunsDiagnoseOptions& options) {
+SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(
+    std::vector<std::pair<std::string, EffectSettings>>& named, std::vector<RunsEffectTest>& chosen,
+    const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options) {
   std::vector<FrictionShapeTest> shapes;
   const auto equations = [&](const std::vector<std::pair<std::string, EffectSettings>>& terms) {
-    return runs_equations(model_with(options.effects.gravity, terms), kinematics, options.identify.folds_per_run);
+    return runs_equations(model_with(options.effects.gravity, terms), kinematics,
+                          options.identify.folds_per_run);
   };
   for (auto& term : named) {
     if (!starts_with(term.first, "coulomb_j")) continue;
@@ -261,10 +284,12 @@ SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(std::vector<std::
     s.asymmetric_gain = (base - left_out_mean_square(e)).cwiseQuotient(base);
     const auto [theta, covariance] = fit_with_hac(e);
     const Eigen::Index at = model_with(options.effects.gravity, named).parameter_offset(s.id);
-    s.asymmetric_p_value = chi_square_tail(std::max(0.0, theta[at + 1] * theta[at + 1] / covariance(at + 1, at + 1)), 1.0);
+    s.asymmetric_p_value = chi_square_tail(
+        std::max(0.0, theta[at + 1] * theta[at + 1] / covariance(at + 1, at + 1)), 1.0);
     directional_levels(s, theta, covariance, at);
-    s.asymmetric = s.asymmetric_gain.mean() > options.min_prediction_gain && s.asymmetric_p_value < options.family_alpha &&
-                   s.forward > 0.0 && s.backward > 0.0;
+    s.asymmetric = s.asymmetric_gain.mean() > options.min_prediction_gain &&
+                   s.asymmetric_p_value < options.family_alpha && s.forward > 0.0 &&
+                   s.backward > 0.0;
     term.second.coulomb_asymmetric = s.asymmetric;
     for (auto& c : chosen)
       if (c.id == s.id) c.settings = term.second;
@@ -275,7 +300,8 @@ SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(std::vector<std::
 
 }  // namespace detail
 
-SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& runs, const RunsDiagnoseOptions& options) {
+SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& runs,
+                                       const RunsDiagnoseOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   detail::check_runs_diagnose_options(options);
   const double g = options.effects.gravity;
@@ -290,7 +316,8 @@ SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& ru
   RunsDiagnoseOptions fixed = options;
   fixed.identify.cutoff_hz = result.cutoff_hz;
   const std::vector<Kinematics<double>>& k = result.nominal.kinematics;
-  for (const auto& run : runs) result.floor.push_back(detail::torque_above_cutoff(run, result.cutoff_hz, options.identify));
+  for (const auto& run : runs)
+    result.floor.push_back(detail::torque_above_cutoff(run, result.cutoff_hz, options.identify));
 
   std::vector<std::string> remaining;
   for (const auto& id : options.candidates.empty() ? effect_ids() : options.candidates)
@@ -307,11 +334,13 @@ SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& ru
     }
     named = detail::with_candidate(named, best->id, best->settings);
     const std::string superseded = detail::superseded_effect(best->id);
-    chosen.erase(std::remove_if(chosen.begin(), chosen.end(), [&](const auto& c) { return c.id == superseded; }),
+    chosen.erase(std::remove_if(chosen.begin(), chosen.end(),
+                                [&](const auto& c) { return c.id == superseded; }),
                  chosen.end());
     chosen.push_back(*best);
     remaining.erase(std::find(remaining.begin(), remaining.end(), best->id));
-    if (!superseded.empty()) remaining.erase(std::remove(remaining.begin(), remaining.end(), superseded), remaining.end());
+    if (!superseded.empty())
+      remaining.erase(std::remove(remaining.begin(), remaining.end(), superseded), remaining.end());
   }
 
   result.friction_shapes = detail::test_friction_shapes(named, chosen, k, fixed);
@@ -320,14 +349,16 @@ SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& ru
   const StackedRegression<double> all = stack_runs(result.final_model, result.final.kinematics);
   result.final_covariance = hac_covariance(all, result.final.kinematics, result.final.fit);
   for (auto& c : chosen) {
-    c.estimate = effect_estimate(c.id, result.final.fit.theta, result.final_covariance, result.final_model, c.settings);
+    c.estimate = effect_estimate(c.id, result.final.fit.theta, result.final_covariance,
+                                 result.final_model, c.settings);
     result.named.push_back(std::move(c));
   }
   for (auto& shape : result.friction_shapes)
     if (shape.asymmetric)
       detail::directional_levels(shape, result.final.fit.theta, result.final_covariance,
                                  result.final_model.parameter_offset(shape.id));
-  const bool rotor_named = std::any_of(named.begin(), named.end(), [](const auto& e) { return e.first == "armature_j2"; });
+  const bool rotor_named = std::any_of(named.begin(), named.end(),
+                                       [](const auto& e) { return e.first == "armature_j2"; });
   if (!rotor_named) {
     const auto it = std::find_if(result.not_named.begin(), result.not_named.end(),
                                  [](const RunsEffectTest& t) { return t.id == "armature_j2"; });
@@ -345,15 +376,17 @@ SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& ru
   for (std::size_t r = 0; r < runs.size(); ++r) {
     const double n = static_cast<double>(result.final.kinematics[r].size());
     residual_ss += n * result.final.residual_rms[r].cwiseAbs2();
-    if (!result.final.left_out_prediction_rms.empty()) left_out_ss += n * result.final.left_out_prediction_rms[r].cwiseAbs2();
+    if (!result.final.left_out_prediction_rms.empty())
+      left_out_ss += n * result.final.left_out_prediction_rms[r].cwiseAbs2();
     floor_ss += n * result.floor[r].cwiseAbs2();
     samples += n;
   }
   for (int j = 0; j < 2; ++j) {
     result.excess_rms[j] = std::sqrt(std::max(0.0, (residual_ss[j] - floor_ss[j]) / samples));
-    result.left_out_excess_rms[j] = result.final.left_out_prediction_rms.empty()
-                                        ? std::nan("")
-                                        : std::sqrt(std::max(0.0, (left_out_ss[j] - floor_ss[j]) / samples));
+    result.left_out_excess_rms[j] =
+        result.final.left_out_prediction_rms.empty()
+            ? std::nan("")
+            : std::sqrt(std::max(0.0, (left_out_ss[j] - floor_ss[j]) / samples));
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;

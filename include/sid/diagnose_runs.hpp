@@ -56,8 +56,8 @@ struct RunsDiagnoseOptions {
 /// @brief One effect tested against the model of a selection round.
 struct RunsEffectTest {
   std::string id;
-  EffectSettings settings;  ///< the settings its term was built with (Stribeck: the vs found)
-  EffectEstimate estimate;  ///< physical values with HAC standard deviations
+  EffectSettings settings;       ///< the settings its term was built with (Stribeck: the vs found)
+  EffectEstimate estimate;       ///< physical values with HAC standard deviations
   double wald = 0, p_value = 1;  ///< HAC Wald statistic; p-value after Holm's correction
   /// Relative drop of the held-out torque mean square per joint when the effect is added
   /// (negative: the predictions got worse), and their mean, the selection's criterion.
@@ -69,7 +69,7 @@ struct RunsEffectTest {
 /// @brief The shape of a named Coulomb friction, tested after the selection: the sign stand-in
 /// atan instead of tanh (a slower approach to the level), then a level that differs by direction.
 struct FrictionShapeTest {
-  std::string id;  ///< coulomb_j1 or coulomb_j2
+  std::string id;                           ///< coulomb_j1 or coulomb_j2
   CoulombShape shape = CoulombShape::Tanh;  ///< the one kept
   bool asymmetric = false;                  ///< kept: Fc + dFc forward, Fc − dFc backward
   /// Relative drops of the held-out torque mean square per joint when the variant replaces the
@@ -78,7 +78,8 @@ struct FrictionShapeTest {
   double asymmetric_p_value = 1;  ///< HAC Wald test of dFc = 0
   /// The levels forward and backward [N m] with HAC std: of the final model when asymmetric, of
   /// the asymmetric trial otherwise.
-  double forward = std::nan(""), backward = std::nan(""), forward_std = std::nan(""), backward_std = std::nan("");
+  double forward = std::nan(""), backward = std::nan(""), forward_std = std::nan(""),
+         backward_std = std::nan("");
 };
 
 /// @brief What diagnose_runs found.
@@ -126,8 +127,9 @@ struct RunsEquations {
   std::vector<Group> groups;
 };
 
-SID_INLINE RunsEquations runs_equations(const Model<double>& model, const std::vector<Kinematics<double>>& kinematics,
-                                    int folds_per_run);
+SID_INLINE RunsEquations runs_equations(const Model<double>& model,
+                                        const std::vector<Kinematics<double>>& kinematics,
+                                        int folds_per_run);
 
 /// The held-out torque mean square per joint: each group predicted by the fit of the others.
 /// Infinite when a fit without some group is singular.
@@ -139,25 +141,29 @@ SID_INLINE std::pair<Eigen::VectorXd, Eigen::MatrixXd> fit_with_hac(const RunsEq
 
 /// The nominal two-link model plus the terms of `named` (a Stribeck term replaces the Coulomb
 /// term of its joint, which it contains).
-SID_INLINE Model<double> model_with(double g, const std::vector<std::pair<std::string, EffectSettings>>& named);
+SID_INLINE Model<double> model_with(
+    double g, const std::vector<std::pair<std::string, EffectSettings>>& named);
 
 SID_INLINE std::vector<std::pair<std::string, EffectSettings>> with_candidate(
-    std::vector<std::pair<std::string, EffectSettings>> named, const std::string& id, const EffectSettings& settings);
+    std::vector<std::pair<std::string, EffectSettings>> named, const std::string& id,
+    const EffectSettings& settings);
 
 /// A candidate's test against the model of `named` (its held-out mean square `base_ms`).
-SID_INLINE RunsEffectTest test_candidate(const std::string& id, const EffectSettings& settings,
-                                     const std::vector<std::pair<std::string, EffectSettings>>& named,
-                                     const std::vector<Kinematics<double>>& kinematics, const Vector2<double>& base_ms,
-                                     const RunsDiagnoseOptions& options);
+SID_INLINE RunsEffectTest
+test_candidate(const std::string& id, const EffectSettings& settings,
+               const std::vector<std::pair<std::string, EffectSettings>>& named,
+               const std::vector<Kinematics<double>>& kinematics, const Vector2<double>& base_ms,
+               const RunsDiagnoseOptions& options);
 
 /// The Stribeck width whose model predicts held-out torques best.
-SID_INLINE double best_stribeck_width(const std::string& id, const std::vector<std::pair<std::string, EffectSettings>>& named,
-                                  const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options);
+SID_INLINE double best_stribeck_width(
+    const std::string& id, const std::vector<std::pair<std::string, EffectSettings>>& named,
+    const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options);
 
 /// RMS per joint of a run's torque above cutoff_hz: τ minus its smoothing at the cutoff, at the
 /// samples the fits use.
 SID_INLINE Vector2<double> torque_above_cutoff(const Trajectory<double>& run, double cutoff_hz,
-                                           const RunsIdentifyOptions& options);
+                                               const RunsIdentifyOptions& options);
 
 SID_INLINE void check_runs_diagnose_options(const RunsDiagnoseOptions& o);
 
@@ -171,26 +177,26 @@ SID_INLINE std::string mean_square_change(const Vector2<double>& gain);
 SID_INLINE std::string rejection(const RunsEffectTest& t, const RunsDiagnoseOptions& o);
 
 /// One round of the forward selection: every remaining candidate tested against `named`.
-SID_INLINE std::vector<RunsEffectTest> selection_round(const std::vector<std::string>& remaining,
-                                                   const std::vector<std::pair<std::string, EffectSettings>>& named,
-                                                   const std::vector<Kinematics<double>>& kinematics,
-                                                   const RunsDiagnoseOptions& options);
+SID_INLINE std::vector<RunsEffectTest> selection_round(
+    const std::vector<std::string>& remaining,
+    const std::vector<std::pair<std::string, EffectSettings>>& named,
+    const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options);
 
 /// The passing candidate with the largest gain, except that a term containing another passing
 /// one (Stribeck contains Coulomb) must beat it by min_gain: on data with plain Coulomb
 /// friction a Stribeck term with Fs ≈ Fc predicts as well, and the simpler effect is the finding.
-SID_INLINE const RunsEffectTest* best_candidate(const std::vector<RunsEffectTest>& tests, double min_gain);
+SID_INLINE const RunsEffectTest* best_candidate(const std::vector<RunsEffectTest>& tests,
+                                                double min_gain);
 
 /// The levels forward and backward of an asymmetric Coulomb term at `at` (Fc, dFc) of θ.
-SID_INLINE void directional_levels(FrictionShapeTest& s, const Eigen::VectorXd& theta, const Eigen::MatrixXd& covariance,
-                               Eigen::Index at);
+SID_INLINE void directional_levels(FrictionShapeTest& s, const Eigen::VectorXd& theta,
+                                   const Eigen::MatrixXd& covariance, Eigen::Index at);
 
 /// Tests the shapes of the named Coulomb terms, one joint after the other, and keeps those that
 /// pass (see RunsDiagnosis::friction_shapes); updates `named` and `chosen`'s settings.
-SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(std::vector<std::pair<std::string, EffectSettings>>& named,
-                                                           std::vector<RunsEffectTest>& chosen,
-                                                           const std::vector<Kinematics<double>>& kinematics,
-                                                           const RunsDiagnoseOptions& options);
+SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(
+    std::vector<std::pair<std::string, EffectSettings>>& named, std::vector<RunsEffectTest>& chosen,
+    const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options);
 
 }  // namespace detail
 
@@ -212,7 +218,8 @@ SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(std::vector<std::
 /// 5. The final model is fitted by identify_runs (QR, HAC std, each run left out in turn); the
 ///    named effects' values come from it. The rotor coupling of drive 2 is tested against it.
 /// @throws std::invalid_argument as identify_runs does, or for bad options (names the problem).
-SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& runs, const RunsDiagnoseOptions& options = {});
+SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& runs,
+                                       const RunsDiagnoseOptions& options = {});
 
 }  // namespace sid
 

@@ -26,8 +26,8 @@ template <typename Scalar>
 struct FiniteDifferences {
   Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> first;   ///< x' [unit/s]
   Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> second;  ///< x'' [unit/s^2]
-  Eigen::Index first_begin = 0;   ///< sample index of first.row(0)
-  Eigen::Index second_begin = 0;  ///< sample index of second.row(0)
+  Eigen::Index first_begin = 0;                                  ///< sample index of first.row(0)
+  Eigen::Index second_begin = 0;                                 ///< sample index of second.row(0)
 
   /// First sample at which both derivatives exist.
   Eigen::Index begin() const { return std::max(first_begin, second_begin); }
@@ -99,7 +99,8 @@ FiniteDifferences<typename Derived::Scalar> central_differences(const Eigen::Mat
   const Eigen::Index n = x.rows();
   FiniteDifferences<Scalar> d;
   d.first = (x.bottomRows(n - 2) - x.topRows(n - 2)) / (Scalar(2) * ts);
-  d.second = (x.bottomRows(n - 2) - Scalar(2) * x.middleRows(1, n - 2) + x.topRows(n - 2)) / (ts * ts);
+  d.second =
+      (x.bottomRows(n - 2) - Scalar(2) * x.middleRows(1, n - 2) + x.topRows(n - 2)) / (ts * ts);
   d.first_begin = 1;
   d.second_begin = 1;
   return d;

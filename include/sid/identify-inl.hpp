@@ -7,9 +7,12 @@ namespace sid {
 
 SID_INLINE const char* method_name(DerivativeMethod method) {
   switch (method) {
-    case DerivativeMethod::ForwardDifference: return "raw";
-    case DerivativeMethod::FilteredDifference: return "filtered";
-    case DerivativeMethod::SmoothingSpline: return "css";
+    case DerivativeMethod::ForwardDifference:
+      return "raw";
+    case DerivativeMethod::FilteredDifference:
+      return "filtered";
+    case DerivativeMethod::SmoothingSpline:
+      return "css";
   }
   return "unknown";
 }
@@ -24,16 +27,21 @@ SID_INLINE DerivativeMethod parse_derivative_method(const std::string& name) {
 
 SID_INLINE const char* smoothing_mode_name(SmoothingMode mode) {
   switch (mode) {
-    case SmoothingMode::SConstraint: return "s-constraint";
-    case SmoothingMode::Gcv: return "gcv";
-    case SmoothingMode::Cv: return "cv";
-    case SmoothingMode::Lambda: return "lambda";
+    case SmoothingMode::SConstraint:
+      return "s-constraint";
+    case SmoothingMode::Gcv:
+      return "gcv";
+    case SmoothingMode::Cv:
+      return "cv";
+    case SmoothingMode::Lambda:
+      return "lambda";
   }
   return "unknown";
 }
 
 SID_INLINE SmoothingMode parse_smoothing_mode(const std::string& name) {
-  for (SmoothingMode m : {SmoothingMode::SConstraint, SmoothingMode::Gcv, SmoothingMode::Cv, SmoothingMode::Lambda})
+  for (SmoothingMode m :
+       {SmoothingMode::SConstraint, SmoothingMode::Gcv, SmoothingMode::Cv, SmoothingMode::Lambda})
     if (name == smoothing_mode_name(m)) return m;
   throw std::invalid_argument("sid::parse_smoothing_mode: unknown smoothing '" + name +
                               "' (expected s-constraint, gcv, cv or lambda)");
@@ -47,14 +55,16 @@ SID_INLINE double uniform_period(const VectorX<double>& t, const char* who) {
   constexpr double kUniformTolerance = 1e-6;  // relative jitter a logged time stamp may have
   for (Eigen::Index i = 1; i < n; ++i)
     if (std::abs((t[i] - t[i - 1]) - ts) > kUniformTolerance * ts)
-      throw std::invalid_argument(std::string(who) + ": finite differences need uniform sampling, but t[" +
-                                  std::to_string(i) + "] - t[" + std::to_string(i - 1) + "] = " +
-                                  std::to_string(t[i] - t[i - 1]) + " differs from the mean period " +
-                                  std::to_string(ts));
+      throw std::invalid_argument(std::string(who) +
+                                  ": finite differences need uniform sampling, but t[" +
+                                  std::to_string(i) + "] - t[" + std::to_string(i - 1) +
+                                  "] = " + std::to_string(t[i] - t[i - 1]) +
+                                  " differs from the mean period " + std::to_string(ts));
   return ts;
 }
 
-SID_INLINE Kinematics<double> rows_of(const Trajectory<double>& data, Eigen::Index begin, Eigen::Index count) {
+SID_INLINE Kinematics<double> rows_of(const Trajectory<double>& data, Eigen::Index begin,
+                                      Eigen::Index count) {
   Kinematics<double> k;
   k.t = data.t.segment(begin, count);
   k.q = data.q.middleRows(begin, count);
@@ -64,23 +74,30 @@ SID_INLINE Kinematics<double> rows_of(const Trajectory<double>& data, Eigen::Ind
 
 }  // namespace detail
 
-SID_INLINE Kinematics<double> estimate_kinematics(const Trajectory<double>& data, const IdentifyOptions& options,
-                                              SmoothingReport* report) {
+SID_INLINE Kinematics<double> estimate_kinematics(const Trajectory<double>& data,
+                                                  const IdentifyOptions& options,
+                                                  SmoothingReport* report) {
   const char* who = "sid::estimate_kinematics";
   data.validate(who);
   const Eigen::Index n = data.size();
   switch (options.method) {
     case DerivativeMethod::SmoothingSpline: {
-      if (n < 3) throw std::invalid_argument(std::string(who) + ": CSS needs at least 3 samples, got " + std::to_string(n));
+      if (n < 3)
+        throw std::invalid_argument(std::string(who) + ": CSS needs at least 3 samples, got " +
+                                    std::to_string(n));
       const bool cross_validated =
           options.smoothing == SmoothingMode::Gcv || options.smoothing == SmoothingMode::Cv;
       Eigen::Index first = 0;
       if (cross_validated) {
-        if (!(options.cross_validation_skip >= 0.0) || !std::isfinite(options.cross_validation_skip))
-          throw std::invalid_argument(std::string(who) + ": cross_validation_skip must be finite and >= 0");
-        while (first < n && data.t[first] < data.t[0] + options.cross_validation_skip - 1e-9) ++first;
+        if (!(options.cross_validation_skip >= 0.0) ||
+            !std::isfinite(options.cross_validation_skip))
+          throw std::invalid_argument(std::string(who) +
+                                      ": cross_validation_skip must be finite and >= 0");
+        while (first < n && data.t[first] < data.t[0] + options.cross_validation_skip - 1e-9)
+          ++first;
         if (n - first < 4)
-          throw std::invalid_argument(std::string(who) + ": fewer than 4 samples after cross_validation_skip");
+          throw std::invalid_argument(std::string(who) +
+                                      ": fewer than 4 samples after cross_validation_skip");
       }
       const Eigen::Index used = n - first;
       const SmoothingSpline<double> spline(data.t.tail(used));
@@ -89,23 +106,29 @@ SID_INLINE Kinematics<double> estimate_kinematics(const Trajectory<double>& data
       k.qdd.resize(used, 2);
       if (cross_validated && (!(options.cross_validation_lambda_scale > 0.0) ||
                               !std::isfinite(options.cross_validation_lambda_scale)))
-        throw std::invalid_argument(std::string(who) + ": cross_validation_lambda_scale must be finite and > 0");
-      if (options.smoothing == SmoothingMode::Lambda && (!(options.lambda > 0.0) || !std::isfinite(options.lambda)))
-        throw std::invalid_argument(std::string(who) + ": smoothing 'lambda' needs a finite lambda > 0");
+        throw std::invalid_argument(std::string(who) +
+                                    ": cross_validation_lambda_scale must be finite and > 0");
+      if (options.smoothing == SmoothingMode::Lambda &&
+          (!(options.lambda > 0.0) || !std::isfinite(options.lambda)))
+        throw std::invalid_argument(std::string(who) +
+                                    ": smoothing 'lambda' needs a finite lambda > 0");
       for (int j = 0; j < 2; ++j) {
         if (!cross_validated && (!(options.sigma_q[j] > 0.0) || !std::isfinite(options.sigma_q[j])))
-          throw std::invalid_argument(std::string(who) + ": sigma_q of joint " + std::to_string(j + 1) +
-                                      " must be finite and > 0");
+          throw std::invalid_argument(std::string(who) + ": sigma_q of joint " +
+                                      std::to_string(j + 1) + " must be finite and > 0");
         const VectorX<double> qj = data.q.col(j).tail(used);
         SmoothingFit<double> fit;
         switch (options.smoothing) {
           case SmoothingMode::SConstraint:
-            fit = spline.fit_constrained(qj, options.sigma_q[j], options.S.value_or(static_cast<double>(used)));
+            fit = spline.fit_constrained(qj, options.sigma_q[j],
+                                         options.S.value_or(static_cast<double>(used)));
             break;
           case SmoothingMode::Gcv:
           case SmoothingMode::Cv: {
-            fit = spline.fit_cross_validated(
-                qj, 1.0, options.smoothing == SmoothingMode::Gcv ? SmoothingCriterion::Gcv : SmoothingCriterion::Cv);
+            fit = spline.fit_cross_validated(qj, 1.0,
+                                             options.smoothing == SmoothingMode::Gcv
+                                                 ? SmoothingCriterion::Gcv
+                                                 : SmoothingCriterion::Cv);
             const double scale = options.cross_validation_lambda_scale;
             if (scale != 1.0) {
               const SmoothingFit<double> chosen = fit;
@@ -133,11 +156,13 @@ SID_INLINE Kinematics<double> estimate_kinematics(const Trajectory<double>& data
     }
     case DerivativeMethod::ForwardDifference:
     case DerivativeMethod::FilteredDifference: {
-      const Eigen::Index min_samples =
-          options.method == DerivativeMethod::ForwardDifference ? 3 : 3 * (options.filters.qdd_order + 1) + 3;
+      const Eigen::Index min_samples = options.method == DerivativeMethod::ForwardDifference
+                                           ? 3
+                                           : 3 * (options.filters.qdd_order + 1) + 3;
       if (n < min_samples)
-        throw std::invalid_argument(std::string(who) + ": method " + method_name(options.method) + " needs at least " +
-                                    std::to_string(min_samples) + " samples, got " + std::to_string(n));
+        throw std::invalid_argument(std::string(who) + ": method " + method_name(options.method) +
+                                    " needs at least " + std::to_string(min_samples) +
+                                    " samples, got " + std::to_string(n));
       const double ts = detail::uniform_period(data.t, who);
       const auto d = forward_differences(data.q, ts);
       const Eigen::Index m = n - 2;  // samples with q̈
@@ -158,8 +183,7 @@ SID_INLINE Kinematics<double> estimate_kinematics(const Trajectory<double>& data
   throw std::invalid_argument(std::string(who) + ": unknown method");
 }
 
-SID_INLINE Kinematics<double> window(const Kinematics<double>& k, double t_from,
-                                 double t_to) {
+SID_INLINE Kinematics<double> window(const Kinematics<double>& k, double t_from, double t_to) {
   const double tol_from = 1e-9 * (1.0 + std::abs(t_from));
   const double tol_to = std::isfinite(t_to) ? 1e-9 * (1.0 + std::abs(t_to)) : 0.0;
   Eigen::Index begin = 0, end = k.size();
@@ -182,7 +206,7 @@ SID_INLINE std::vector<std::string> two_link_parameter_names() {
 }
 
 SID_INLINE LeastSquaresResult<double> fit_two_link(const Kinematics<double>& k, double gravity,
-                                               LeastSquaresOptions options) {
+                                                   LeastSquaresOptions options) {
   if (2 * k.size() <= 7)
     throw std::invalid_argument("sid::fit_two_link: " + std::to_string(k.size()) +
                                 " samples give too few equations for 7 parameters");
@@ -191,8 +215,9 @@ SID_INLINE LeastSquaresResult<double> fit_two_link(const Kinematics<double>& k, 
   return least_squares(regression.X, regression.y, 2, options);
 }
 
-SID_INLINE LeastSquaresResult<double> fit_two_link_weighted(const Kinematics<double>& k, double gravity,
-                                                        LeastSquaresOptions options) {
+SID_INLINE LeastSquaresResult<double> fit_two_link_weighted(const Kinematics<double>& k,
+                                                            double gravity,
+                                                            LeastSquaresOptions options) {
   const LeastSquaresResult<double> first = fit_two_link(k, gravity, options);
   if (!first.ok() || !(first.sigma2_per_joint.array() > 0.0).all()) return first;
   if (options.column_names.empty()) options.column_names = two_link_parameter_names();
@@ -209,7 +234,8 @@ SID_INLINE Identification identify(const Trajectory<double>& data, const Identif
   result.method = options.method;
   const Kinematics<double> all = estimate_kinematics(data, options, &result.smoothing);
   result.smoothing_p = result.smoothing.p;
-  const double skip = options.method == DerivativeMethod::FilteredDifference ? options.filtered_skip : options.skip;
+  const double skip =
+      options.method == DerivativeMethod::FilteredDifference ? options.filtered_skip : options.skip;
   if (!(skip >= 0.0) || !std::isfinite(skip))
     throw std::invalid_argument("sid::identify: skip must be finite and >= 0");
   if (!(options.skip_end >= 0.0) || !std::isfinite(options.skip_end))
@@ -219,8 +245,10 @@ SID_INLINE Identification identify(const Trajectory<double>& data, const Identif
     throw std::invalid_argument("sid::identify: only " + std::to_string(result.kinematics.size()) +
                                 " samples are left after skipping " + std::to_string(skip) +
                                 " s; 7 parameters need at least 4");
-  result.fit = options.weighted ? fit_two_link_weighted(result.kinematics, options.gravity, options.least_squares)
-                                : fit_two_link(result.kinematics, options.gravity, options.least_squares);
+  result.fit =
+      options.weighted
+          ? fit_two_link_weighted(result.kinematics, options.gravity, options.least_squares)
+          : fit_two_link(result.kinematics, options.gravity, options.least_squares);
   return result;
 }
 

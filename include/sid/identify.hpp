@@ -25,7 +25,7 @@ namespace sid {
 
 /// @brief How q̇ and q̈ are obtained from the measured q.
 enum class DerivativeMethod {
-  ForwardDifference,   ///< "raw": q̇ᵢ = (qᵢ₊₁ − qᵢ)/Ts, q̈ likewise from q̇ (paper eq. 47–48)
+  ForwardDifference,  ///< "raw": q̇ᵢ = (qᵢ₊₁ − qᵢ)/Ts, q̈ likewise from q̇ (paper eq. 47–48)
   FilteredDifference,  ///< "filtered": the same, then q, q̇, q̈ each filtered by filtfilt
   SmoothingSpline,     ///< "css": Reinsch spline per joint, derivatives analytic
 };
@@ -129,7 +129,8 @@ namespace detail {
 /// Sampling period of a uniform grid. @throws std::invalid_argument if t is not uniform.
 SID_INLINE double uniform_period(const VectorX<double>& t, const char* who);
 
-SID_INLINE Kinematics<double> rows_of(const Trajectory<double>& data, Eigen::Index begin, Eigen::Index count);
+SID_INLINE Kinematics<double> rows_of(const Trajectory<double>& data, Eigen::Index begin,
+                                      Eigen::Index count);
 
 }  // namespace detail
 
@@ -138,13 +139,14 @@ SID_INLINE Kinematics<double> rows_of(const Trajectory<double>& data, Eigen::Ind
 /// filtered signals. Smoothing parameters p are written to *p_out when given.
 /// @throws std::invalid_argument on an invalid trajectory, too few samples, non-uniform sampling
 /// for the difference methods, or δq <= 0.
-SID_INLINE Kinematics<double> estimate_kinematics(const Trajectory<double>& data, const IdentifyOptions& options,
-                                              SmoothingReport* report = nullptr);
+SID_INLINE Kinematics<double> estimate_kinematics(const Trajectory<double>& data,
+                                                  const IdentifyOptions& options,
+                                                  SmoothingReport* report = nullptr);
 
 /// @brief The samples with t_from <= t <= t_to (a small tolerance keeps a sample that sits on a
 /// bound despite rounding, e.g. 100 · 0.0025).
 SID_INLINE Kinematics<double> window(const Kinematics<double>& k, double t_from,
-                                 double t_to = std::numeric_limits<double>::infinity());
+                                     double t_to = std::numeric_limits<double>::infinity());
 
 /// @brief The paper's 7 parameter names, "theta1".."theta7".
 SID_INLINE std::vector<std::string> two_link_parameter_names();
@@ -152,20 +154,22 @@ SID_INLINE std::vector<std::string> two_link_parameter_names();
 /// @brief Least squares of the two-link arm on given kinematics (joint 1's rows, then joint 2's).
 /// @throws std::invalid_argument if there are not more equations than parameters.
 SID_INLINE LeastSquaresResult<double> fit_two_link(const Kinematics<double>& k, double gravity,
-                                               LeastSquaresOptions options = {});
+                                                   LeastSquaresOptions options = {});
 
 /// @brief Gautier's IDIM-WLS: an ordinary fit first, then each joint's rows weighted by
 /// 1/σ̂ⱼ² from that fit's per-joint residual variance, so a joint with noisier torques counts
 /// less. The result's covariance is then σ̂²(XᵀWX)⁻¹ with σ̂² ≈ 1, and its relative standard
 /// deviations are the ones Gautier reports. A rank-deficient first fit is returned as it is.
-SID_INLINE LeastSquaresResult<double> fit_two_link_weighted(const Kinematics<double>& k, double gravity,
-                                                        LeastSquaresOptions options = {});
+SID_INLINE LeastSquaresResult<double> fit_two_link_weighted(const Kinematics<double>& k,
+                                                            double gravity,
+                                                            LeastSquaresOptions options = {});
 
 /// @brief The whole pipeline: derivatives by options.method, window, least squares.
 /// A rank-deficient regressor is reported in result.fit.status (not thrown).
 /// @throws std::invalid_argument on bad input (see estimate_kinematics) or when the window
 /// leaves too few samples.
-SID_INLINE Identification identify(const Trajectory<double>& data, const IdentifyOptions& options = {});
+SID_INLINE Identification identify(const Trajectory<double>& data,
+                                   const IdentifyOptions& options = {});
 
 }  // namespace sid
 

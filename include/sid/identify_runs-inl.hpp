@@ -7,22 +7,24 @@ namespace sid {
 
 SID_INLINE double smoothing_lambda_for_cutoff(double cutoff_hz, double mean_period) {
   if (!(cutoff_hz > 0.0) || !std::isfinite(cutoff_hz))
-    throw std::invalid_argument("sid::smoothing_lambda_for_cutoff: cutoff must be finite and > 0 Hz");
+    throw std::invalid_argument(
+        "sid::smoothing_lambda_for_cutoff: cutoff must be finite and > 0 Hz");
   if (!(mean_period > 0.0) || !std::isfinite(mean_period))
-    throw std::invalid_argument("sid::smoothing_lambda_for_cutoff: mean period must be finite and > 0 s");
+    throw std::invalid_argument(
+        "sid::smoothing_lambda_for_cutoff: mean period must be finite and > 0 s");
   const double omega = 2.0 * 3.14159265358979323846 * cutoff_hz;
   return 1.0 / (mean_period * omega * omega * omega * omega);
 }
 
 SID_INLINE Kinematics<double> kinematics_at_cutoff(const Trajectory<double>& run, double cutoff_hz,
-                                               double* lambda_out) {
+                                                   double* lambda_out) {
   run.validate("sid::kinematics_at_cutoff");
   const Eigen::Index n = run.size();
   if (n < 3)
     throw std::invalid_argument("sid::kinematics_at_cutoff: a run needs at least 3 samples, got " +
                                 std::to_string(n));
-  const double lambda =
-      smoothing_lambda_for_cutoff(cutoff_hz, (run.t[n - 1] - run.t[0]) / static_cast<double>(n - 1));
+  const double lambda = smoothing_lambda_for_cutoff(
+      cutoff_hz, (run.t[n - 1] - run.t[0]) / static_cast<double>(n - 1));
   if (lambda_out) *lambda_out = lambda;
   const SmoothingSpline<double> spline(run.t);
   Kinematics<double> k;
@@ -46,21 +48,25 @@ SID_INLINE void check_runs_options(const RunsIdentifyOptions& o, const char* who
   const std::string prefix = std::string(who) + ": ";
   if (o.cutoff_hz && (!(*o.cutoff_hz > 0.0) || !std::isfinite(*o.cutoff_hz)))
     throw std::invalid_argument(prefix + "cutoff_hz must be finite and > 0");
-  if (!(o.min_cutoff_hz > 0.0) || !std::isfinite(o.max_cutoff_hz) || !(o.max_cutoff_hz >= o.min_cutoff_hz))
-    throw std::invalid_argument(prefix + "the cutoff range needs 0 < min_cutoff_hz <= max_cutoff_hz < inf");
+  if (!(o.min_cutoff_hz > 0.0) || !std::isfinite(o.max_cutoff_hz) ||
+      !(o.max_cutoff_hz >= o.min_cutoff_hz))
+    throw std::invalid_argument(prefix +
+                                "the cutoff range needs 0 < min_cutoff_hz <= max_cutoff_hz < inf");
   if (o.grid_points_per_octave < 1 || o.grid_points_per_octave > 64)
     throw std::invalid_argument(prefix + "grid_points_per_octave must be in 1..64");
   if (o.folds_per_run < 2) throw std::invalid_argument(prefix + "folds_per_run must be >= 2");
-  if (!(o.skip >= 0.0) || !std::isfinite(o.skip) || !(o.skip_end >= 0.0) || !std::isfinite(o.skip_end))
+  if (!(o.skip >= 0.0) || !std::isfinite(o.skip) || !(o.skip_end >= 0.0) ||
+      !std::isfinite(o.skip_end))
     throw std::invalid_argument(prefix + "skip and skip_end must be finite and >= 0 s");
 }
 
-SID_INLINE Kinematics<double> used_samples(const Kinematics<double>& all, const RunsIdentifyOptions& o) {
+SID_INLINE Kinematics<double> used_samples(const Kinematics<double>& all,
+                                           const RunsIdentifyOptions& o) {
   return window(all, all.t[0] + o.skip, all.t[all.size() - 1] - o.skip_end);
 }
 
 SID_INLINE void add_fold_moments(const StackedRegression<double>& r, Eigen::Index n, int folds,
-                             std::vector<FoldMoments>& out) {
+                                 std::vector<FoldMoments>& out) {
   for (int b = 0; b < folds; ++b) {
     const Eigen::Index begin = n * b / folds, count = n * (b + 1) / folds - begin;
     FoldMoments m;
@@ -87,11 +93,14 @@ SID_INLINE double leave_fold_out_rms(const std::vector<FoldMoments>& folds) {
   double sse = 0.0;
   for (const auto& f : folds) {
     const Eigen::MatrixXd g = gram - f.gram;
-    const Eigen::VectorXd scale = g.diagonal().cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse();
+    const Eigen::VectorXd scale =
+        g.diagonal().cwiseMax(std::numeric_limits<double>::min()).cwiseSqrt().cwiseInverse();
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(scale.asDiagonal() * g * scale.asDiagonal());
-    if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-12 * ldlt.vectorD().maxCoeff()))
+    if (ldlt.info() != Eigen::Success ||
+        !(ldlt.vectorD().minCoeff() > 1e-12 * ldlt.vectorD().maxCoeff()))
       return std::numeric_limits<double>::infinity();
-    const Eigen::VectorXd theta = scale.asDiagonal() * ldlt.solve(scale.asDiagonal() * (moment - f.moment));
+    const Eigen::VectorXd theta =
+        scale.asDiagonal() * ldlt.solve(scale.asDiagonal() * (moment - f.moment));
     sse += std::max(0.0, theta.dot(f.gram * theta) - 2.0 * theta.dot(f.moment) + f.yy);
   }
   return std::sqrt(sse / static_cast<double>(rows));
@@ -100,7 +109,7 @@ SID_INLINE double leave_fold_out_rms(const std::vector<FoldMoments>& folds) {
 }  // namespace detail
 
 SID_INLINE StackedRegression<double> stack_runs(const Model<double>& model,
-                                            const std::vector<Kinematics<double>>& runs) {
+                                                const std::vector<Kinematics<double>>& runs) {
   Eigen::Index total = 0;
   for (const auto& k : runs) total += k.size();
   StackedRegression<double> all;
@@ -123,29 +132,35 @@ SID_INLINE std::vector<double> cutoff_grid(const RunsIdentifyOptions& options) {
   detail::check_runs_options(options, "sid::cutoff_grid");
   std::vector<double> grid;
   const double ratio = std::pow(2.0, 1.0 / options.grid_points_per_octave);
-  for (double f = options.min_cutoff_hz; f <= options.max_cutoff_hz * (1.0 + 1e-12); f *= ratio) grid.push_back(f);
+  for (double f = options.min_cutoff_hz; f <= options.max_cutoff_hz * (1.0 + 1e-12); f *= ratio)
+    grid.push_back(f);
   return grid;
 }
 
 SID_INLINE std::vector<double> cutoff_cross_validation(const std::vector<Trajectory<double>>& runs,
-                                                   const Model<double>& model, const std::vector<double>& grid_hz,
-                                                   const RunsIdentifyOptions& options) {
+                                                       const Model<double>& model,
+                                                       const std::vector<double>& grid_hz,
+                                                       const RunsIdentifyOptions& options) {
   std::vector<double> score(grid_hz.size());
-  const int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
-  detail::for_each_index(static_cast<Eigen::Index>(grid_hz.size()), threads, [&](Eigen::Index g, int) {
-    std::vector<detail::FoldMoments> folds;
-    for (const auto& run : runs) {
-      const Kinematics<double> k = detail::used_samples(kinematics_at_cutoff(run, grid_hz[static_cast<std::size_t>(g)]), options);
-      detail::add_fold_moments(stack_regression(model, k), k.size(), options.folds_per_run, folds);
-    }
-    score[static_cast<std::size_t>(g)] = detail::leave_fold_out_rms(folds);
-  });
+  const int threads =
+      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  detail::for_each_index(
+      static_cast<Eigen::Index>(grid_hz.size()), threads, [&](Eigen::Index g, int) {
+        std::vector<detail::FoldMoments> folds;
+        for (const auto& run : runs) {
+          const Kinematics<double> k = detail::used_samples(
+              kinematics_at_cutoff(run, grid_hz[static_cast<std::size_t>(g)]), options);
+          detail::add_fold_moments(stack_regression(model, k), k.size(), options.folds_per_run,
+                                   folds);
+        }
+        score[static_cast<std::size_t>(g)] = detail::leave_fold_out_rms(folds);
+      });
   return score;
 }
 
 SID_INLINE Eigen::MatrixXd hac_covariance(const StackedRegression<double>& all,
-                                      const std::vector<Kinematics<double>>& kinematics,
-                                      const LeastSquaresResult<double>& fit) {
+                                          const std::vector<Kinematics<double>>& kinematics,
+                                          const LeastSquaresResult<double>& fit) {
   const Eigen::Index p = all.X.cols(), total = all.X.rows() / 2;
   Eigen::MatrixXd long_run = Eigen::MatrixXd::Zero(p, p);
   Eigen::Index at = 0;
@@ -153,7 +168,8 @@ SID_INLINE Eigen::MatrixXd hac_covariance(const StackedRegression<double>& all,
     const Eigen::Index n = k.size();
     const Eigen::MatrixXd scores =
         all.X.middleRows(at, n).array().colwise() * fit.residual.segment(at, n).array() +
-        all.X.middleRows(total + at, n).array().colwise() * fit.residual.segment(total + at, n).array();
+        all.X.middleRows(total + at, n).array().colwise() *
+            fit.residual.segment(total + at, n).array();
     long_run += hac_long_run_sum(scores);
     at += n;
   }
@@ -161,19 +177,20 @@ SID_INLINE Eigen::MatrixXd hac_covariance(const StackedRegression<double>& all,
   return inverse_gram * long_run * inverse_gram;
 }
 
-SID_INLINE Eigen::VectorXd hac_standard_deviations(const StackedRegression<double>& all,
-                                               const std::vector<Kinematics<double>>& kinematics,
-                                               const LeastSquaresResult<double>& fit) {
+SID_INLINE Eigen::VectorXd hac_standard_deviations(
+    const StackedRegression<double>& all, const std::vector<Kinematics<double>>& kinematics,
+    const LeastSquaresResult<double>& fit) {
   return hac_covariance(all, kinematics, fit).diagonal().cwiseMax(0.0).cwiseSqrt();
 }
 
 namespace detail {
 
 SID_INLINE void check_runs(const std::vector<Trajectory<double>>& runs, const Model<double>& model,
-                       const RunsIdentifyOptions& options, const char* who) {
+                           const RunsIdentifyOptions& options, const char* who) {
   check_runs_options(options, who);
   if (runs.empty()) throw std::invalid_argument(std::string(who) + ": no runs given");
-  if (model.num_parameters() < 1) throw std::invalid_argument(std::string(who) + ": the model has no parameters");
+  if (model.num_parameters() < 1)
+    throw std::invalid_argument(std::string(who) + ": the model has no parameters");
   Eigen::Index total = 0;
   for (std::size_t r = 0; r < runs.size(); ++r) {
     const std::string run_name = std::string(who) + " (run " + std::to_string(r + 1) + ")";
@@ -181,20 +198,23 @@ SID_INLINE void check_runs(const std::vector<Trajectory<double>>& runs, const Mo
     const auto& t = runs[r].t;
     Eigen::Index used = 0;
     for (Eigen::Index i = 0; i < t.size(); ++i)
-      used += t[i] >= t[0] + options.skip - 1e-9 && t[i] <= t[t.size() - 1] - options.skip_end + 1e-9;
+      used +=
+          t[i] >= t[0] + options.skip - 1e-9 && t[i] <= t[t.size() - 1] - options.skip_end + 1e-9;
     if (used < 3 * options.folds_per_run)
-      throw std::invalid_argument(run_name + ": only " + std::to_string(used) + " samples are left after skipping " +
-                                  std::to_string(options.skip) + " s at the start and " +
-                                  std::to_string(options.skip_end) + " s at the end; need at least " +
-                                  std::to_string(3 * options.folds_per_run));
+      throw std::invalid_argument(
+          run_name + ": only " + std::to_string(used) + " samples are left after skipping " +
+          std::to_string(options.skip) + " s at the start and " + std::to_string(options.skip_end) +
+          " s at the end; need at least " + std::to_string(3 * options.folds_per_run));
     total += used;
   }
   if (2 * total <= model.num_parameters())
-    throw std::invalid_argument(std::string(who) + ": " + std::to_string(2 * total) + " equations for " +
-                                std::to_string(model.num_parameters()) + " parameters");
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(2 * total) +
+                                " equations for " + std::to_string(model.num_parameters()) +
+                                " parameters");
 }
 
-SID_INLINE void leave_each_run_out(const Model<double>& model, const LeastSquaresOptions& ls, RunsIdentification& result) {
+SID_INLINE void leave_each_run_out(const Model<double>& model, const LeastSquaresOptions& ls,
+                                   RunsIdentification& result) {
   const std::size_t runs = result.kinematics.size();
   Eigen::MatrixXd estimates(static_cast<Eigen::Index>(runs), result.fit.theta.size());
   for (std::size_t r = 0; r < runs; ++r) {
@@ -217,13 +237,15 @@ SID_INLINE void leave_each_run_out(const Model<double>& model, const LeastSquare
   }
   const Eigen::RowVectorXd mean = estimates.colwise().mean();
   const double factor = static_cast<double>(runs - 1) / static_cast<double>(runs);
-  result.jackknife_std_dev = ((estimates.rowwise() - mean).array().square().colwise().sum() * factor).sqrt().transpose();
+  result.jackknife_std_dev =
+      ((estimates.rowwise() - mean).array().square().colwise().sum() * factor).sqrt().transpose();
 }
 
 }  // namespace detail
 
-SID_INLINE CutoffChoice choose_cutoff(const std::vector<Trajectory<double>>& runs, const Model<double>& model,
-                                  const RunsIdentifyOptions& options) {
+SID_INLINE CutoffChoice choose_cutoff(const std::vector<Trajectory<double>>& runs,
+                                      const Model<double>& model,
+                                      const RunsIdentifyOptions& options) {
   CutoffChoice choice;
   choice.grid_hz = cutoff_grid(options);
   choice.cross_validation_rms = cutoff_cross_validation(runs, model, choice.grid_hz, options);
@@ -232,14 +254,16 @@ SID_INLINE CutoffChoice choose_cutoff(const std::vector<Trajectory<double>>& run
     if (choice.cross_validation_rms[g] < choice.cross_validation_rms[best]) best = g;
   if (!std::isfinite(choice.cross_validation_rms[best]))
     throw std::invalid_argument(
-        "sid::choose_cutoff: every cutoff leaves a fold whose fit is singular: the runs do not excite "
+        "sid::choose_cutoff: every cutoff leaves a fold whose fit is singular: the runs do not "
+        "excite "
         "every parameter of the model");
   choice.cutoff_hz = choice.grid_hz[best];
   return choice;
 }
 
-SID_INLINE RunsIdentification identify_runs(const std::vector<Trajectory<double>>& runs, const Model<double>& model,
-                                        const RunsIdentifyOptions& options) {
+SID_INLINE RunsIdentification identify_runs(const std::vector<Trajectory<double>>& runs,
+                                            const Model<double>& model,
+                                            const RunsIdentifyOptions& options) {
   detail::check_runs(runs, model, options, "sid::identify_runs");
   RunsIdentification result;
   if (options.cutoff_hz) {
@@ -253,7 +277,8 @@ SID_INLINE RunsIdentification identify_runs(const std::vector<Trajectory<double>
   }
   for (const auto& run : runs) {
     double lambda = 0.0;
-    result.kinematics.push_back(detail::used_samples(kinematics_at_cutoff(run, result.cutoff_hz, &lambda), options));
+    result.kinematics.push_back(
+        detail::used_samples(kinematics_at_cutoff(run, result.cutoff_hz, &lambda), options));
     result.lambda.push_back(lambda);
   }
   LeastSquaresOptions ls = options.least_squares;
@@ -267,29 +292,33 @@ SID_INLINE RunsIdentification identify_runs(const std::vector<Trajectory<double>
   Eigen::Index at = 0;
   for (const auto& k : result.kinematics) {
     const Eigen::Index n = k.size();
-    result.residual_rms.emplace_back(std::sqrt(result.fit.residual.segment(at, n).squaredNorm() / n),
-                                     std::sqrt(result.fit.residual.segment(total + at, n).squaredNorm() / n));
+    result.residual_rms.emplace_back(
+        std::sqrt(result.fit.residual.segment(at, n).squaredNorm() / n),
+        std::sqrt(result.fit.residual.segment(total + at, n).squaredNorm() / n));
     at += n;
   }
   return result;
 }
 
-SID_INLINE TorquePrediction predict_torque(const Trajectory<double>& run, const Model<double>& model,
-                                       const Eigen::Ref<const Eigen::VectorXd>& theta, double cutoff_hz,
-                                       const RunsIdentifyOptions& options) {
+SID_INLINE TorquePrediction predict_torque(const Trajectory<double>& run,
+                                           const Model<double>& model,
+                                           const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                           double cutoff_hz, const RunsIdentifyOptions& options) {
   constexpr const char* who = "sid::predict_torque";
   detail::check_runs_options(options, who);
   if (theta.size() != model.num_parameters())
     throw std::invalid_argument(std::string(who) + ": theta has " + std::to_string(theta.size()) +
                                 " entries, the model " + std::to_string(model.num_parameters()));
   const Kinematics<double> k = detail::used_samples(kinematics_at_cutoff(run, cutoff_hz), options);
-  if (k.size() < 1) throw std::invalid_argument(std::string(who) + ": no samples left after the skips");
+  if (k.size() < 1)
+    throw std::invalid_argument(std::string(who) + ": no samples left after the skips");
   const StackedRegression<double> r = stack_regression(model, k);
   const Eigen::VectorXd residual = r.y - r.X * theta;
   const Eigen::Index n = k.size();
   TorquePrediction out;
   out.samples = n;
-  out.residual_rms << std::sqrt(residual.head(n).squaredNorm() / n), std::sqrt(residual.tail(n).squaredNorm() / n);
+  out.residual_rms << std::sqrt(residual.head(n).squaredNorm() / n),
+      std::sqrt(residual.tail(n).squaredNorm() / n);
   return out;
 }
 

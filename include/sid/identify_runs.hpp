@@ -101,14 +101,15 @@ SID_INLINE double smoothing_lambda_for_cutoff(double cutoff_hz, double mean_peri
 /// weights: all samples alike), derivatives analytic; τ as measured.
 /// @throws std::invalid_argument on an invalid run or fewer than 3 samples.
 SID_INLINE Kinematics<double> kinematics_at_cutoff(const Trajectory<double>& run, double cutoff_hz,
-                                               double* lambda_out = nullptr);
+                                                   double* lambda_out = nullptr);
 
 namespace detail {
 
 SID_INLINE void check_runs_options(const RunsIdentifyOptions& o, const char* who);
 
 /// The samples of a run used in the regression: within [t₀ + skip, t_last − skip_end].
-SID_INLINE Kinematics<double> used_samples(const Kinematics<double>& all, const RunsIdentifyOptions& o);
+SID_INLINE Kinematics<double> used_samples(const Kinematics<double>& all,
+                                           const RunsIdentifyOptions& o);
 
 /// Normal-equation pieces of one fold: XᵀX, Xᵀy, yᵀy and its number of equations.
 struct FoldMoments {
@@ -119,7 +120,7 @@ struct FoldMoments {
 };
 
 SID_INLINE void add_fold_moments(const StackedRegression<double>& r, Eigen::Index n, int folds,
-                             std::vector<FoldMoments>& out);
+                                 std::vector<FoldMoments>& out);
 
 /// RMS of the held-out residuals when each fold is predicted from the others' fit. The normal
 /// equations are accurate enough to rank cutoffs (they are column-scaled, p <= 32); the final
@@ -131,7 +132,7 @@ SID_INLINE double leave_fold_out_rms(const std::vector<FoldMoments>& folds);
 /// @brief The equations of several runs in one regression: joint 1's rows of every run in order,
 /// then joint 2's (the order least_squares' per-joint statistics expect).
 SID_INLINE StackedRegression<double> stack_runs(const Model<double>& model,
-                                            const std::vector<Kinematics<double>>& runs);
+                                                const std::vector<Kinematics<double>>& runs);
 
 /// @brief The geometric grid of cutoffs the cross-validation searches [Hz].
 SID_INLINE std::vector<double> cutoff_grid(const RunsIdentifyOptions& options);
@@ -139,8 +140,9 @@ SID_INLINE std::vector<double> cutoff_grid(const RunsIdentifyOptions& options);
 /// @brief The cross-validated torque RMS at each cutoff of the grid (see RunsIdentification).
 /// @throws std::invalid_argument as identify_runs.
 SID_INLINE std::vector<double> cutoff_cross_validation(const std::vector<Trajectory<double>>& runs,
-                                                   const Model<double>& model, const std::vector<double>& grid_hz,
-                                                   const RunsIdentifyOptions& options = {});
+                                                       const Model<double>& model,
+                                                       const std::vector<double>& grid_hz,
+                                                       const RunsIdentifyOptions& options = {});
 
 /// @brief The cutoff the cross-validation chooses, with the criterion over the grid.
 struct CutoffChoice {
@@ -155,39 +157,42 @@ struct CutoffChoice {
 /// one time form one score, so their correlation is kept). Runs are independent.
 /// @param fit a successful fit of stack_runs(model, kinematics).
 SID_INLINE Eigen::MatrixXd hac_covariance(const StackedRegression<double>& all,
-                                      const std::vector<Kinematics<double>>& kinematics,
-                                      const LeastSquaresResult<double>& fit);
+                                          const std::vector<Kinematics<double>>& kinematics,
+                                          const LeastSquaresResult<double>& fit);
 
 /// @brief The standard deviations of hac_covariance.
-SID_INLINE Eigen::VectorXd hac_standard_deviations(const StackedRegression<double>& all,
-                                               const std::vector<Kinematics<double>>& kinematics,
-                                               const LeastSquaresResult<double>& fit);
+SID_INLINE Eigen::VectorXd hac_standard_deviations(
+    const StackedRegression<double>& all, const std::vector<Kinematics<double>>& kinematics,
+    const LeastSquaresResult<double>& fit);
 
 namespace detail {
 
 /// Every run valid with enough samples for its folds after the skips, and more equations than
 /// parameters in all.
 SID_INLINE void check_runs(const std::vector<Trajectory<double>>& runs, const Model<double>& model,
-                       const RunsIdentifyOptions& options, const char* who);
+                           const RunsIdentifyOptions& options, const char* who);
 
 /// Each run predicted by the fit of the others (see RunsIdentification::left_out_prediction_rms).
-SID_INLINE void leave_each_run_out(const Model<double>& model, const LeastSquaresOptions& ls, RunsIdentification& result);
+SID_INLINE void leave_each_run_out(const Model<double>& model, const LeastSquaresOptions& ls,
+                                   RunsIdentification& result);
 
 }  // namespace detail
 
 /// @brief The grid cutoff with the smallest cross-validated torque RMS (see cutoff_grid and
 /// cutoff_cross_validation). @throws std::invalid_argument when every cutoff leaves a fold
 /// whose fit is singular (the runs do not excite every parameter).
-SID_INLINE CutoffChoice choose_cutoff(const std::vector<Trajectory<double>>& runs, const Model<double>& model,
-                                  const RunsIdentifyOptions& options = {});
+SID_INLINE CutoffChoice choose_cutoff(const std::vector<Trajectory<double>>& runs,
+                                      const Model<double>& model,
+                                      const RunsIdentifyOptions& options = {});
 
 /// @brief Identifies model's θ from all runs together.
 /// @throws std::invalid_argument if there are no runs, a run is invalid (see Trajectory), a run
 ///         has too few samples for its folds after the skips, the options are invalid, or there
 ///         are not more equations than parameters. A regressor whose columns are dependent is
 ///         reported in fit.status, as by least_squares.
-SID_INLINE RunsIdentification identify_runs(const std::vector<Trajectory<double>>& runs, const Model<double>& model,
-                                        const RunsIdentifyOptions& options = {});
+SID_INLINE RunsIdentification identify_runs(const std::vector<Trajectory<double>>& runs,
+                                            const Model<double>& model,
+                                            const RunsIdentifyOptions& options = {});
 
 /// @brief How well θ predicts the torques of a run: the run smoothed at cutoff_hz, the same
 /// skips, residual τ − Z θ per joint.
@@ -197,9 +202,11 @@ struct TorquePrediction {
 };
 
 /// @throws std::invalid_argument on an invalid run, θ of the wrong size or too few samples.
-SID_INLINE TorquePrediction predict_torque(const Trajectory<double>& run, const Model<double>& model,
-                                       const Eigen::Ref<const Eigen::VectorXd>& theta, double cutoff_hz,
-                                       const RunsIdentifyOptions& options = {});
+SID_INLINE TorquePrediction predict_torque(const Trajectory<double>& run,
+                                           const Model<double>& model,
+                                           const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                           double cutoff_hz,
+                                           const RunsIdentifyOptions& options = {});
 
 }  // namespace sid
 

@@ -58,17 +58,17 @@ struct [[nodiscard]] LeastSquaresResult {
   /// Empty on a clean success; the error (naming the dependent columns) on RankDeficient; the
   /// warning when ill_conditioned.
   std::string message;
-  bool ill_conditioned = false;  ///< condition_number > options.condition_warning
-  Vector theta;                  ///< estimate, p
-  Vector residual;               ///< y - X theta, m
-  Vector residual_rms;           ///< sqrt(mean of residual^2) per joint, joints
-  Scalar sigma2 = Scalar(0);     ///< residual variance estimate RSS / (m - p)
-  Vector sigma2_per_joint;       ///< RSS_j / (m_j - p m_j / m), joints
-  Matrix covariance;             ///< sigma2 (X^T W X)^-1, p x p
-  Vector std_dev;                ///< sqrt(diag(covariance)), p
-  Vector relative_std_dev;       ///< 100 std_dev / |theta| [%] (Gautier's %sigma), p
-  Scalar condition_number = Scalar(0);  ///< 2-norm condition number of the column-scaled X
-  Eigen::Index rank = 0;                ///< numerical rank of the column-scaled X
+  bool ill_conditioned = false;                 ///< condition_number > options.condition_warning
+  Vector theta;                                 ///< estimate, p
+  Vector residual;                              ///< y - X theta, m
+  Vector residual_rms;                          ///< sqrt(mean of residual^2) per joint, joints
+  Scalar sigma2 = Scalar(0);                    ///< residual variance estimate RSS / (m - p)
+  Vector sigma2_per_joint;                      ///< RSS_j / (m_j - p m_j / m), joints
+  Matrix covariance;                            ///< sigma2 (X^T W X)^-1, p x p
+  Vector std_dev;                               ///< sqrt(diag(covariance)), p
+  Vector relative_std_dev;                      ///< 100 std_dev / |theta| [%] (Gautier's %sigma), p
+  Scalar condition_number = Scalar(0);          ///< 2-norm condition number of the column-scaled X
+  Eigen::Index rank = 0;                        ///< numerical rank of the column-scaled X
   std::vector<Eigen::Index> dependent_columns;  ///< columns in the null space (RankDeficient)
   Vector column_scale;  ///< 2-norm of each column of (weighted) X, the scaling undone on theta
 
@@ -107,7 +107,8 @@ void check_least_squares_input(const char* who, const Eigen::MatrixBase<DerivedX
                                 std::to_string(m) + "), got " + std::to_string(joints));
   if (!options.column_names.empty() && static_cast<Eigen::Index>(options.column_names.size()) != p)
     throw std::invalid_argument(prefix + "options.column_names must name all " + std::to_string(p) +
-                                " columns of x, got " + std::to_string(options.column_names.size()));
+                                " columns of x, got " +
+                                std::to_string(options.column_names.size()));
   if (!(options.condition_warning > 0.0))
     throw std::invalid_argument(prefix + "options.condition_warning must be positive");
   if (!x.allFinite()) throw std::invalid_argument(prefix + "x must be finite");
@@ -118,10 +119,10 @@ void check_least_squares_input(const char* who, const Eigen::MatrixBase<DerivedX
 /// Allocation matters here (an 8002 x 7 copy costs page faults): the only m x p temporary is the
 /// scaled regressor, which the QR then overwrites in place.
 template <typename Scalar, typename DerivedX, typename DerivedY>
-LeastSquaresResult<Scalar> solve_least_squares(const char* who, const Eigen::MatrixBase<DerivedX>& x,
-                                               const Eigen::MatrixBase<DerivedY>& y,
-                                               const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>* root_weights,
-                                               Eigen::Index joints, const LeastSquaresOptions& options) {
+LeastSquaresResult<Scalar> solve_least_squares(
+    const char* who, const Eigen::MatrixBase<DerivedX>& x, const Eigen::MatrixBase<DerivedY>& y,
+    const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>* root_weights, Eigen::Index joints,
+    const LeastSquaresOptions& options) {
   using std::sqrt;
   using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
   using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
@@ -134,7 +135,8 @@ LeastSquaresResult<Scalar> solve_least_squares(const char* who, const Eigen::Mat
   Matrix xs = root_weights ? Matrix(root_weights->asDiagonal() * x) : Matrix(x);
   result.column_scale = xs.colwise().norm().transpose();
   for (Eigen::Index j = 0; j < p; ++j)
-    if (result.column_scale(j) == Scalar(0)) result.column_scale(j) = Scalar(1);  // zero column stays zero
+    if (result.column_scale(j) == Scalar(0))
+      result.column_scale(j) = Scalar(1);  // zero column stays zero
   xs *= result.column_scale.cwiseInverse().asDiagonal();
 
   // Plain Householder QR suffices: rank, condition number and null space all come from the SVD of
@@ -151,15 +153,18 @@ LeastSquaresResult<Scalar> solve_least_squares(const char* who, const Eigen::Mat
 
   // R is p x p: its SVD is cheap, and square (Eigen's QR preconditioner, which costs seconds of
   // compile time per file, would never run).
-  const Eigen::JacobiSVD<Matrix, Eigen::NoQRPreconditioner> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::JacobiSVD<Matrix, Eigen::NoQRPreconditioner> svd(
+      r, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Vector& sv = svd.singularValues();
-  const Scalar tol = (options.rank_tolerance > 0.0 ? Scalar(options.rank_tolerance)
-                                                   : Scalar(std::max(m, p)) * std::numeric_limits<Scalar>::epsilon()) *
+  const Scalar tol = (options.rank_tolerance > 0.0
+                          ? Scalar(options.rank_tolerance)
+                          : Scalar(std::max(m, p)) * std::numeric_limits<Scalar>::epsilon()) *
                      sv(0);
   result.rank = 0;
   for (Eigen::Index k = 0; k < p; ++k)
     if (sv(k) > tol) ++result.rank;
-  result.condition_number = sv(p - 1) > Scalar(0) ? sv(0) / sv(p - 1) : std::numeric_limits<Scalar>::infinity();
+  result.condition_number =
+      sv(p - 1) > Scalar(0) ? sv(0) / sv(p - 1) : std::numeric_limits<Scalar>::infinity();
 
   Vector theta_scaled(p);
   if (result.rank == p) {
@@ -180,16 +185,18 @@ LeastSquaresResult<Scalar> solve_least_squares(const char* who, const Eigen::Mat
     std::string list;
     for (std::size_t i = 0; i < result.dependent_columns.size(); ++i)
       list += (i ? ", " : "") + column_label(options.column_names, result.dependent_columns[i]);
-    result.message = std::string(who) + ": x has rank " + std::to_string(k) + " < " + std::to_string(p) +
-                     " columns: " +
-                     (result.dependent_columns.size() == 1 ? "column " + list + " is zero"
-                                                           : "columns " + list + " are linearly dependent") +
-                     " and cannot be identified separately";
+    result.message =
+        std::string(who) + ": x has rank " + std::to_string(k) + " < " + std::to_string(p) +
+        " columns: " +
+        (result.dependent_columns.size() == 1 ? "column " + list + " is zero"
+                                              : "columns " + list + " are linearly dependent") +
+        " and cannot be identified separately";
   }
   result.theta = theta_scaled.cwiseQuotient(result.column_scale);
 
   result.residual = y - x * result.theta;
-  const Vector weighted_residual = root_weights ? Vector(root_weights->cwiseProduct(result.residual)) : result.residual;
+  const Vector weighted_residual =
+      root_weights ? Vector(root_weights->cwiseProduct(result.residual)) : result.residual;
   const Eigen::Index m_j = m / joints;
   result.sigma2 = weighted_residual.squaredNorm() / Scalar(m - result.rank);
   result.sigma2_per_joint.resize(joints);
@@ -197,21 +204,23 @@ LeastSquaresResult<Scalar> solve_least_squares(const char* who, const Eigen::Mat
   for (Eigen::Index j = 0; j < joints; ++j) {
     const Scalar dof_j = Scalar(m_j) - Scalar(result.rank) * Scalar(m_j) / Scalar(m);
     result.sigma2_per_joint(j) = weighted_residual.segment(j * m_j, m_j).squaredNorm() / dof_j;
-    result.residual_rms(j) = sqrt(result.residual.segment(j * m_j, m_j).squaredNorm() / Scalar(m_j));
+    result.residual_rms(j) =
+        sqrt(result.residual.segment(j * m_j, m_j).squaredNorm() / Scalar(m_j));
   }
 
   if (result.ok()) {
     // (Xs^T Xs)^-1 = R^-1 R^-T; X = Xs D, so cov(theta) = D^-1 cov(theta_s) D^-1.
     const Matrix r_inv = r.template triangularView<Eigen::Upper>().solve(Matrix::Identity(p, p));
     const Vector inv_scale = result.column_scale.cwiseInverse();
-    result.covariance = result.sigma2 * (inv_scale.asDiagonal() * (r_inv * r_inv.transpose()) * inv_scale.asDiagonal());
+    result.covariance = result.sigma2 * (inv_scale.asDiagonal() * (r_inv * r_inv.transpose()) *
+                                         inv_scale.asDiagonal());
     result.std_dev = result.covariance.diagonal().cwiseSqrt();
     result.relative_std_dev = Scalar(100) * result.std_dev.cwiseQuotient(result.theta.cwiseAbs());
     if (result.condition_number > Scalar(options.condition_warning)) {
       result.ill_conditioned = true;
       result.message = std::string(who) + ": warning: condition number " +
-                       format_number(result.condition_number) +
-                       " of the column-scaled x exceeds " + format_number(options.condition_warning) +
+                       format_number(result.condition_number) + " of the column-scaled x exceeds " +
+                       format_number(options.condition_warning) +
                        "; the estimate is sensitive to noise";
     }
   } else {
@@ -226,7 +235,8 @@ LeastSquaresResult<Scalar> solve_least_squares(const char* who, const Eigen::Mat
 }  // namespace detail
 
 /// @brief Ordinary least squares min ||X theta - y||_2 (paper eq. 10-11) by Householder QR of X
-/// with unit-norm columns (rank and condition from the SVD of the p x p factor R); the scaling is undone on theta and covariance.
+/// with unit-norm columns (rank and condition from the SVD of the p x p factor R); the scaling is
+/// undone on theta and covariance.
 /// @param[in] x regressor, m x p with m > p; rows stacked per joint (joint 1's rows first).
 /// @param[in] y measurements (torques), m.
 /// @param[in] joints number of equal row blocks for the per-joint statistics (1: no split).
@@ -236,12 +246,12 @@ LeastSquaresResult<Scalar> solve_least_squares(const char* who, const Eigen::Mat
 /// @throws std::invalid_argument on sizes that do not fit (m <= p, y size, joints not dividing
 ///   m, column_names size) or non-finite x or y.
 template <typename DerivedX, typename DerivedY>
-LeastSquaresResult<typename DerivedX::Scalar> least_squares(const Eigen::MatrixBase<DerivedX>& x,
-                                                            const Eigen::MatrixBase<DerivedY>& y,
-                                                            Eigen::Index joints = 1,
-                                                            const LeastSquaresOptions& options = {}) {
+LeastSquaresResult<typename DerivedX::Scalar> least_squares(
+    const Eigen::MatrixBase<DerivedX>& x, const Eigen::MatrixBase<DerivedY>& y,
+    Eigen::Index joints = 1, const LeastSquaresOptions& options = {}) {
   using Scalar = typename DerivedX::Scalar;
-  static_assert(std::is_same_v<Scalar, typename DerivedY::Scalar>, "x and y must have the same Scalar");
+  static_assert(std::is_same_v<Scalar, typename DerivedY::Scalar>,
+                "x and y must have the same Scalar");
   detail::check_least_squares_input("sid::least_squares", x, y, joints, options);
   return detail::solve_least_squares<Scalar>("sid::least_squares", x, y, nullptr, joints, options);
 }
@@ -264,8 +274,9 @@ LeastSquaresResult<typename DerivedX::Scalar> weighted_least_squares(
   const char* who = "sid::weighted_least_squares";
   detail::check_least_squares_input(who, x, y, joints, options);
   if (weights.size() != x.rows())
-    throw std::invalid_argument(std::string(who) + ": weights must have as many entries as x has rows (" +
-                                std::to_string(x.rows()) + "), got " + std::to_string(weights.size()));
+    throw std::invalid_argument(
+        std::string(who) + ": weights must have as many entries as x has rows (" +
+        std::to_string(x.rows()) + "), got " + std::to_string(weights.size()));
   if (!weights.allFinite() || !(weights.array() > Scalar(0)).all())
     throw std::invalid_argument(std::string(who) + ": weights must be finite and positive");
   const Eigen::Matrix<Scalar, Eigen::Dynamic, 1> root = weights.cwiseSqrt();

@@ -220,7 +220,6 @@ class BarrierSolver {
   Eigen::LLT<Eigen::MatrixXd> llt_;
 };
 
-
 SID_INLINE Eigen::MatrixXd mass_matrix_basis(const Model<double>& model, Eigen::Index grid_size) {
   const Vector2<double> zero = Vector2<double>::Zero();
   Eigen::MatrixXd basis(3 * grid_size, model.num_parameters());
@@ -246,7 +245,7 @@ SID_INLINE GridMinimum grid_min_eigenvalue(const Eigen::Ref<const Eigen::VectorX
 }
 
 SID_INLINE std::vector<Eigen::Index> bounded_indices(const Model<double>& model,
-                                                 const PhysicalConstraints& c) {
+                                                     const PhysicalConstraints& c) {
   const std::vector<std::string> names = model.parameter_names();
   const std::vector<std::string> wanted =
       c.nonnegative ? *c.nonnegative : *default_physical_constraints(model).nonnegative;
@@ -264,8 +263,8 @@ SID_INLINE void check_grid_size(const char* who, const PhysicalConstraints& c) {
 }
 
 SID_INLINE Eigen::VectorXd physical_interior_point(const Eigen::MatrixXd& basis,
-                                               const std::vector<Eigen::Index>& bounded,
-                                               int& iterations, int max_iterations) {
+                                                   const std::vector<Eigen::Index>& bounded,
+                                                   int& iterations, int max_iterations) {
   constexpr const char* who = "sid::nearest_physical";
   constexpr double delta = 1e-9;
   const Eigen::Index p = basis.cols(), rows = basis.rows();
@@ -319,8 +318,8 @@ SID_INLINE Eigen::VectorXd physical_interior_point(const Eigen::MatrixXd& basis,
 }  // namespace detail
 
 SID_INLINE PhysicalCheck check_physical(const Model<double>& model,
-                                    const Eigen::Ref<const Eigen::VectorXd>& theta,
-                                    const PhysicalConstraints& c) {
+                                        const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                        const PhysicalConstraints& c) {
   constexpr const char* who = "sid::check_physical";
   if (theta.size() != model.num_parameters())
     throw std::invalid_argument(std::string(who) + ": theta has " + std::to_string(theta.size()) +
@@ -345,10 +344,10 @@ SID_INLINE PhysicalCheck check_physical(const Model<double>& model,
 }
 
 SID_INLINE ConsistentEstimate nearest_physical(const Model<double>& model,
-                                           const Eigen::Ref<const Eigen::MatrixXd>& X,
-                                           const Eigen::Ref<const Eigen::VectorXd>& y,
-                                           const PhysicalConstraints& c,
-                                           const NearestPhysicalOptions& options) {
+                                               const Eigen::Ref<const Eigen::MatrixXd>& X,
+                                               const Eigen::Ref<const Eigen::VectorXd>& y,
+                                               const PhysicalConstraints& c,
+                                               const NearestPhysicalOptions& options) {
   constexpr const char* who = "sid::nearest_physical";
   const std::string prefix = std::string(who) + ": ";
   const Eigen::Index m = X.rows(), p = X.cols();
@@ -402,8 +401,8 @@ SID_INLINE ConsistentEstimate nearest_physical(const Model<double>& model,
   const Eigen::VectorXd d_hat = basis * result.theta_unconstrained;
   double s_d = 0.0;
   for (Eigen::Index g = 0; g < c.grid_size; ++g)
-    s_d = std::max(s_d, detail::max_abs_eigenvalue_2x2(d_hat(3 * g), d_hat(3 * g + 1),
-                                                       d_hat(3 * g + 2)));
+    s_d = std::max(
+        s_d, detail::max_abs_eigenvalue_2x2(d_hat(3 * g), d_hat(3 * g + 1), d_hat(3 * g + 2)));
   const double eps = options.margin * s_d;
   result.margin_absolute = eps;
 

@@ -141,7 +141,7 @@ SID_INLINE GridMinimum grid_min_eigenvalue(const Eigen::Ref<const Eigen::VectorX
 
 /// Indices (in theta order) of the parameters c bounds at zero.
 SID_INLINE std::vector<Eigen::Index> bounded_indices(const Model<double>& model,
-                                                 const PhysicalConstraints& c);
+                                                     const PhysicalConstraints& c);
 
 SID_INLINE void check_grid_size(const char* who, const PhysicalConstraints& c);
 
@@ -153,8 +153,8 @@ SID_INLINE void check_grid_size(const char* who, const PhysicalConstraints& c);
 /// The optimal s* < 0 iff the cone has an interior; it is declared empty once the bound
 /// s - nu / t on s* exceeds -2 delta, i.e. the cone is thinner than delta in these units.
 SID_INLINE Eigen::VectorXd physical_interior_point(const Eigen::MatrixXd& basis,
-                                               const std::vector<Eigen::Index>& bounded,
-                                               int& iterations, int max_iterations);
+                                                   const std::vector<Eigen::Index>& bounded,
+                                                   int& iterations, int max_iterations);
 
 }  // namespace detail
 
@@ -163,8 +163,8 @@ SID_INLINE Eigen::VectorXd physical_interior_point(const Eigen::MatrixXd& basis,
 /// @param theta [model.num_parameters()], finite.
 /// @throws std::invalid_argument on a wrongly sized or non-finite theta, or c.grid_size < 1.
 SID_INLINE PhysicalCheck check_physical(const Model<double>& model,
-                                    const Eigen::Ref<const Eigen::VectorXd>& theta,
-                                    const PhysicalConstraints& c = {});
+                                        const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                        const PhysicalConstraints& c = {});
 
 /// @brief The least-squares estimate closest to the data among the physically plausible ones:
 ///   minimise ||X theta - y||^2 subject to D(theta, q2_g) >= margin_absolute I on the grid and
@@ -184,10 +184,10 @@ SID_INLINE PhysicalCheck check_physical(const Model<double>& model,
 ///         values, a rank-deficient X, invalid options or c.grid_size, or when no parameter values
 ///         satisfy the constraints strictly (e.g. a model without inertia terms).
 SID_INLINE ConsistentEstimate nearest_physical(const Model<double>& model,
-                                           const Eigen::Ref<const Eigen::MatrixXd>& X,
-                                           const Eigen::Ref<const Eigen::VectorXd>& y,
-                                           const PhysicalConstraints& c = {},
-                                           const NearestPhysicalOptions& options = {});
+                                               const Eigen::Ref<const Eigen::MatrixXd>& X,
+                                               const Eigen::Ref<const Eigen::VectorXd>& y,
+                                               const PhysicalConstraints& c = {},
+                                               const NearestPhysicalOptions& options = {});
 
 }  // namespace sid
 

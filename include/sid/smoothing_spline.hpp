@@ -126,14 +126,16 @@ class SmoothingSpline {
   using Fit = SmoothingFit<Scalar>;
 
   /// @param t sample times [any unit], strictly increasing, finite, at least 2.
-  explicit SmoothingSpline(const Eigen::Ref<const Vector>& t) : t_(std::make_shared<const Vector>(t)) {
+  explicit SmoothingSpline(const Eigen::Ref<const Vector>& t)
+      : t_(std::make_shared<const Vector>(t)) {
     if (t.size() < 2)
       throw std::invalid_argument("sid::SmoothingSpline: t needs at least 2 samples, got " +
                                   std::to_string(t.size()));
     for (Eigen::Index i = 0; i < t.size(); ++i) {
       using std::isfinite;
       if (!isfinite(t[i]))
-        throw std::invalid_argument("sid::SmoothingSpline: t[" + std::to_string(i) + "] is not finite");
+        throw std::invalid_argument("sid::SmoothingSpline: t[" + std::to_string(i) +
+                                    "] is not finite");
       if (i > 0 && !(t[i] > t[i - 1]))
         throw std::invalid_argument("sid::SmoothingSpline: t must be strictly increasing (t[" +
                                     std::to_string(i) + "] <= t[" + std::to_string(i - 1) + "])");
@@ -149,7 +151,8 @@ class SmoothingSpline {
   /// S = 0 interpolates; S at or above the weighted straight-line fit's F gives that line.
   /// @throws std::invalid_argument on bad sizes, non-finite y, δy <= 0 or S < 0;
   /// SmoothingError if the search for p does not converge.
-  Fit fit_constrained(const Eigen::Ref<const Vector>& y, const Eigen::Ref<const Vector>& dy, Scalar S) const {
+  Fit fit_constrained(const Eigen::Ref<const Vector>& y, const Eigen::Ref<const Vector>& dy,
+                      Scalar S) const {
     check_signal(y, "fit_constrained");
     check_weights(dy, "fit_constrained");
     return constrained(y, Weights{dy.data(), Scalar(0)}, S);
@@ -167,7 +170,8 @@ class SmoothingSpline {
 
   /// @brief Penalty form for a given p >= 0 (p = 0: the weighted straight line; p = +∞:
   /// interpolation). @throws std::invalid_argument on bad input.
-  Fit fit_penalized(const Eigen::Ref<const Vector>& y, const Eigen::Ref<const Vector>& dy, Scalar p) const {
+  Fit fit_penalized(const Eigen::Ref<const Vector>& y, const Eigen::Ref<const Vector>& dy,
+                    Scalar p) const {
     check_signal(y, "fit_penalized");
     check_weights(dy, "fit_penalized");
     return penalized(y, Weights{dy.data(), Scalar(0)}, p);
@@ -209,7 +213,8 @@ class SmoothingSpline {
     Workspace& ws = thread_workspace();
     prepare(ws, Vector::Zero(size()), w, false);
     if (!solve_at(ws, w, p))
-      throw SmoothingError("sid::SmoothingSpline::hat_diagonal: system not numerically positive definite");
+      throw SmoothingError(
+          "sid::SmoothingSpline::hat_diagonal: system not numerically positive definite");
     Vector leverages(size());
     hat(ws, w, &leverages);
     return leverages;
@@ -235,8 +240,8 @@ class SmoothingSpline {
     Scalar F = Scalar(0), dF = Scalar(0);
     int factorizations = 0;
     bool has_m = false;
-    Band sigma_band;    // central band of B⁻¹ (GCV)
-    Vector leverages;   // CV
+    Band sigma_band;   // central band of B⁻¹ (GCV)
+    Vector leverages;  // CV
   };
 
   /// One workspace per thread, reused by every fit on that thread: fresh buffers per fit cost
@@ -250,7 +255,8 @@ class SmoothingSpline {
   void check_signal(const Eigen::Ref<const Vector>& y, const char* who) const {
     if (y.size() != size())
       throw std::invalid_argument(std::string("sid::SmoothingSpline::") + who + ": y has " +
-                                  std::to_string(y.size()) + " samples but t has " + std::to_string(size()));
+                                  std::to_string(y.size()) + " samples but t has " +
+                                  std::to_string(size()));
     for (Eigen::Index i = 0; i < y.size(); ++i) {
       using std::isfinite;
       if (!isfinite(y[i]))
@@ -261,7 +267,8 @@ class SmoothingSpline {
   void check_weights(const Eigen::Ref<const Vector>& dy, const char* who) const {
     if (dy.size() != size())
       throw std::invalid_argument(std::string("sid::SmoothingSpline::") + who + ": dy has " +
-                                  std::to_string(dy.size()) + " entries but t has " + std::to_string(size()));
+                                  std::to_string(dy.size()) + " entries but t has " +
+                                  std::to_string(size()));
     for (Eigen::Index i = 0; i < dy.size(); ++i) {
       using std::isfinite;
       if (!(dy[i] > Scalar(0)) || !isfinite(dy[i]))
@@ -274,7 +281,8 @@ class SmoothingSpline {
     using std::isfinite;
     if (!(dy > Scalar(0)) || !isfinite(dy))
       throw std::invalid_argument(std::string("sid::SmoothingSpline::") + who +
-                                  ": dy must be finite and > 0, got " + std::to_string(static_cast<double>(dy)));
+                                  ": dy must be finite and > 0, got " +
+                                  std::to_string(static_cast<double>(dy)));
   }
 
   Eigen::Index interior() const { return size() - 2; }
@@ -325,7 +333,8 @@ class SmoothingSpline {
     const Scalar q0 = inv_h_[j], q2 = inv_h_[j + 1], q1 = -(q0 + q2);
     const Scalar w1 = w.dy2(j + 1), w2 = w.dy2(j + 2);
     m0 = w.dy2(j) * q0 * q0 + w1 * q1 * q1 + w2 * q2 * q2;
-    m1 = j + 1 < m ? w1 * q1 * inv_h_[j + 1] - w2 * q2 * (inv_h_[j + 1] + inv_h_[j + 2]) : Scalar(0);
+    m1 =
+        j + 1 < m ? w1 * q1 * inv_h_[j + 1] - w2 * q2 * (inv_h_[j + 1] + inv_h_[j + 2]) : Scalar(0);
     m2 = Scalar(0);
   }
   /// m_column for j + 2 < m, without the end-of-matrix branches (the hot loop).
@@ -337,7 +346,8 @@ class SmoothingSpline {
     m2 = w2 * q2 * inv_h_[j + 2];
   }
 
-  void prepare(Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w, bool keep_m) const {
+  void prepare(Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w,
+               bool keep_m) const {
     const Eigen::Index m = interior();
     ws.factorizations = 0;
     ws.has_m = keep_m;
@@ -351,7 +361,8 @@ class SmoothingSpline {
     ws.v.setZero(size());
     ws.qv.resize(size());
     ws.m_band.resize(3, m);
-    for (Eigen::Index j = 0; j < m; ++j) m_column(w, j, ws.m_band(0, j), ws.m_band(1, j), ws.m_band(2, j));
+    for (Eigen::Index j = 0; j < m; ++j)
+      m_column(w, j, ws.m_band(0, j), ws.m_band(1, j), ws.m_band(2, j));
   }
 
   /// out = Q x for x on all knots with x₀ = xₙ₋₁ = 0 (natural spline), in one branch-free pass.
@@ -411,8 +422,8 @@ class SmoothingSpline {
 
   /// The spline through g(tᵢ) = yᵢ − δyᵢ²(Q x)ᵢ (or yᵢ when qx is null) with g'' = scale·x at
   /// the knots (x on all knots, zero at both ends: natural), built in one pass.
-  Fit assemble(const Eigen::Ref<const Vector>& y, const Weights* w, const Vector* qx, const Vector& x,
-               Scalar scale) const {
+  Fit assemble(const Eigen::Ref<const Vector>& y, const Weights* w, const Vector* qx,
+               const Vector& x, Scalar scale) const {
     const Eigen::Index n = size();
     auto g = [&](Eigen::Index k) { return qx ? y[k] - w->dy2(k) * (*qx)[k] : y[k]; };
     Vector a(n - 1), b(n - 1), c(n - 1), d(n - 1);
@@ -432,7 +443,8 @@ class SmoothingSpline {
     return fit;
   }
 
-  Fit fit_from(const Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w, Scalar p) const {
+  Fit fit_from(const Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w,
+               Scalar p) const {
     Fit fit = assemble(y, &w, &ws.qu, ws.u, p);
     fit.p = p;
     fit.lambda = Scalar(1) / p;
@@ -473,9 +485,10 @@ class SmoothingSpline {
     Workspace& ws = thread_workspace();
     prepare(ws, y, w, false);
     if (!solve_at(ws, w, p))
-      throw SmoothingError("sid::SmoothingSpline::fit_penalized: the system for p = " +
-                           std::to_string(static_cast<double>(p)) +
-                           " is not numerically positive definite (p too small for this data's scale)");
+      throw SmoothingError(
+          "sid::SmoothingSpline::fit_penalized: the system for p = " +
+          std::to_string(static_cast<double>(p)) +
+          " is not numerically positive definite (p too small for this data's scale)");
     return fit_from(ws, y, w, p);
   }
 
@@ -489,7 +502,8 @@ class SmoothingSpline {
     auto& sb = ws.sigma_band;  // sb(k, i) = Σ(i, i + k)
     for (Eigen::Index i = m - 1; i >= 0; --i) {
       const Scalar l1 = i + 1 < m ? f(1, i) : Scalar(0), l2 = i + 2 < m ? f(2, i) : Scalar(0);
-      const Scalar s11 = i + 1 < m ? sb(0, i + 1) : Scalar(0), s22 = i + 2 < m ? sb(0, i + 2) : Scalar(0);
+      const Scalar s11 = i + 1 < m ? sb(0, i + 1) : Scalar(0),
+                   s22 = i + 2 < m ? sb(0, i + 2) : Scalar(0);
       const Scalar s12 = i + 2 < m ? sb(1, i + 1) : Scalar(0);
       sb(1, i) = -l1 * s11 - l2 * s12;  // Σ(i, i+1)
       sb(2, i) = -l1 * s12 - l2 * s22;  // Σ(i, i+2)
@@ -502,8 +516,8 @@ class SmoothingSpline {
       return a <= b ? sb(b - a, a) : sb(a - b, b);
     };
     Scalar trace(0);
-    auto leverage = [&](Eigen::Index i, Scalar c0, Scalar c1, Scalar c2, Scalar s00, Scalar s11, Scalar s22,
-                        Scalar s01, Scalar s12, Scalar s02) {
+    auto leverage = [&](Eigen::Index i, Scalar c0, Scalar c1, Scalar c2, Scalar s00, Scalar s11,
+                        Scalar s22, Scalar s01, Scalar s12, Scalar s02) {
       const Scalar q = c0 * c0 * s00 + c1 * c1 * s11 + c2 * c2 * s22 +
                        Scalar(2) * (c0 * c1 * s01 + c1 * c2 * s12 + c0 * c2 * s02);
       const Scalar a_ii = Scalar(1) - w.dy2(i) * q;
@@ -514,18 +528,20 @@ class SmoothingSpline {
       const Scalar c0 = (i >= 2 && i - 2 < m) ? inv_h_[i - 1] : Scalar(0);
       const Scalar c1 = (i >= 1 && i - 1 < m) ? -(inv_h_[i - 1] + inv_h_[i]) : Scalar(0);
       const Scalar c2 = i < m ? inv_h_[i] : Scalar(0);
-      leverage(i, c0, c1, c2, S(i - 2, i - 2), S(i - 1, i - 1), S(i, i), S(i - 2, i - 1), S(i - 1, i), S(i - 2, i));
+      leverage(i, c0, c1, c2, S(i - 2, i - 2), S(i - 1, i - 1), S(i, i), S(i - 2, i - 1),
+               S(i - 1, i), S(i - 2, i));
     };
     for (Eigen::Index i = 0; i < std::min<Eigen::Index>(2, n); ++i) edge(i);
     for (Eigen::Index i = 2; i < m; ++i)  // the hot loop: all of Σ(i−2..i, i−2..i) exists
-      leverage(i, inv_h_[i - 1], -(inv_h_[i - 1] + inv_h_[i]), inv_h_[i], sb(0, i - 2), sb(0, i - 1), sb(0, i),
-               sb(1, i - 2), sb(1, i - 1), sb(2, i - 2));
+      leverage(i, inv_h_[i - 1], -(inv_h_[i - 1] + inv_h_[i]), inv_h_[i], sb(0, i - 2),
+               sb(0, i - 1), sb(0, i), sb(1, i - 2), sb(1, i - 1), sb(2, i - 2));
     for (Eigen::Index i = std::max<Eigen::Index>(2, m); i < n; ++i) edge(i);
     return trace;
   }
 
   /// The criterion at ws's current fit (solve_at done). Leverages go to ws.leverages for CV.
-  Scalar criterion_value(Workspace& ws, const Weights& w, SmoothingCriterion criterion, Scalar& trace) const {
+  Scalar criterion_value(Workspace& ws, const Weights& w, SmoothingCriterion criterion,
+                         Scalar& trace) const {
     const Scalar n = static_cast<Scalar>(size());
     if (criterion == SmoothingCriterion::Gcv) {
       trace = hat(ws, w, nullptr);
@@ -542,14 +558,16 @@ class SmoothingSpline {
     return cv / n;
   }
 
-  Fit cross_validated(const Eigen::Ref<const Vector>& y, const Weights& w, SmoothingCriterion criterion) const {
-    using std::log;
+  Fit cross_validated(const Eigen::Ref<const Vector>& y, const Weights& w,
+                      SmoothingCriterion criterion) const {
     using std::exp;
     using std::isfinite;
+    using std::log;
     using std::sqrt;
     if (size() < 4)
-      throw std::invalid_argument("sid::SmoothingSpline::fit_cross_validated: needs at least 4 samples, got " +
-                                  std::to_string(size()));
+      throw std::invalid_argument(
+          "sid::SmoothingSpline::fit_cross_validated: needs at least 4 samples, got " +
+          std::to_string(size()));
     Workspace& ws = thread_workspace();
     prepare(ws, y, w, true);
     Scalar tr_m(0), tr_r(0);
@@ -595,11 +613,13 @@ class SmoothingSpline {
     }
     // Brent's minimisation on [best − 1 decade, best + 1 decade]; the criterion is smooth and
     // flat near its minimum, so a tolerance of 0.5 % in p is plenty.
-    Scalar chosen = detail::brent_minimize(value_at, best_x - decade, best_x + decade, best_x, best_v, Scalar(5e-3));
+    Scalar chosen = detail::brent_minimize(value_at, best_x - decade, best_x + decade, best_x,
+                                           best_v, Scalar(5e-3));
     if (!(chosen == last_x)) value_at(chosen);  // the workspace must hold the chosen fit
     if (!(last_v < inf))
-      throw SmoothingError("sid::SmoothingSpline::fit_cross_validated: no smoothing parameter gives a "
-                           "numerically stable fit");
+      throw SmoothingError(
+          "sid::SmoothingSpline::fit_cross_validated: no smoothing parameter gives a "
+          "numerically stable fit");
     Fit fit = fit_from(ws, y, w, exp(chosen));
     fit.iterations = evaluations;
     fit.factorizations = evaluations;
@@ -622,8 +642,9 @@ class SmoothingSpline {
     const Scalar h = b.u - a.u;
     auto cubic = [&](Scalar s) {
       const Scalar s2 = s * s, s3 = s2 * s;
-      return (Scalar(2) * s3 - Scalar(3) * s2 + Scalar(1)) * a.r + (s3 - Scalar(2) * s2 + s) * h * a.dr_du +
-             (Scalar(-2) * s3 + Scalar(3) * s2) * b.r + (s3 - s2) * h * b.dr_du;
+      return (Scalar(2) * s3 - Scalar(3) * s2 + Scalar(1)) * a.r +
+             (s3 - Scalar(2) * s2 + s) * h * a.dr_du + (Scalar(-2) * s3 + Scalar(3) * s2) * b.r +
+             (s3 - s2) * h * b.dr_du;
     };
     Scalar lo(0), hi(1);
     const bool rising = a.r < Scalar(0);
@@ -642,13 +663,14 @@ class SmoothingSpline {
   /// model that fits there; once the root is bracketed, step to the root of the cubic Hermite
   /// interpolant of F(1/p) between the bracket ends (values and slopes both known).
   Fit constrained(const Eigen::Ref<const Vector>& y, const Weights& w, Scalar S) const {
-    using std::isfinite;
     using std::abs;
-    using std::log;
     using std::exp;
+    using std::isfinite;
+    using std::log;
     if (!(S >= Scalar(0)) || !isfinite(S))
-      throw std::invalid_argument("sid::SmoothingSpline::fit_constrained: S must be finite and >= 0, got " +
-                                  std::to_string(static_cast<double>(S)));
+      throw std::invalid_argument(
+          "sid::SmoothingSpline::fit_constrained: S must be finite and >= 0, got " +
+          std::to_string(static_cast<double>(S)));
     Fit line = line_fit(y, w);
     if (line.F <= S) return line;
     if (S == Scalar(0)) return interpolate(y);
@@ -694,24 +716,28 @@ class SmoothingSpline {
         // log F is exact for a power law), nearer F − S ∝ 1/p (Newton in 1/p is exact).
         // Right of it F is flat and Newton creeps, so jump. Once bracketed, interpolate.
         const Scalar u_next = Scalar(1) + here.r / (ratio * g);  // in units of 1/p
-        const Scalar newton = ratio > Scalar(2) ? x - log(ratio) / g : (u_next > Scalar(0) ? x - log(u_next) : x + jump);
+        const Scalar newton = ratio > Scalar(2) ? x - log(ratio) / g
+                                                : (u_next > Scalar(0) ? x - log(u_next) : x + jump);
         if (lo.known && hi.known)
           next = isfinite(lo.r) ? hermite_root(lo, hi) : Scalar(0.5) * (lo.x + hi.x);
         else if (lo.known)
           next = std::min(newton, x + jump);
         else
           next = std::min(newton, x - jump);
-        if (lo.known && hi.known && !(next > lo.x && next < hi.x)) next = Scalar(0.5) * (lo.x + hi.x);
+        if (lo.known && hi.known && !(next > lo.x && next < hi.x))
+          next = Scalar(0.5) * (lo.x + hi.x);
         if (abs(next - x) <= x_tol * (Scalar(1) + abs(x))) return finish(ws, y, w, p, it);
       }
       x = next;
     }
-    throw SmoothingError("sid::SmoothingSpline::fit_constrained: the search for p did not converge in " +
-                         std::to_string(kMaxIterations) + " steps (S = " + std::to_string(static_cast<double>(S)) +
-                         ", last p = " + std::to_string(static_cast<double>(exp(x))) + ")");
+    throw SmoothingError(
+        "sid::SmoothingSpline::fit_constrained: the search for p did not converge in " +
+        std::to_string(kMaxIterations) + " steps (S = " + std::to_string(static_cast<double>(S)) +
+        ", last p = " + std::to_string(static_cast<double>(exp(x))) + ")");
   }
 
-  Fit finish(const Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w, Scalar p, int iterations) const {
+  Fit finish(const Workspace& ws, const Eigen::Ref<const Vector>& y, const Weights& w, Scalar p,
+             int iterations) const {
     Fit fit = fit_from(ws, y, w, p);
     fit.iterations = iterations;
     return fit;
@@ -723,19 +749,19 @@ class SmoothingSpline {
 
 /// @brief One-shot constraint-form fit (see SmoothingSpline::fit_constrained).
 template <typename Scalar>
-SmoothingFit<Scalar> smooth_constrained(const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& t,
-                                        const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& y,
-                                        const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& dy,
-                                        Scalar S) {
+SmoothingFit<Scalar> smooth_constrained(
+    const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& t,
+    const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& y,
+    const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& dy, Scalar S) {
   return SmoothingSpline<Scalar>(t).fit_constrained(y, dy, S);
 }
 
 /// @brief One-shot penalty-form fit (see SmoothingSpline::fit_penalized).
 template <typename Scalar>
-SmoothingFit<Scalar> smooth_penalized(const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& t,
-                                      const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& y,
-                                      const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& dy,
-                                      Scalar p) {
+SmoothingFit<Scalar> smooth_penalized(
+    const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& t,
+    const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& y,
+    const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& dy, Scalar p) {
   return SmoothingSpline<Scalar>(t).fit_penalized(y, dy, p);
 }
 

@@ -25,10 +25,9 @@ SID_INLINE MatrixX2<double> mean_square(const std::vector<MatrixX2<double>>& run
 
 }  // namespace detail
 
-SID_INLINE std::vector<FlaggedWindow> simulation_windows(const FreeSimulation& sim,
-                                                     const Eigen::Ref<const MatrixX2<double>>& expected_ms,
-                                                     double window_length,
-                                                     const SimulationCheckOptions& check) {
+SID_INLINE std::vector<FlaggedWindow> simulation_windows(
+    const FreeSimulation& sim, const Eigen::Ref<const MatrixX2<double>>& expected_ms,
+    double window_length, const SimulationCheckOptions& check) {
   const std::string who = "sid::simulation_windows: ";
   const Eigen::Index n = sim.t.size();
   if (sim.error.rows() != n || expected_ms.rows() != n)
@@ -60,9 +59,9 @@ SID_INLINE std::vector<FlaggedWindow> simulation_windows(const FreeSimulation& s
         const double rms = std::sqrt(observed / static_cast<double>(count));
         const double reference = std::sqrt(expected / static_cast<double>(count));
         if (rms > check.threshold * reference && rms > check.min_error)
-          windows.push_back({j + 1, w_begin, std::min(w_end, sim.t[n - 1]),
-                             reference > 0.0 ? rms / reference
-                                             : std::numeric_limits<double>::infinity()});
+          windows.push_back(
+              {j + 1, w_begin, std::min(w_end, sim.t[n - 1]),
+               reference > 0.0 ? rms / reference : std::numeric_limits<double>::infinity()});
       }
       begin = end;
     }
@@ -71,10 +70,10 @@ SID_INLINE std::vector<FlaggedWindow> simulation_windows(const FreeSimulation& s
 }
 
 SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
-                                         const DiagnoseOptions& options,
-                                         const FreeSimulationOptions& sim,
-                                         const SimulationCheckOptions& check,
-                                         SimulationCheck* details) {
+                                                    const DiagnoseOptions& options,
+                                                    const FreeSimulationOptions& sim,
+                                                    const SimulationCheckOptions& check,
+                                                    SimulationCheck* details) {
   const std::string who = "sid::diagnose_with_simulation: ";
   if (check.noise_runs < 1) throw std::invalid_argument(who + "check.noise_runs must be >= 1");
   if (!(check.threshold > 0.0) || !std::isfinite(check.threshold))
@@ -91,17 +90,19 @@ SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& da
   const Eigen::Index n = k.size();
   SimulationCheck check_result;
   FreeSimulationOptions checked = sim;
-  if (check.checked_tolerance > 0.0) checked.simulator.rtol = checked.simulator.atol = check.checked_tolerance;
+  if (check.checked_tolerance > 0.0)
+    checked.simulator.rtol = checked.simulator.atol = check.checked_tolerance;
   // The friction test does not change the nominal model, and its fits leave a core idle part
   // of the time (a handful of windows on two threads): the nominal simulation runs beside it.
   // It works on copies: the friction test rewrites the result.
   const bool nominal_beside_friction_test =
-      check.refine_friction && (detail::names_friction_of(result, 1) || detail::names_friction_of(result, 2));
+      check.refine_friction &&
+      (detail::names_friction_of(result, 1) || detail::names_friction_of(result, 2));
   if (nominal_beside_friction_test) {
-    std::future<FreeSimulation> nominal = std::async(
-        std::launch::async, [model = result.nominal_model, theta = result.nominal.theta, kinematics = k, &checked] {
-          return free_simulation(model, theta, kinematics, checked);
-        });
+    std::future<FreeSimulation> nominal =
+        std::async(std::launch::async,
+                   [model = result.nominal_model, theta = result.nominal.theta, kinematics = k,
+                    &checked] { return free_simulation(model, theta, kinematics, checked); });
     refine_named_friction(result, data, options, check.friction);
     check_result.nominal = nominal.get();
   }
@@ -115,21 +116,28 @@ SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& da
   std::vector<Kinematics<double>> noisy(static_cast<std::size_t>(check.noise_runs), k);
   for (auto& run : noisy)
     for (int j = 0; j < 2; ++j)
-      for (Eigen::Index i = 0; i < n; ++i) run.tau(i, j) = k.tau(i, j) + result.noise_floor[j] * normal(rng);
+      for (Eigen::Index i = 0; i < n; ++i)
+        run.tau(i, j) = k.tau(i, j) + result.noise_floor[j] * normal(rng);
   FreeSimulation base;
   std::vector<FreeSimulation> perturbed(noisy.size());
   const bool named = !result.effects.empty();
   // The two checked simulations (the tighter tolerance, the longest) first.
   std::vector<std::function<void()>> runs;
   if (!nominal_beside_friction_test)
-    runs.emplace_back([&] { check_result.nominal = free_simulation(result.nominal_model, result.nominal.theta, k, checked); });
+    runs.emplace_back([&] {
+      check_result.nominal =
+          free_simulation(result.nominal_model, result.nominal.theta, k, checked);
+    });
   if (named)
-    runs.emplace_back([&] { check_result.final = free_simulation(result.final_model, result.final.theta, k, checked); });
+    runs.emplace_back([&] {
+      check_result.final = free_simulation(result.final_model, result.final.theta, k, checked);
+    });
   const Model<double>& calibrated = named ? result.final_model : result.nominal_model;
   const Eigen::VectorXd& calibrated_theta = named ? result.final.theta : result.nominal.theta;
   runs.emplace_back([&] { base = free_simulation(calibrated, calibrated_theta, k, loose); });
   for (std::size_t r = 0; r < noisy.size(); ++r)
-    runs.emplace_back([&, r] { perturbed[r] = free_simulation(calibrated, calibrated_theta, noisy[r], loose); });
+    runs.emplace_back(
+        [&, r] { perturbed[r] = free_simulation(calibrated, calibrated_theta, noisy[r], loose); });
   detail::for_each_index(static_cast<Eigen::Index>(runs.size()),
                          static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
                          [&](Eigen::Index task, int) { runs[static_cast<std::size_t>(task)](); });

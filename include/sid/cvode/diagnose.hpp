@@ -89,10 +89,9 @@ SID_INLINE MatrixX2<double> mean_square(const std::vector<MatrixX2<double>>& run
 /// square per sample and joint. ratio = window RMS / expected RMS (infinite when that is 0).
 /// NaN errors (a failed simulation) are left out; a window needs 2 finite samples.
 /// @throws std::invalid_argument for sizes that differ or a window_length that is not > 0.
-SID_INLINE std::vector<FlaggedWindow> simulation_windows(const FreeSimulation& sim,
-                                                     const Eigen::Ref<const MatrixX2<double>>& expected_ms,
-                                                     double window_length,
-                                                     const SimulationCheckOptions& check = {});
+SID_INLINE std::vector<FlaggedWindow> simulation_windows(
+    const FreeSimulation& sim, const Eigen::Ref<const MatrixX2<double>>& expected_ms,
+    double window_length, const SimulationCheckOptions& check = {});
 
 /// @brief Runs diagnose(data, options), then the free simulations of the nominal and the final
 /// model on the result's kinematics (restarted every sim.segment seconds), and fills
@@ -104,10 +103,10 @@ SID_INLINE std::vector<FlaggedWindow> simulation_windows(const FreeSimulation& s
 /// @throws std::invalid_argument as diagnose() does, for bad simulation options, or for bad
 ///   check options (noise_runs < 1, threshold or min_error not > 0 / >= 0).
 SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
-                                         const DiagnoseOptions& options = {},
-                                         const FreeSimulationOptions& sim = {},
-                                         const SimulationCheckOptions& check = {},
-                                         SimulationCheck* details = nullptr);
+                                                    const DiagnoseOptions& options = {},
+                                                    const FreeSimulationOptions& sim = {},
+                                                    const SimulationCheckOptions& check = {},
+                                                    SimulationCheck* details = nullptr);
 
 }  // namespace sid
 

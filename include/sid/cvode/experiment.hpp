@@ -160,8 +160,8 @@ ExperimentResult simulate_arm_experiment(const ForwardDynamics& fd, const Input&
   } catch (const std::exception& e) {
     // The same contract as during the simulation: a throwing model is a status, not an escape.
     result.status = SimulationStatus::RhsFailure;
-    result.message = std::string("forward dynamics threw at t = ") + std::to_string(t[k]) +
-                     ": " + e.what();
+    result.message =
+        std::string("forward dynamics threw at t = ") + std::to_string(t[k]) + ": " + e.what();
     truth.t.conservativeResize(k);
     truth.q.conservativeResize(k, 2);
     truth.qd.conservativeResize(k, 2);

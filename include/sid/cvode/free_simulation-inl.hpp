@@ -19,9 +19,9 @@ SID_INLINE SimulatorOptions free_simulation_simulator_defaults() {
 }
 
 SID_INLINE void validate_free_simulation(const Model<double>& model,
-                                     const Eigen::Ref<const Eigen::VectorXd>& theta,
-                                     const Kinematics<double>& k,
-                                     const FreeSimulationOptions& options) {
+                                         const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                         const Kinematics<double>& k,
+                                         const FreeSimulationOptions& options) {
   const std::string who = "sid::free_simulation: ";
   if (theta.size() != model.num_parameters())
     throw std::invalid_argument(who + "theta has " + std::to_string(theta.size()) +
@@ -33,10 +33,10 @@ SID_INLINE void validate_free_simulation(const Model<double>& model,
     throw std::invalid_argument(who + "the kinematics need at least 2 samples, got " +
                                 std::to_string(n));
   if (k.q.rows() != n || k.qd.rows() != n || k.tau.rows() != n)
-    throw std::invalid_argument(who + "k.t, k.q, k.qd and k.tau must have the same number of rows (t: " +
-                                std::to_string(n) + ", q: " + std::to_string(k.q.rows()) +
-                                ", qd: " + std::to_string(k.qd.rows()) +
-                                ", tau: " + std::to_string(k.tau.rows()) + ")");
+    throw std::invalid_argument(
+        who + "k.t, k.q, k.qd and k.tau must have the same number of rows (t: " +
+        std::to_string(n) + ", q: " + std::to_string(k.q.rows()) +
+        ", qd: " + std::to_string(k.qd.rows()) + ", tau: " + std::to_string(k.tau.rows()) + ")");
   for (Eigen::Index i = 0; i < n; ++i) {
     if (!std::isfinite(k.t[i]))
       throw std::invalid_argument(who + "k.t[" + std::to_string(i) + "] is not finite");
@@ -48,13 +48,13 @@ SID_INLINE void validate_free_simulation(const Model<double>& model,
   if (!k.qd.allFinite()) throw std::invalid_argument(who + "k.qd must be finite");
   if (!k.tau.allFinite()) throw std::invalid_argument(who + "k.tau must be finite");
   if (std::isnan(options.segment)) throw std::invalid_argument(who + "options.segment is NaN");
-  if (!(options.blow_up > 0.0))
-    throw std::invalid_argument(who + "options.blow_up must be > 0");
+  if (!(options.blow_up > 0.0)) throw std::invalid_argument(who + "options.blow_up must be > 0");
   if (std::isnan(options.torque_bandwidth))
     throw std::invalid_argument(who + "options.torque_bandwidth is NaN");
 }
 
-SID_INLINE MatrixX2<double> driving_torque(const Kinematics<double>& k, double bandwidth, bool& filtered) {
+SID_INLINE MatrixX2<double> driving_torque(const Kinematics<double>& k, double bandwidth,
+                                           bool& filtered) {
   filtered = false;
   constexpr int kOrder = 2;
   const Eigen::Index n = k.size();
@@ -70,18 +70,20 @@ SID_INLINE MatrixX2<double> driving_torque(const Kinematics<double>& k, double b
   // (~1 / bandwidth), and a point reflection flips the curvature at the end sample, so its
   // transient would reach the data (3e-5 rad on the exact experiment). Extend further first by
   // x(-i) = 3 x(0) - 3 x(i) + x(2i), exact for quadratics: value, slope and curvature continue.
-  const auto pad = std::min<Eigen::Index>((n - 1) / 2, static_cast<Eigen::Index>(std::ceil(10.0 / (bandwidth * ts))));
+  const auto pad = std::min<Eigen::Index>(
+      (n - 1) / 2, static_cast<Eigen::Index>(std::ceil(10.0 / (bandwidth * ts))));
   MatrixX2<double> extended(n + 2 * pad, 2);
   for (Eigen::Index i = 1; i <= pad; ++i) {
     extended.row(pad - i) = 3.0 * k.tau.row(0) - 3.0 * k.tau.row(i) + k.tau.row(2 * i);
-    extended.row(pad + n - 1 + i) = 3.0 * k.tau.row(n - 1) - 3.0 * k.tau.row(n - 1 - i) + k.tau.row(n - 1 - 2 * i);
+    extended.row(pad + n - 1 + i) =
+        3.0 * k.tau.row(n - 1) - 3.0 * k.tau.row(n - 1 - i) + k.tau.row(n - 1 - 2 * i);
   }
   extended.middleRows(pad, n) = k.tau;
   return filtfilt(butterworth_lowpass(kOrder, cutoff), extended).middleRows(pad, n);
 }
 
 SID_INLINE std::vector<Eigen::Index> segment_starts(const Eigen::Ref<const Eigen::VectorXd>& t,
-                                                double segment) {
+                                                    double segment) {
   std::vector<Eigen::Index> starts{0};
   if (!(segment > 0.0) || !std::isfinite(segment)) return starts;
   const double t0 = t[0];
@@ -99,9 +101,9 @@ SID_INLINE std::vector<Eigen::Index> segment_starts(const Eigen::Ref<const Eigen
 }  // namespace detail
 
 SID_INLINE FreeSimulation free_simulation(const Model<double>& model,
-                               const Eigen::Ref<const Eigen::VectorXd>& theta,
-                               const Kinematics<double>& k,
-                               const FreeSimulationOptions& options) {
+                                          const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                          const Kinematics<double>& k,
+                                          const FreeSimulationOptions& options) {
   detail::validate_free_simulation(model, theta, k, options);
   const Eigen::Index n = k.size();
   FreeSimulation result;
@@ -111,7 +113,8 @@ SID_INLINE FreeSimulation free_simulation(const Model<double>& model,
 
   const Eigen::VectorXd parameters = theta;
   const detail::TorqueInterpolator torque(
-      k.t, detail::driving_torque(k, options.torque_bandwidth, result.torque_filtered), detail::TorqueJoins::C2);
+      k.t, detail::driving_torque(k, options.torque_bandwidth, result.torque_filtered),
+      detail::TorqueJoins::C2);
   const double limit = options.blow_up;
   auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
                  Eigen::Map<Eigen::VectorXd>& xdot) {
@@ -131,7 +134,8 @@ SID_INLINE FreeSimulation free_simulation(const Model<double>& model,
     const Eigen::Index end =
         s + 1 < segments ? result.segment_starts[static_cast<std::size_t>(s + 1)] : n;
     x0 << k.q.row(begin).transpose(), k.qd.row(begin).transpose();
-    const SimulationResult sim = simulate(rhs, x0, k.t.segment(begin, end - begin), options.simulator);
+    const SimulationResult sim =
+        simulate(rhs, x0, k.t.segment(begin, end - begin), options.simulator);
     result.q.middleRows(begin, sim.completed) = sim.states.topLeftCorner(sim.completed, 2);
     const SimulationStatistics& st = sim.statistics;
     result.statistics.steps += st.steps;
@@ -145,8 +149,9 @@ SID_INLINE FreeSimulation free_simulation(const Model<double>& model,
       result.ok = false;
       if (!result.message.empty()) result.message += "; ";
       result.message += "segment " + std::to_string(s + 1) + " of " + std::to_string(segments) +
-                        " (t = " + detail::format_time(k.t[begin]) + " s) stopped at t = " +
-                        detail::format_time(sim.t_reached) + " s: " + to_string(sim.status) +
+                        " (t = " + detail::format_time(k.t[begin]) +
+                        " s) stopped at t = " + detail::format_time(sim.t_reached) +
+                        " s: " + to_string(sim.status) +
                         (sim.message.empty() ? "" : " (" + sim.message + ")");
     }
   }

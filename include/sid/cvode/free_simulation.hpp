@@ -26,9 +26,9 @@ namespace detail {
 /// Tolerances of the free simulation. The reference it is compared with is a smoothed angle
 /// (errors ~1e-4 rad) and the torque that drives it is noisy, so the simulator's default 1e-10
 /// buys nothing; 1e-9 keeps the error of the exact model on the exact experiment below 2e-7 rad
-/// (1e-8 gives 8e-7, too close to the 1e-6 of tests/free_simulation_test.cpp). BDF because a fitted Coulomb
-/// term Fc tanh(qd/eps) adds a damping Fc/eps (20 N m s/rad at Fc = 0.2, eps = 0.01) over the
-/// small link-2 inertia near every velocity reversal, and Adams methods would crawl there.
+/// (1e-8 gives 8e-7, too close to the 1e-6 of tests/free_simulation_test.cpp). BDF because a fitted
+/// Coulomb term Fc tanh(qd/eps) adds a damping Fc/eps (20 N m s/rad at Fc = 0.2, eps = 0.01) over
+/// the small link-2 inertia near every velocity reversal, and Adams methods would crawl there.
 SID_INLINE SimulatorOptions free_simulation_simulator_defaults();
 
 }  // namespace detail
@@ -51,8 +51,9 @@ struct FreeSimulationOptions {
   /// needs 51000 steps, 0.075 s. The angles barely notice: the noise acts on q through its
   /// low-frequency content (a random walk through the viscous friction), which the filter
   /// keeps; the content it removes (joint 2's small inertia follows the noise up to ~30 Hz)
-  /// changes q by 8e-4 rad RMS against the 5.7e-3 rad RMS random walk of joint 2. The motion's torque (< 1 Hz in the paper's experiment) passes
-  /// unchanged (exact experiment: < 1e-6 rad, tests/free_simulation_test.cpp).
+  /// changes q by 8e-4 rad RMS against the 5.7e-3 rad RMS random walk of joint 2. The motion's
+  /// torque (< 1 Hz in the paper's experiment) passes unchanged (exact experiment: < 1e-6 rad,
+  /// tests/free_simulation_test.cpp).
   double torque_bandwidth = 20.0;
   SimulatorOptions simulator = detail::free_simulation_simulator_defaults();
 };
@@ -61,17 +62,18 @@ struct FreeSimulationOptions {
 /// Class invariant: t, q and error have the same number of rows; the rows of a failed segment
 /// after its failure time are NaN in q and error.
 struct [[nodiscard]] FreeSimulation {
-  Eigen::VectorXd t;             ///< the sample times of the kinematics [s]
-  MatrixX2<double> q;            ///< simulated angles [rad]
-  MatrixX2<double> error;        ///< k.q - simulated q [rad]
+  Eigen::VectorXd t;       ///< the sample times of the kinematics [s]
+  MatrixX2<double> q;      ///< simulated angles [rad]
+  MatrixX2<double> error;  ///< k.q - simulated q [rad]
   /// RMS of error per joint over the samples that were simulated [rad] (NaN if none).
   Vector2<double> error_rms = Vector2<double>::Constant(std::numeric_limits<double>::quiet_NaN());
   std::vector<Eigen::Index> segment_starts;  ///< row index of each restart (first is 0)
   Eigen::Index failed_segments = 0;
-  SimulationStatistics statistics;           ///< summed over the segments
+  SimulationStatistics statistics;  ///< summed over the segments
   bool ok = true;
   std::string message;  ///< empty when ok; otherwise what failed, segment by segment
-  bool torque_filtered = false;  ///< the torque was low-passed (FreeSimulationOptions::torque_bandwidth)
+  bool torque_filtered =
+      false;  ///< the torque was low-passed (FreeSimulationOptions::torque_bandwidth)
 };
 
 namespace detail {
@@ -98,7 +100,8 @@ enum class TorqueJoins {
 class TorqueInterpolator {
  public:
   TorqueInterpolator(const Eigen::Ref<const Eigen::VectorXd>& t,
-                     const Eigen::Ref<const MatrixX2<double>>& tau, TorqueJoins joins = TorqueJoins::C1)
+                     const Eigen::Ref<const MatrixX2<double>>& tau,
+                     TorqueJoins joins = TorqueJoins::C1)
       : t_(t), tau_(tau), joins_(joins), derivative_(MatrixX2<double>::Zero(t.size(), 2)) {
     const Eigen::Index n = t.size();
     if (joins == TorqueJoins::C1) {
@@ -119,10 +122,13 @@ class TorqueInterpolator {
       const double h0 = t[i] - t[i - 1], h1 = t[i + 1] - t[i];
       const double pivot = 2.0 * (h0 + h1) - h0 * upper[i - 1];
       upper[i] = h1 / pivot;
-      rhs.row(i) = (6.0 * ((tau.row(i + 1) - tau.row(i)) / h1 - (tau.row(i) - tau.row(i - 1)) / h0) -
-                    h0 * rhs.row(i - 1)) / pivot;
+      rhs.row(i) =
+          (6.0 * ((tau.row(i + 1) - tau.row(i)) / h1 - (tau.row(i) - tau.row(i - 1)) / h0) -
+           h0 * rhs.row(i - 1)) /
+          pivot;
     }
-    for (Eigen::Index i = n - 2; i >= 1; --i) derivative_.row(i) = rhs.row(i) - upper[i] * derivative_.row(i + 1);
+    for (Eigen::Index i = n - 2; i >= 1; --i)
+      derivative_.row(i) = rhs.row(i) - upper[i] * derivative_.row(i + 1);
   }
 
   Vector2<double> operator()(double time) const {
@@ -144,7 +150,8 @@ class TorqueInterpolator {
     if (joins_ == TorqueJoins::C2) {
       const double b = (time - t_[i]) / h, a = 1.0 - b;
       return (a * tau_.row(i) + b * tau_.row(i + 1) +
-              ((a * a * a - a) * derivative_.row(i) + (b * b * b - b) * derivative_.row(i + 1)) * (h * h / 6.0))
+              ((a * a * a - a) * derivative_.row(i) + (b * b * b - b) * derivative_.row(i + 1)) *
+                  (h * h / 6.0))
           .transpose();
     }
     const double s = (time - t_[i]) / h;
@@ -166,18 +173,19 @@ class TorqueInterpolator {
 };
 
 SID_INLINE void validate_free_simulation(const Model<double>& model,
-                                     const Eigen::Ref<const Eigen::VectorXd>& theta,
-                                     const Kinematics<double>& k,
-                                     const FreeSimulationOptions& options);
+                                         const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                         const Kinematics<double>& k,
+                                         const FreeSimulationOptions& options);
 
 /// The torque that drives the simulation: k.tau low-passed when FreeSimulationOptions asks for
 /// it and the grid is uniform (a Butterworth filter needs one), else k.tau itself.
-SID_INLINE MatrixX2<double> driving_torque(const Kinematics<double>& k, double bandwidth, bool& filtered);
+SID_INLINE MatrixX2<double> driving_torque(const Kinematics<double>& k, double bandwidth,
+                                           bool& filtered);
 
 /// Row indices where the segments start: the first sample with t >= t0 + m * segment, but never
 /// the last sample (a one-sample segment simulates nothing).
 SID_INLINE std::vector<Eigen::Index> segment_starts(const Eigen::Ref<const Eigen::VectorXd>& t,
-                                                double segment);
+                                                    double segment);
 
 }  // namespace detail
 
@@ -206,9 +214,9 @@ SID_INLINE std::vector<Eigen::Index> segment_starts(const Eigen::Ref<const Eigen
 /// @param[in] options segment length, blow-up limit, CVODE settings.
 /// @throws std::invalid_argument on wrongly sized or non-finite input or bad options.
 SID_INLINE FreeSimulation free_simulation(const Model<double>& model,
-                               const Eigen::Ref<const Eigen::VectorXd>& theta,
-                               const Kinematics<double>& k,
-                               const FreeSimulationOptions& options = {});
+                                          const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                          const Kinematics<double>& k,
+                                          const FreeSimulationOptions& options = {});
 
 }  // namespace sid
 

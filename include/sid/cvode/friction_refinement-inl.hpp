@@ -8,7 +8,7 @@ namespace sid {
 namespace detail {
 
 SID_INLINE std::vector<OutputErrorWindow> reversal_windows(const Kinematics<double>& k, int joint,
-                                                       const FrictionRefinementOptions& o) {
+                                                           const FrictionRefinementOptions& o) {
   const Eigen::Index n = k.size();
   const double* t = k.t.data();
   std::vector<std::pair<double, double>> events;  // first and last sign change
@@ -42,15 +42,16 @@ SID_INLINE std::vector<OutputErrorWindow> reversal_windows(const Kinematics<doub
 
 SID_INLINE bool names_friction_of(const DiagnosisResult& result, int joint) {
   const std::string j = std::to_string(joint);
-  return std::any_of(result.effects.begin(), result.effects.end(),
-                     [&](const auto& e) { return e.id == "coulomb_j" + j || e.id == "stribeck_j" + j; });
+  return std::any_of(result.effects.begin(), result.effects.end(), [&](const auto& e) {
+    return e.id == "coulomb_j" + j || e.id == "stribeck_j" + j;
+  });
 }
 
 }  // namespace detail
 
 SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
-                                   const Trajectory<double>& data, int joint,
-                                   const FrictionRefinementOptions& options) {
+                                              const Trajectory<double>& data, int joint,
+                                              const FrictionRefinementOptions& options) {
   const std::string who = "sid::refine_friction: ";
   if (joint != 1 && joint != 2) throw std::invalid_argument(who + "joint must be 1 or 2");
   const std::string j = std::to_string(joint);
@@ -67,7 +68,8 @@ SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
   const Eigen::Index n = k.size();
   const double* td = data.t.data();
   const Eigen::Index first = std::lower_bound(td, td + data.size(), k.t[0]) - td;
-  if (first + n > data.size() || std::fabs(data.t[first] - k.t[0]) > 1e-9 * (1.0 + std::fabs(k.t[0])) ||
+  if (first + n > data.size() ||
+      std::fabs(data.t[first] - k.t[0]) > 1e-9 * (1.0 + std::fabs(k.t[0])) ||
       std::fabs(data.t[first + n - 1] - k.t[n - 1]) > 1e-9 * (1.0 + std::fabs(k.t[n - 1])))
     throw std::invalid_argument(who + "data does not hold the samples the diagnosis used");
 
@@ -131,7 +133,8 @@ SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
   // which the sliding away from the reversals fixes better than the windows.
   const auto priors = [&](OutputErrorProblem& pb) {
     pb.prior_mean = pb.theta0;
-    pb.prior_std = Eigen::VectorXd::Constant(pb.theta0.size(), std::numeric_limits<double>::infinity());
+    pb.prior_std =
+        Eigen::VectorXd::Constant(pb.theta0.size(), std::numeric_limits<double>::infinity());
     pb.prior_std.head(7) = result.final.std.head(7).cwiseMax(1e-12);
     if (options.prior_on_coulomb_level)
       pb.prior_std[friction_offset] = std::max(result.final.std[friction_offset], 1e-12);
@@ -152,8 +155,8 @@ SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
       named_stribeck && bump > 0.0 ? bump : std::max(std::fabs(fc), 1e-3), theta.tail(tail);
   stribeck.s_min = 0.5 * options.min_velocity;
   stribeck.s_max = 2.0 * options.max_velocity;
-  stribeck.s0 = std::clamp(named_stribeck ? named_velocity : options.start_velocity,
-                           stribeck.s_min, stribeck.s_max);
+  stribeck.s0 = std::clamp(named_stribeck ? named_velocity : options.start_velocity, stribeck.s_min,
+                           stribeck.s_max);
   stribeck.fixed_parameters = fixed_except(2, stribeck.theta0.size());
   priors(stribeck);
   const auto normalized_rms = [](const OutputErrorFit& f) {
@@ -201,12 +204,13 @@ SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
     bool screened_out = !options.screen_velocities.empty();
     if (screened_out) {
       Eigen::VectorXd with_bump(out.coulomb.theta.size() + 1);
-      with_bump << out.coulomb.theta.head(a + 1), 0.0, out.coulomb.theta.tail(out.coulomb.theta.size() - a - 1);
+      with_bump << out.coulomb.theta.head(a + 1), 0.0,
+          out.coulomb.theta.tail(out.coulomb.theta.size() - a - 1);
       const double step = std::max(0.05 * std::fabs(out.coulomb.theta[a]), 1e-3);
       check.score = 0.0;
       for (double vs : options.screen_velocities) {
-        const OutputErrorScore score = output_error_score_test(coulomb, out.coulomb, model_with(stribeck_id, vs),
-                                                               with_bump, a + 1, step, options.fit);
+        const OutputErrorScore score = output_error_score_test(
+            coulomb, out.coulomb, model_with(stribeck_id, vs), with_bump, a + 1, step, options.fit);
         if (!score.ok) {  // cannot screen: fit
           screened_out = false;
           break;
@@ -251,9 +255,10 @@ SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
     const Eigen::MatrixXd& c = out.stribeck.covariance;
     const Eigen::Index s = out.stribeck.theta.size();
     out.estimate = Eigen::Vector3d(fitted_fc, fitted_fc + fitted_bump, vs);
-    out.std = Eigen::Vector3d(std::sqrt(std::max(0.0, c(a, a))),
-                              std::sqrt(std::max(0.0, c(a, a) + c(a + 1, a + 1) + 2.0 * c(a, a + 1))),
-                              std::sqrt(std::max(0.0, c(s, s))));
+    out.std =
+        Eigen::Vector3d(std::sqrt(std::max(0.0, c(a, a))),
+                        std::sqrt(std::max(0.0, c(a, a) + c(a + 1, a + 1) + 2.0 * c(a, a + 1))),
+                        std::sqrt(std::max(0.0, c(s, s))));
   } else {
     take_coulomb_estimate();
   }
@@ -261,12 +266,13 @@ SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
 }
 
 SID_INLINE void refine_named_friction(DiagnosisResult& result, const Trajectory<double>& data,
-                               const DiagnoseOptions& options,
-                               FrictionRefinementOptions friction) {
+                                      const DiagnoseOptions& options,
+                                      FrictionRefinementOptions friction) {
   friction.gravity = options.identify.gravity;
   std::vector<FrictionRefinement> refinements;
   for (int joint = 1; joint <= 2; ++joint)
-    if (detail::names_friction_of(result, joint)) refinements.push_back(refine_friction(result, data, joint, friction));
+    if (detail::names_friction_of(result, joint))
+      refinements.push_back(refine_friction(result, data, joint, friction));
   bool changed = false;
   for (const auto& r : refinements) {
     result.friction_checks.push_back(r.check);
@@ -293,22 +299,28 @@ SID_INLINE void refine_named_friction(DiagnosisResult& result, const Trajectory<
       const std::string test =
           r.check.stribeck_fitted
               ? "output-error test around the joint's reversals: likelihood ratio " +
-                    detail::format_value(r.check.statistic) + " (p = " + detail::format_value(r.check.p_value) +
+                    detail::format_value(r.check.statistic) +
+                    " (p = " + detail::format_value(r.check.p_value) +
                     ") for Stribeck against Coulomb"
-              : "output-error test around the joint's reversals: no Stribeck bump would lower the angle "
-                "error beyond the noise (largest score statistic " + detail::format_value(r.check.score) + " over vs " +
+              : "output-error test around the joint's reversals: no Stribeck bump would lower the "
+                "angle "
+                "error beyond the noise (largest score statistic " +
+                    detail::format_value(r.check.score) + " over vs " +
                     detail::format_value(friction.screen_velocities.front()) + "-" +
                     detail::format_value(friction.screen_velocities.back()) + " rad/s, below " +
                     detail::format_value(friction.screen_level) + ")";
       if (detail::starts_with(e.id, "stribeck_j")) {
         e.estimate = r.estimate;
         e.std = r.std;
-        e.note = "Fc, Fs, vs fitted to the measured angles by the " + test +
-                 (r.check.named == r.check.chosen ? "" : "; the torque-domain tests named Coulomb friction");
+        e.note =
+            "Fc, Fs, vs fitted to the measured angles by the " + test +
+            (r.check.named == r.check.chosen ? ""
+                                             : "; the torque-domain tests named Coulomb friction");
       } else {
-        e.note = "Coulomb, not Stribeck, by the " + test +
-                 (r.check.named == r.check.chosen ? ""
-                                                  : "; the torque-domain tests named Stribeck friction");
+        e.note =
+            "Coulomb, not Stribeck, by the " + test +
+            (r.check.named == r.check.chosen ? ""
+                                             : "; the torque-domain tests named Stribeck friction");
       }
     }
   }

@@ -100,7 +100,7 @@ namespace detail {
 /// earliest and is dropped if that leaves less than min_window. At most max_windows, evenly
 /// spread over the events.
 SID_INLINE std::vector<OutputErrorWindow> reversal_windows(const Kinematics<double>& k, int joint,
-                                                       const FrictionRefinementOptions& o);
+                                                           const FrictionRefinementOptions& o);
 
 /// Whether the diagnosis names Coulomb or Stribeck friction of `joint` (1 or 2): what
 /// refine_named_friction tests.
@@ -125,8 +125,8 @@ SID_INLINE bool names_friction_of(const DiagnosisResult& result, int joint);
 /// @throws std::invalid_argument if joint is not 1 or 2, no friction of that joint is named, or
 ///   data does not hold the diagnosis's samples.
 SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
-                                   const Trajectory<double>& data, int joint,
-                                   const FrictionRefinementOptions& options = {});
+                                              const Trajectory<double>& data, int joint,
+                                              const FrictionRefinementOptions& options = {});
 
 /// @brief Runs refine_friction() on every joint whose friction the diagnosis named and, where
 /// the test changes the curve or estimates a Stribeck one, puts its choice and values into the
@@ -135,8 +135,8 @@ SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
 /// diagnosis's. A joint whose fits fail keeps what the diagnosis named (its check says why).
 /// @throws std::invalid_argument as refine_friction() does.
 SID_INLINE void refine_named_friction(DiagnosisResult& result, const Trajectory<double>& data,
-                               const DiagnoseOptions& options,
-                               FrictionRefinementOptions friction = {});
+                                      const DiagnoseOptions& options,
+                                      FrictionRefinementOptions friction = {});
 
 }  // namespace sid
 

@@ -12,15 +12,16 @@ SID_INLINE MatrixX2<double> smoothed_torque(const Kinematics<double>& k) {
   const SmoothingSpline<double> smoother(k.t);
   for (int j = 0; j < 2; ++j) {
     const VectorX<double> tau = k.tau.col(j);
-    const SmoothingFit<double> fit = smoother.fit_cross_validated(tau, 1.0, SmoothingCriterion::Gcv);
+    const SmoothingFit<double> fit =
+        smoother.fit_cross_validated(tau, 1.0, SmoothingCriterion::Gcv);
     fit.spline.derivatives_at_knots(0, drive.col(j));
   }
   return drive;
 }
 
-SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::VectorXd& y, const Eigen::MatrixXd& w,
-                               const Eigen::VectorXd& scale, const Eigen::VectorXd& theta,
-                               LeastSquaresResult<double>& fit) {
+SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
+                                   const Eigen::MatrixXd& w, const Eigen::VectorXd& scale,
+                                   const Eigen::VectorXd& theta, LeastSquaresResult<double>& fit) {
   const Eigen::Index m = x.rows(), p = x.cols(), per_joint = m / 2;
   fit.status = LeastSquaresStatus::Success;
   fit.theta = theta;
@@ -41,12 +42,14 @@ SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::Vector
   const Eigen::FullPivLU<Eigen::MatrixXd> lu(wtx);
   const Eigen::MatrixXd a = lu.inverse();
   const Eigen::MatrixXd cov_scaled = fit.sigma2 * a * (ws.transpose() * ws) * a.transpose();
-  fit.covariance = scale.cwiseInverse().asDiagonal() * cov_scaled * scale.cwiseInverse().asDiagonal();
+  fit.covariance =
+      scale.cwiseInverse().asDiagonal() * cov_scaled * scale.cwiseInverse().asDiagonal();
   fit.std_dev = fit.covariance.diagonal().cwiseSqrt();
   fit.relative_std_dev = 100.0 * fit.std_dev.cwiseQuotient(theta.cwiseAbs());
   const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(wtx);  // square
   const auto& s = svd.singularValues();
-  fit.condition_number = s[s.size() - 1] > 0.0 ? s[0] / s[s.size() - 1] : std::numeric_limits<double>::infinity();
+  fit.condition_number =
+      s[s.size() - 1] > 0.0 ? s[0] / s[s.size() - 1] : std::numeric_limits<double>::infinity();
   fit.rank = lu.rank();
   fit.column_scale = scale;
   fit.dependent_columns.clear();
@@ -54,18 +57,23 @@ SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::Vector
 
 }  // namespace detail
 
-SID_INLINE InstrumentalVariableResult refine_instrumental_variables(const Kinematics<double>& k,
-                                                                const LeastSquaresResult<double>& first,
-                                                                const InstrumentalVariableOptions& options) {
+SID_INLINE InstrumentalVariableResult
+refine_instrumental_variables(const Kinematics<double>& k, const LeastSquaresResult<double>& first,
+                              const InstrumentalVariableOptions& options) {
   const char* who = "sid::refine_instrumental_variables";
   const Eigen::Index n = k.size();
   if (first.theta.size() != 7 || !first.ok())
-    throw std::invalid_argument(std::string(who) + ": the first fit must be a successful 7-parameter fit");
+    throw std::invalid_argument(std::string(who) +
+                                ": the first fit must be a successful 7-parameter fit");
   if (n < 8 || k.q.rows() != n || k.qd.rows() != n || k.qdd.rows() != n || k.tau.rows() != n)
-    throw std::invalid_argument(std::string(who) + ": kinematics need at least 8 samples with equal lengths");
-  if (options.max_iterations < 1) throw std::invalid_argument(std::string(who) + ": max_iterations must be >= 1");
-  if (!(options.segment > 0.0)) throw std::invalid_argument(std::string(who) + ": segment must be > 0");
-  if (!(options.tolerance > 0.0)) throw std::invalid_argument(std::string(who) + ": tolerance must be > 0");
+    throw std::invalid_argument(std::string(who) +
+                                ": kinematics need at least 8 samples with equal lengths");
+  if (options.max_iterations < 1)
+    throw std::invalid_argument(std::string(who) + ": max_iterations must be >= 1");
+  if (!(options.segment > 0.0))
+    throw std::invalid_argument(std::string(who) + ": segment must be > 0");
+  if (!(options.tolerance > 0.0))
+    throw std::invalid_argument(std::string(who) + ": tolerance must be > 0");
 
   const StackedRegression<double> measured = stack_two_link_regression(k, options.gravity);
   const Eigen::VectorXd scale = measured.X.colwise().norm().cwiseMax(1e-300).transpose();
@@ -90,7 +98,8 @@ SID_INLINE InstrumentalVariableResult refine_instrumental_variables(const Kinema
   simulated.tau = drive;
   for (int it = 1; it <= options.max_iterations; ++it) {
     const TwoLinkParameters<double> theta = result.fit.theta;
-    auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x, Eigen::Map<Eigen::VectorXd>& xdot) {
+    auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
+                   Eigen::Map<Eigen::VectorXd>& xdot) {
       const Vector2<double> q = x.head<2>(), qd = x.tail<2>();
       xdot.head<2>() = qd;
       xdot.tail<2>() = two_link_forward_dynamics(theta, q, qd, torque(time), options.gravity);
@@ -101,11 +110,13 @@ SID_INLINE InstrumentalVariableResult refine_instrumental_variables(const Kinema
       while (end < n - 1 && k.t[end] < k.t[begin] + options.segment) ++end;
       Eigen::VectorXd start(4);
       start << k.q.row(begin).transpose(), k.qd.row(begin).transpose();
-      const SimulationResult sim = simulate(rhs, start, k.t.segment(begin, end - begin + 1), options.simulator);
+      const SimulationResult sim =
+          simulate(rhs, start, k.t.segment(begin, end - begin + 1), options.simulator);
       if (!sim.ok()) {
         result.failed = true;
-        result.message = std::string(who) + ": the simulation of iteration " + std::to_string(it) + " failed at t = " +
-                         std::to_string(k.t[begin]) + " s (" + sim.flag_name + "): " + sim.message;
+        result.message = std::string(who) + ": the simulation of iteration " + std::to_string(it) +
+                         " failed at t = " + std::to_string(k.t[begin]) + " s (" + sim.flag_name +
+                         "): " + sim.message;
         return result;
       }
       simulated.q.middleRows(begin, end - begin + 1) = sim.states.leftCols(2);
@@ -113,26 +124,30 @@ SID_INLINE InstrumentalVariableResult refine_instrumental_variables(const Kinema
       begin = end;
     }
     for (Eigen::Index i = 0; i < n; ++i)
-      simulated.qdd.row(i) = two_link_forward_dynamics(theta, Vector2<double>(simulated.q.row(i).transpose()),
-                                                       Vector2<double>(simulated.qd.row(i).transpose()),
-                                                       Vector2<double>(drive.row(i).transpose()), options.gravity)
-                                 .transpose();
-    const StackedRegression<double> instruments = stack_two_link_regression(simulated, options.gravity);
+      simulated.qdd.row(i) =
+          two_link_forward_dynamics(theta, Vector2<double>(simulated.q.row(i).transpose()),
+                                    Vector2<double>(simulated.qd.row(i).transpose()),
+                                    Vector2<double>(drive.row(i).transpose()), options.gravity)
+              .transpose();
+    const StackedRegression<double> instruments =
+        stack_two_link_regression(simulated, options.gravity);
     const Eigen::MatrixXd w_scaled = instruments.X * scale.cwiseInverse().asDiagonal();
     const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(w_scaled.transpose() * x_scaled);
     if (qr.rank() < 7) {
       result.failed = true;
-        result.message = std::string(who) + ": the instruments of iteration " + std::to_string(it) +
+      result.message = std::string(who) + ": the instruments of iteration " + std::to_string(it) +
                        " are not correlated with every regressor column (W^T X is singular)";
       return result;
     }
     const Eigen::VectorXd next = qr.solve(w_scaled.transpose() * measured.y).cwiseQuotient(scale);
     if (!next.allFinite()) {
       result.failed = true;
-        result.message = std::string(who) + ": iteration " + std::to_string(it) + " gave a non-finite estimate";
+      result.message =
+          std::string(who) + ": iteration " + std::to_string(it) + " gave a non-finite estimate";
       return result;
     }
-    const double change = (next - result.fit.theta).cwiseQuotient(result.fit.theta).cwiseAbs().maxCoeff();
+    const double change =
+        (next - result.fit.theta).cwiseQuotient(result.fit.theta).cwiseAbs().maxCoeff();
     detail::fill_iv_statistics(measured.X, measured.y, instruments.X, scale, next, result.fit);
     result.fit.message.clear();
     result.fit.ill_conditioned = false;
@@ -147,7 +162,8 @@ SID_INLINE InstrumentalVariableResult refine_instrumental_variables(const Kinema
   return result;
 }
 
-SID_INLINE std::function<LeastSquaresResult<double>(const Kinematics<double>&, const LeastSquaresResult<double>&)>
+SID_INLINE std::function<LeastSquaresResult<double>(const Kinematics<double>&,
+                                                    const LeastSquaresResult<double>&)>
 instrumental_variable_step(const InstrumentalVariableOptions& options) {
   return [options](const Kinematics<double>& k, const LeastSquaresResult<double>& first) {
     InstrumentalVariableResult iv = refine_instrumental_variables(k, first, options);

@@ -72,9 +72,9 @@ namespace detail {
 SID_INLINE MatrixX2<double> smoothed_torque(const Kinematics<double>& k);
 
 /// The IV statistics for a given θ (fills everything least_squares would).
-SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::VectorXd& y, const Eigen::MatrixXd& w,
-                               const Eigen::VectorXd& scale, const Eigen::VectorXd& theta,
-                               LeastSquaresResult<double>& fit);
+SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
+                                   const Eigen::MatrixXd& w, const Eigen::VectorXd& scale,
+                                   const Eigen::VectorXd& theta, LeastSquaresResult<double>& fit);
 
 }  // namespace detail
 
@@ -89,16 +89,17 @@ SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::Vector
 /// @param first the least-squares fit on k to start from (its θ must have 7 entries).
 /// @throws std::invalid_argument on inconsistent sizes, a first fit that is not a success, or
 /// bad options.
-SID_INLINE InstrumentalVariableResult refine_instrumental_variables(const Kinematics<double>& k,
-                                                                const LeastSquaresResult<double>& first,
-                                                                const InstrumentalVariableOptions& options = {});
+SID_INLINE InstrumentalVariableResult
+refine_instrumental_variables(const Kinematics<double>& k, const LeastSquaresResult<double>& first,
+                              const InstrumentalVariableOptions& options = {});
 
 /// @brief The IV step as the hook that the Monte Carlo study (sid/study/montecarlo.hpp, which
 /// must stay free of SUNDIALS) calls for its `css_iv` method.
 /// The hook throws std::runtime_error when the iteration stopped on a failure (a failed
 /// simulation, singular instruments), so the study counts that run as failed instead of
 /// silently reporting the first estimate.
-SID_INLINE std::function<LeastSquaresResult<double>(const Kinematics<double>&, const LeastSquaresResult<double>&)>
+SID_INLINE std::function<LeastSquaresResult<double>(const Kinematics<double>&,
+                                                    const LeastSquaresResult<double>&)>
 instrumental_variable_step(const InstrumentalVariableOptions& options = {});
 
 }  // namespace sid

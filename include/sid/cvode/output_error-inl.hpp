@@ -11,25 +11,29 @@ SID_INLINE double window_middle(const Eigen::VectorXd& t, const OutputErrorWindo
   return 0.5 * (t[w.begin] + t[w.end - 1]);
 }
 
-SID_INLINE auto window_rhs(const Model<double>& model, const Eigen::VectorXd& theta, const TorqueInterpolator& torque,
-                       double middle, const Vector2<double>& torque_offset, const Vector2<double>& torque_slope) {
+SID_INLINE auto window_rhs(const Model<double>& model, const Eigen::VectorXd& theta,
+                           const TorqueInterpolator& torque, double middle,
+                           const Vector2<double>& torque_offset,
+                           const Vector2<double>& torque_slope) {
   return [&model, &theta, &torque, middle, &torque_offset, &torque_slope](
-             double time, const Eigen::Map<const Eigen::VectorXd>& x, Eigen::Map<Eigen::VectorXd>& xdot) {
+             double time, const Eigen::Map<const Eigen::VectorXd>& x,
+             Eigen::Map<Eigen::VectorXd>& xdot) {
     if (!x.allFinite() || x.cwiseAbs().maxCoeff() > 1e4) throw std::runtime_error("blow-up");
     const Vector2<double> q = x.head<2>(), qd = x.tail<2>();
     xdot.head<2>() = qd;
-    xdot.tail<2>() = model.forward_dynamics(theta, q, qd, torque(time) + torque_offset + (time - middle) * torque_slope);
+    xdot.tail<2>() = model.forward_dynamics(
+        theta, q, qd, torque(time) + torque_offset + (time - middle) * torque_slope);
   };
 }
 
 SID_INLINE bool simulate_window(const Model<double>& model, const Eigen::VectorXd& theta,
-                            const TorqueInterpolator& torque, const Eigen::VectorXd& t,
-                            const OutputErrorWindow& w, const Vector2<double>& q0,
-                            const Vector2<double>& qd0, const Vector2<double>& torque_offset,
-                            const Vector2<double>& torque_slope,
-                            const SimulatorOptions& options,
-                            Eigen::MatrixXd& q_out) {
-  const auto rhs = window_rhs(model, theta, torque, window_middle(t, w), torque_offset, torque_slope);
+                                const TorqueInterpolator& torque, const Eigen::VectorXd& t,
+                                const OutputErrorWindow& w, const Vector2<double>& q0,
+                                const Vector2<double>& qd0, const Vector2<double>& torque_offset,
+                                const Vector2<double>& torque_slope,
+                                const SimulatorOptions& options, Eigen::MatrixXd& q_out) {
+  const auto rhs =
+      window_rhs(model, theta, torque, window_middle(t, w), torque_offset, torque_slope);
   Eigen::VectorXd x0(4);
   x0 << q0, qd0;
   const SimulationResult sim = simulate(rhs, x0, t.segment(w.begin, w.end - w.begin), options);
@@ -39,12 +43,12 @@ SID_INLINE bool simulate_window(const Model<double>& model, const Eigen::VectorX
 }
 
 SID_INLINE bool window_jacobian(const Model<double>& model, const Eigen::VectorXd& theta,
-                            const WindowParameters& parameters, const TorqueInterpolator& torque,
-                            const Eigen::VectorXd& t, const OutputErrorWindow& w,
-                            const Vector2<double>& q0, const Vector2<double>& qd0,
-                            const Vector2<double>& torque_offset, const Vector2<double>& torque_slope,
-                            const Vector2<double>& sigma_q, const SimulatorOptions& options,
-                            Eigen::MatrixXd& jacobian) {
+                                const WindowParameters& parameters,
+                                const TorqueInterpolator& torque, const Eigen::VectorXd& t,
+                                const OutputErrorWindow& w, const Vector2<double>& q0,
+                                const Vector2<double>& qd0, const Vector2<double>& torque_offset,
+                                const Vector2<double>& torque_slope, const Vector2<double>& sigma_q,
+                                const SimulatorOptions& options, Eigen::MatrixXd& jacobian) {
   const double middle = window_middle(t, w);
   const auto thetas = static_cast<Eigen::Index>(parameters.theta.size());
   const Eigen::Index globals = thetas + (parameters.model_at_larger_s ? 1 : 0);
@@ -52,8 +56,8 @@ SID_INLINE bool window_jacobian(const Model<double>& model, const Eigen::VectorX
   const auto rhs = window_rhs(model, theta, torque, middle, torque_offset, torque_slope);
   Eigen::Matrix<double, 2, Eigen::Dynamic> forcing(2, columns);
   auto sensitivity_rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
-                             const Eigen::Map<const Eigen::VectorXd>& xdot, const Eigen::MatrixXd& s,
-                             Eigen::MatrixXd& sdot) {
+                             const Eigen::Map<const Eigen::VectorXd>& xdot,
+                             const Eigen::MatrixXd& s, Eigen::MatrixXd& sdot) {
     constexpr double kStep = 1e-7;
     const Vector2<double> q = x.head<2>(), qd = x.tail<2>(), qdd = xdot.tail<2>();
     const ModelRegressor<double> z = model.regressor(q, qd, qdd);
@@ -66,9 +70,12 @@ SID_INLINE bool window_jacobian(const Model<double>& model, const Eigen::VectorX
       by_qd.col(j) = (model.inverse_dynamics(theta, q, qd + kStep * e, qdd) - id) / kStep;
     }
     forcing.setZero();
-    for (Eigen::Index c = 0; c < thetas; ++c) forcing.col(c) = -z.col(parameters.theta[static_cast<std::size_t>(c)]);
+    for (Eigen::Index c = 0; c < thetas; ++c)
+      forcing.col(c) = -z.col(parameters.theta[static_cast<std::size_t>(c)]);
     if (parameters.model_at_larger_s)
-      forcing.col(thetas) = -(parameters.model_at_larger_s->inverse_dynamics(theta, q, qd, qdd) - id) / parameters.log_step;
+      forcing.col(thetas) =
+          -(parameters.model_at_larger_s->inverse_dynamics(theta, q, qd, qdd) - id) /
+          parameters.log_step;
     forcing.block<2, 2>(0, globals + 4).setIdentity();
     forcing.block<2, 2>(0, globals + 6) = (time - middle) * Matrix2<double>::Identity();
     sdot.topRows(2) = s.bottomRows(2);
@@ -78,35 +85,39 @@ SID_INLINE bool window_jacobian(const Model<double>& model, const Eigen::VectorX
   x0 << q0, qd0;
   Eigen::MatrixXd s0 = Eigen::MatrixXd::Zero(4, columns);
   s0.block<4, 4>(0, globals).setIdentity();
-  const SensitivityResult sim =
-      simulate_with_sensitivities(rhs, sensitivity_rhs, x0, s0, t.segment(w.begin, w.end - w.begin), options);
+  const SensitivityResult sim = simulate_with_sensitivities(
+      rhs, sensitivity_rhs, x0, s0, t.segment(w.begin, w.end - w.begin), options);
   if (!sim.ok()) return false;
   const Eigen::Index m = w.end - w.begin;
   jacobian.resize(2 * m, columns);
   for (Eigen::Index k = 0; k < m; ++k)
     for (Eigen::Index c = 0; c < columns; ++c)
-      for (int j = 0; j < 2; ++j) jacobian(j * m + k, c) = sim.sensitivities(k, 4 * c + j) / sigma_q[j];
+      for (int j = 0; j < 2; ++j)
+        jacobian(j * m + k, c) = sim.sensitivities(k, 4 * c + j) / sigma_q[j];
   return true;
 }
 
-SID_INLINE Eigen::VectorXd normalised_residual(const OutputErrorProblem& problem, const OutputErrorWindow& w,
-                                           const Eigen::MatrixXd& q_simulated) {
+SID_INLINE Eigen::VectorXd normalised_residual(const OutputErrorProblem& problem,
+                                               const OutputErrorWindow& w,
+                                               const Eigen::MatrixXd& q_simulated) {
   const Eigen::Index m = w.end - w.begin;
   Eigen::VectorXd r(2 * m);
   for (int j = 0; j < 2; ++j)
-    r.segment(j * m, m) = (problem.q_measured.col(j).segment(w.begin, m) - q_simulated.col(j)) / problem.sigma_q[j];
+    r.segment(j * m, m) =
+        (problem.q_measured.col(j).segment(w.begin, m) - q_simulated.col(j)) / problem.sigma_q[j];
   return r;
 }
 
 SID_INLINE int output_error_threads(const OutputErrorOptions& options, Eigen::Index windows) {
   return static_cast<int>(std::min<Eigen::Index>(
-      windows, options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency())));
+      windows,
+      options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency())));
 }
 
 }  // namespace detail
 
 SID_INLINE OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
-                                const OutputErrorOptions& options) {
+                                           const OutputErrorOptions& options) {
   const std::string who = "sid::fit_output_error: ";
   const Eigen::Index n = problem.t.size();
   if (problem.q_measured.rows() != n || problem.tau.rows() != n)
@@ -126,19 +137,23 @@ SID_INLINE OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   if (has_prior && (problem.prior_mean.size() != problem.theta0.size() ||
                     problem.prior_std.size() != problem.theta0.size() ||
                     !(problem.prior_std.array() > 0.0).all() || !problem.prior_mean.allFinite()))
-    throw std::invalid_argument(who + "prior_mean and prior_std need one entry per parameter, "
-                                      "finite means and stds > 0");
+    throw std::invalid_argument(who +
+                                "prior_mean and prior_std need one entry per parameter, "
+                                "finite means and stds > 0");
   if (options.max_iterations < 1) throw std::invalid_argument(who + "max_iterations must be >= 1");
   if (!(options.sensitivity_rtol > 0.0) || !std::isfinite(options.sensitivity_rtol))
     throw std::invalid_argument(who + "sensitivity_rtol must be finite and > 0");
   if (!(options.comparison_tolerance >= 0.0) || !(options.comparison_tolerance < 1.0) ||
-      std::isnan(options.comparison_cost) || options.comparison_cost == std::numeric_limits<double>::infinity())
-    throw std::invalid_argument(who + "need 0 <= comparison_tolerance < 1 and comparison_cost < inf (or -inf: none)");
+      std::isnan(options.comparison_cost) ||
+      options.comparison_cost == std::numeric_limits<double>::infinity())
+    throw std::invalid_argument(
+        who + "need 0 <= comparison_tolerance < 1 and comparison_cost < inf (or -inf: none)");
 
   const Eigen::Index p = problem.theta0.size();
   std::vector<bool> is_fixed(static_cast<std::size_t>(p + 1), false);
   for (Eigen::Index u : problem.fixed_parameters) {
-    if (u < 0 || u >= p) throw std::invalid_argument(who + "a fixed parameter index is out of range");
+    if (u < 0 || u >= p)
+      throw std::invalid_argument(who + "a fixed parameter index is out of range");
     is_fixed[static_cast<std::size_t>(u)] = true;
   }
   const Eigen::Index g = p + (problem.estimate_nonlinear ? 1 : 0);  // global unknowns
@@ -252,8 +267,8 @@ SID_INLINE OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
       const Eigen::Index o = g + local * w;
       ok[static_cast<std::size_t>(w)] = detail::window_jacobian(
           model, x.head(p), parameters, torques[static_cast<std::size_t>(thread)], problem.t, win,
-          x.segment<2>(o), x.segment<2>(o + 2), x.segment<2>(o + 4), x.segment<2>(o + 6), problem.sigma_q,
-          loose, jacobian[static_cast<std::size_t>(w)]);
+          x.segment<2>(o), x.segment<2>(o + 2), x.segment<2>(o + 4), x.segment<2>(o + 6),
+          problem.sigma_q, loose, jacobian[static_cast<std::size_t>(w)]);
     });
     return std::all_of(ok.begin(), ok.end(), [](char o) { return o != 0; });
   };
@@ -348,7 +363,8 @@ SID_INLINE OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
           jac += (change - jac * d) * (d.transpose() / dd);
         }
         const double cost_drop = cost - c;
-        poor = cost_drop < 0.25 * predicted_drop(candidate - x);  // not step: s may have hit a bound
+        poor =
+            cost_drop < 0.25 * predicted_drop(candidate - x);  // not step: s may have hit a bound
         mu = std::max(mu / 10.0, 1e-9);
         small = negligible(cost_drop, cost);
         x = candidate;
@@ -377,12 +393,15 @@ SID_INLINE OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
     fresh = sensitivity_jacobian();
     failed = !fresh;
     if (failed)
-      fit.message = "a simulation failed while forming the Jacobian at iteration " + std::to_string(it + 1);
+      fit.message =
+          "a simulation failed while forming the Jacobian at iteration " + std::to_string(it + 1);
   }
-  if (!failed && !fresh && !(compared && fit.converged)) failed = !sensitivity_jacobian();  // for the covariance
+  if (!failed && !fresh && !(compared && fit.converged))
+    failed = !sensitivity_jacobian();  // for the covariance
   if (!fit.converged && fit.message.empty())
-    fit.message = failed ? "a simulation failed while forming the final Jacobian"
-                         : "not converged in " + std::to_string(options.max_iterations) + " iterations";
+    fit.message =
+        failed ? "a simulation failed while forming the final Jacobian"
+               : "not converged in " + std::to_string(options.max_iterations) + " iterations";
 
   fit.theta = x.head(p);
   fit.cost = cost;
@@ -390,7 +409,8 @@ SID_INLINE OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   if (problem.estimate_nonlinear) fit.s = std::exp(x[p]);
   fit.windows = problem.windows;
   for (Eigen::Index w = 0; w < nw; ++w) {
-    detail::set_window_unknowns(fit.windows[static_cast<std::size_t>(w)], x.segment<detail::kWindowUnknowns>(g + local * w));
+    detail::set_window_unknowns(fit.windows[static_cast<std::size_t>(w)],
+                                x.segment<detail::kWindowUnknowns>(g + local * w));
   }
   // Covariance of the globals: the inverse normal matrix's global block, scaled by the mean
   // square residual; s by the delta method from log s.
@@ -424,22 +444,26 @@ SID_INLINE OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   return fit;
 }
 
-SID_INLINE OutputErrorStart nested_start(const OutputErrorFit& fit, const std::vector<Eigen::Index>& held,
-                                     const Eigen::Ref<const Eigen::VectorXd>& values) {
+SID_INLINE OutputErrorStart nested_start(const OutputErrorFit& fit,
+                                         const std::vector<Eigen::Index>& held,
+                                         const Eigen::Ref<const Eigen::VectorXd>& values) {
   const std::string who = "sid::nested_start: ";
   const Eigen::Index p = fit.theta.size(), g = p + (std::isnan(fit.s) ? 0 : 1);
   const auto nw = static_cast<Eigen::Index>(fit.windows.size());
   constexpr Eigen::Index kLocal = detail::kWindowUnknowns;
   const Eigen::Index unknowns = g + kLocal * nw;
-  if (nw == 0 || fit.normal.rows() != unknowns || fit.normal.cols() != unknowns || fit.gradient.size() != unknowns)
-    throw std::invalid_argument(who + "the fit holds no normal matrix and gradient over its unknowns (did it fail?)");
+  if (nw == 0 || fit.normal.rows() != unknowns || fit.normal.cols() != unknowns ||
+      fit.gradient.size() != unknowns)
+    throw std::invalid_argument(
+        who + "the fit holds no normal matrix and gradient over its unknowns (did it fail?)");
   if (static_cast<Eigen::Index>(held.size()) != values.size())
     throw std::invalid_argument(who + "held and values differ in size");
   Eigen::VectorXd delta = Eigen::VectorXd::Zero(unknowns);
   std::vector<char> is_held(static_cast<std::size_t>(unknowns), 0);
   for (std::size_t k = 0; k < held.size(); ++k) {
     const Eigen::Index u = held[k];
-    if (u < 0 || u >= p) throw std::invalid_argument(who + "a held index is not one of the fit's parameters");
+    if (u < 0 || u >= p)
+      throw std::invalid_argument(who + "a held index is not one of the fit's parameters");
     is_held[static_cast<std::size_t>(u)] = 1;
     delta[u] = values[static_cast<Eigen::Index>(k)] - fit.theta[u];
   }
@@ -454,9 +478,11 @@ SID_INLINE OutputErrorStart nested_start(const OutputErrorFit& fit, const std::v
   Eigen::MatrixXd normal_free(nf, nf);
   Eigen::VectorXd rhs(nf);
   for (Eigen::Index a = 0; a < nf; ++a) {
-    rhs[a] = fit.gradient[free[static_cast<std::size_t>(a)]] - pulled[free[static_cast<std::size_t>(a)]];
+    rhs[a] =
+        fit.gradient[free[static_cast<std::size_t>(a)]] - pulled[free[static_cast<std::size_t>(a)]];
     for (Eigen::Index b = 0; b < nf; ++b)
-      normal_free(a, b) = fit.normal(free[static_cast<std::size_t>(a)], free[static_cast<std::size_t>(b)]);
+      normal_free(a, b) =
+          fit.normal(free[static_cast<std::size_t>(a)], free[static_cast<std::size_t>(b)]);
   }
   const Eigen::VectorXd step = normal_free.ldlt().solve(rhs);
   for (Eigen::Index a = 0; a < nf; ++a) delta[free[static_cast<std::size_t>(a)]] = step[a];
@@ -465,17 +491,18 @@ SID_INLINE OutputErrorStart nested_start(const OutputErrorFit& fit, const std::v
   start.windows = fit.windows;
   for (Eigen::Index w = 0; w < nw; ++w) {
     OutputErrorWindow& win = start.windows[static_cast<std::size_t>(w)];
-    detail::set_window_unknowns(win, detail::window_unknowns(win) + delta.segment<kLocal>(g + kLocal * w));
+    detail::set_window_unknowns(
+        win, detail::window_unknowns(win) + delta.segment<kLocal>(g + kLocal * w));
   }
   return start;
 }
 
 SID_INLINE OutputErrorScore output_error_score_test(const OutputErrorProblem& problem,
-                                         const OutputErrorFit& fit,
-                                         const Model<double>& extended,
-                                         const Eigen::VectorXd& theta_extended,
-                                         Eigen::Index added, double step,
-                                         const OutputErrorOptions& options) {
+                                                    const OutputErrorFit& fit,
+                                                    const Model<double>& extended,
+                                                    const Eigen::VectorXd& theta_extended,
+                                                    Eigen::Index added, double step,
+                                                    const OutputErrorOptions& options) {
   const std::string who = "sid::output_error_score_test: ";
   const auto nw = static_cast<Eigen::Index>(fit.windows.size());
   if (theta_extended.size() != fit.theta.size() + 1 || added < 0 || added >= theta_extended.size())
@@ -483,10 +510,11 @@ SID_INLINE OutputErrorScore output_error_score_test(const OutputErrorProblem& pr
   if (problem.windows.size() != fit.windows.size())
     throw std::invalid_argument(who + "the fit is not one of this problem (its windows differ)");
   OutputErrorScore out;
-  if (static_cast<Eigen::Index>(fit.window_jacobians.size()) != nw || nw == 0 || fit.normal.rows() == 0 ||
-      fit.gradient.size() != fit.normal.rows())
+  if (static_cast<Eigen::Index>(fit.window_jacobians.size()) != nw || nw == 0 ||
+      fit.normal.rows() == 0 || fit.gradient.size() != fit.normal.rows())
     return out;  // the fit failed: nothing to test at
-  if (!(step != 0.0) || !std::isfinite(step)) throw std::invalid_argument(who + "step must be finite and != 0");
+  if (!(step != 0.0) || !std::isfinite(step))
+    throw std::invalid_argument(who + "step must be finite and != 0");
   const int threads = detail::output_error_threads(options, nw);
   const std::vector<detail::TorqueInterpolator> torques(
       static_cast<std::size_t>(threads), detail::TorqueInterpolator(problem.t, problem.tau));
@@ -497,11 +525,13 @@ SID_INLINE OutputErrorScore output_error_score_test(const OutputErrorProblem& pr
   detail::for_each_index(nw, threads, [&](Eigen::Index w, int thread) {
     const OutputErrorWindow& win = fit.windows[static_cast<std::size_t>(w)];
     Eigen::MatrixXd q;
-    if (!detail::simulate_window(extended, moved, torques[static_cast<std::size_t>(thread)], problem.t, win,
-                                 win.q0, win.qd0, win.torque_offset, win.torque_slope, options.simulator, q))
+    if (!detail::simulate_window(extended, moved, torques[static_cast<std::size_t>(thread)],
+                                 problem.t, win, win.q0, win.qd0, win.torque_offset,
+                                 win.torque_slope, options.simulator, q))
       return;
-    derivative[static_cast<std::size_t>(w)] =
-        (fit.window_residuals[static_cast<std::size_t>(w)] - detail::normalised_residual(problem, win, q)) / step;
+    derivative[static_cast<std::size_t>(w)] = (fit.window_residuals[static_cast<std::size_t>(w)] -
+                                               detail::normalised_residual(problem, win, q)) /
+                                              step;
     ok[static_cast<std::size_t>(w)] = 1;
   });
   if (!std::all_of(ok.begin(), ok.end(), [](char o) { return o != 0; })) return out;

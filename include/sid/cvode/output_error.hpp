@@ -94,7 +94,7 @@ struct OutputErrorProblem {
   /// Indices into theta0 of parameters held at their start values (each free one adds a
   /// sensitivity to every window's Jacobian).
   std::vector<Eigen::Index> fixed_parameters;
-  double s0 = 1.0;         ///< start of the nonlinear scalar (> 0)
+  double s0 = 1.0;  ///< start of the nonlinear scalar (> 0)
   /// Bounds the estimate of s is kept within (where its bump vanishes, s has no gradient and
   /// would otherwise wander off).
   double s_min = 1e-6, s_max = 1e6;
@@ -102,16 +102,16 @@ struct OutputErrorProblem {
   /// Independent Gaussian priors on the parameters (empty, or theta0.size() entries; an
   /// infinite std is no prior): what another estimate (the torque-domain fit) already says.
   Eigen::VectorXd prior_mean, prior_std;
-  Eigen::VectorXd t;               ///< sample times [s], strictly increasing
-  MatrixX2<double> q_measured;     ///< measured angles [rad]
-  MatrixX2<double> tau;            ///< the applied torque at t [N m] (smooth: see the caller)
+  Eigen::VectorXd t;            ///< sample times [s], strictly increasing
+  MatrixX2<double> q_measured;  ///< measured angles [rad]
+  MatrixX2<double> tau;         ///< the applied torque at t [N m] (smooth: see the caller)
   Vector2<double> sigma_q = Vector2<double>::Ones();  ///< angle noise per joint [rad]
   std::vector<OutputErrorWindow> windows;
 };
 
 /// @brief The result of fit_output_error().
 struct OutputErrorFit {
-  Eigen::VectorXd theta;   ///< the model's parameters
+  Eigen::VectorXd theta;                                ///< the model's parameters
   double s = std::numeric_limits<double>::quiet_NaN();  ///< the nonlinear scalar (if estimated)
   /// Covariance of (theta, s) from the Gauss–Newton information, scaled by the fit's mean
   /// square normalised residual (1 when sigma_q is right and the model fits).
@@ -123,8 +123,8 @@ struct OutputErrorFit {
   Eigen::Index free_unknowns = 0;
   int iterations = 0;
   bool converged = false;
-  bool ok = true;           ///< false if a simulation failed at the start
-  std::string message;      ///< why not ok / not converged
+  bool ok = true;                          ///< false if a simulation failed at the start
+  std::string message;                     ///< why not ok / not converged
   std::vector<OutputErrorWindow> windows;  ///< with the estimated initial states
   /// What a test of a parameter added at the solution needs (output_error_score_test): per
   /// window, the normalised residuals at the solution and d(q_sim)/du over the window's unknowns
@@ -163,21 +163,22 @@ SID_INLINE double window_middle(const Eigen::VectorXd& t, const OutputErrorWindo
 
 /// The window's state equation: the model driven by the applied torque plus the window's offset
 /// and slope. Throws on a blow-up (the simulation then fails).
-SID_INLINE auto window_rhs(const Model<double>& model, const Eigen::VectorXd& theta, const TorqueInterpolator& torque,
-                       double middle, const Vector2<double>& torque_offset, const Vector2<double>& torque_slope);
+SID_INLINE auto window_rhs(const Model<double>& model, const Eigen::VectorXd& theta,
+                           const TorqueInterpolator& torque, double middle,
+                           const Vector2<double>& torque_offset,
+                           const Vector2<double>& torque_slope);
 
 /// Simulated angles of one window with parameters theta, or false if CVODE failed.
 SID_INLINE bool simulate_window(const Model<double>& model, const Eigen::VectorXd& theta,
-                            const TorqueInterpolator& torque, const Eigen::VectorXd& t,
-                            const OutputErrorWindow& w, const Vector2<double>& q0,
-                            const Vector2<double>& qd0, const Vector2<double>& torque_offset,
-                            const Vector2<double>& torque_slope,
-                            const SimulatorOptions& options,
-                            Eigen::MatrixXd& q_out);
+                                const TorqueInterpolator& torque, const Eigen::VectorXd& t,
+                                const OutputErrorWindow& w, const Vector2<double>& q0,
+                                const Vector2<double>& qd0, const Vector2<double>& torque_offset,
+                                const Vector2<double>& torque_slope,
+                                const SimulatorOptions& options, Eigen::MatrixXd& q_out);
 
 /// What window_jacobian() differentiates by, besides the window's own unknowns.
 struct WindowParameters {
-  std::vector<Eigen::Index> theta;   ///< indices into theta, in column order
+  std::vector<Eigen::Index> theta;  ///< indices into theta, in column order
   /// The nonlinear scalar's column (after theta's) if not null: the model at s e^log_step.
   const Model<double>* model_at_larger_s = nullptr;
   double log_step = 0;
@@ -192,16 +193,17 @@ struct WindowParameters {
 /// i. ∂ID/∂q and ∂ID/∂q̇ are forward differences (step 1e-7: relative error ~1e-5 at the tanh
 /// friction's curvature, as the difference Jacobian it replaces).
 SID_INLINE bool window_jacobian(const Model<double>& model, const Eigen::VectorXd& theta,
-                            const WindowParameters& parameters, const TorqueInterpolator& torque,
-                            const Eigen::VectorXd& t, const OutputErrorWindow& w,
-                            const Vector2<double>& q0, const Vector2<double>& qd0,
-                            const Vector2<double>& torque_offset, const Vector2<double>& torque_slope,
-                            const Vector2<double>& sigma_q, const SimulatorOptions& options,
-                            Eigen::MatrixXd& jacobian);
+                                const WindowParameters& parameters,
+                                const TorqueInterpolator& torque, const Eigen::VectorXd& t,
+                                const OutputErrorWindow& w, const Vector2<double>& q0,
+                                const Vector2<double>& qd0, const Vector2<double>& torque_offset,
+                                const Vector2<double>& torque_slope, const Vector2<double>& sigma_q,
+                                const SimulatorOptions& options, Eigen::MatrixXd& jacobian);
 
 /// (measured − simulated q)/σq of window w, joint 1's samples then joint 2's.
-SID_INLINE Eigen::VectorXd normalised_residual(const OutputErrorProblem& problem, const OutputErrorWindow& w,
-                                           const Eigen::MatrixXd& q_simulated);
+SID_INLINE Eigen::VectorXd normalised_residual(const OutputErrorProblem& problem,
+                                               const OutputErrorWindow& w,
+                                               const Eigen::MatrixXd& q_simulated);
 
 /// Threads for `windows` windows: options.threads, or the hardware's when 0.
 SID_INLINE int output_error_threads(const OutputErrorOptions& options, Eigen::Index windows);
@@ -214,7 +216,7 @@ SID_INLINE int output_error_threads(const OutputErrorOptions& options, Eigen::In
 /// sensitivity.hpp) kept current between evaluations by Broyden updates.
 /// @throws std::invalid_argument on inconsistent sizes or settings.
 SID_INLINE OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
-                                const OutputErrorOptions& options = {});
+                                           const OutputErrorOptions& options = {});
 
 /// @brief Where the fit of a nested model (`fit`'s with some parameters held at given values)
 /// starts: `fit`'s parameters and windows with the held ones moved and every other free unknown
@@ -229,8 +231,9 @@ struct OutputErrorStart {
 /// into fit.theta) at `values`, from a fit that converged or stopped with its Jacobian.
 /// @throws std::invalid_argument if the fit holds no normal matrix and gradient, or `held` and
 ///   `values` differ in size or name a parameter that does not exist.
-SID_INLINE OutputErrorStart nested_start(const OutputErrorFit& fit, const std::vector<Eigen::Index>& held,
-                                     const Eigen::Ref<const Eigen::VectorXd>& values);
+SID_INLINE OutputErrorStart nested_start(const OutputErrorFit& fit,
+                                         const std::vector<Eigen::Index>& held,
+                                         const Eigen::Ref<const Eigen::VectorXd>& values);
 
 /// @brief The score (Lagrange multiplier) test of one parameter added to a fitted model: does
 /// moving it away from its null value lower the cost, once the fit's own unknowns re-adjust?
@@ -250,11 +253,11 @@ struct OutputErrorScore {
 /// parameter moved by `step`.
 /// @throws std::invalid_argument if the sizes do not match the fit's.
 SID_INLINE OutputErrorScore output_error_score_test(const OutputErrorProblem& problem,
-                                         const OutputErrorFit& fit,
-                                         const Model<double>& extended,
-                                         const Eigen::VectorXd& theta_extended,
-                                         Eigen::Index added, double step,
-                                         const OutputErrorOptions& options = {});
+                                                    const OutputErrorFit& fit,
+                                                    const Model<double>& extended,
+                                                    const Eigen::VectorXd& theta_extended,
+                                                    Eigen::Index added, double step,
+                                                    const OutputErrorOptions& options = {});
 
 }  // namespace sid
 

@@ -55,10 +55,10 @@ using NVectorArrayPtr = std::unique_ptr<N_Vector, NVectorArrayDeleter>;
 template <typename SensitivityRhs>
 struct SensitivityExtension {
   const SensitivityRhs* sensitivity_rhs;
-  const Eigen::MatrixXd* initial;   // n x ns
+  const Eigen::MatrixXd* initial;  // n x ns
   double rtol, atol;
-  Eigen::MatrixXd* out;             // n_times x n*ns
-  Eigen::MatrixXd s, sdot;          // n x ns, copies of CVODES's vectors for the callback
+  Eigen::MatrixXd* out;     // n_times x n*ns
+  Eigen::MatrixXd s, sdot;  // n x ns, copies of CVODES's vectors for the callback
   N_Vector* vectors = nullptr;
 
   Eigen::Index states() const { return initial->rows(); }
@@ -72,7 +72,8 @@ struct SensitivityExtension {
     check_setup(CVodeGetSens(cv, &t_returned, vectors), "CVodeGetSens");
     const Eigen::Index n = states();
     for (int i = 0; i < count(); ++i)
-      out->row(k).segment(i * n, n) = Eigen::Map<const Eigen::VectorXd>(N_VGetArrayPointer(vectors[i]), n).transpose();
+      out->row(k).segment(i * n, n) =
+          Eigen::Map<const Eigen::VectorXd>(N_VGetArrayPointer(vectors[i]), n).transpose();
   }
 };
 
@@ -92,7 +93,8 @@ int cvodes_sensitivity_rhs(int ns, sunrealtype t, N_Vector y, N_Vector ydot, N_V
     const Eigen::Map<const Eigen::VectorXd> xdot(N_VGetArrayPointer(ydot), n);
     (*extension->sensitivity_rhs)(t, x, xdot, extension->s, extension->sdot);
     if (!extension->sdot.allFinite()) {
-      context->nonfinite = "the sensitivity rhs returned a non-finite derivative at t = " + format_time(t);
+      context->nonfinite =
+          "the sensitivity rhs returned a non-finite derivative at t = " + format_time(t);
       return -1;
     }
     for (int i = 0; i < ns; ++i)
@@ -108,7 +110,8 @@ int cvodes_sensitivity_rhs(int ns, sunrealtype t, N_Vector y, N_Vector ydot, N_V
 
 template <typename SensitivityRhs>
 template <typename Rhs>
-NVectorArrayPtr SensitivityExtension<SensitivityRhs>::attach(void* cv, N_Vector y, SUNContext /*ctx*/,
+NVectorArrayPtr SensitivityExtension<SensitivityRhs>::attach(void* cv, N_Vector y,
+                                                             SUNContext /*ctx*/,
                                                              RhsContext<Rhs>& context) {
   const int ns = count();
   NVectorArrayPtr owner(N_VCloneVectorArray(ns, y), NVectorArrayDeleter{ns});
@@ -120,8 +123,9 @@ NVectorArrayPtr SensitivityExtension<SensitivityRhs>::attach(void* cv, N_Vector 
   // Staggered: the state's corrector converges first, then the sensitivities' (linear in S)
   // reuse its Newton matrix. The sensitivities stay out of the error test: the steps are the
   // state's, so adding them changes nothing the caller simulates without them.
-  check_setup(CVodeSensInit(cv, ns, CV_STAGGERED, &cvodes_sensitivity_rhs<Rhs, SensitivityRhs>, vectors),
-              "CVodeSensInit");
+  check_setup(
+      CVodeSensInit(cv, ns, CV_STAGGERED, &cvodes_sensitivity_rhs<Rhs, SensitivityRhs>, vectors),
+      "CVodeSensInit");
   std::vector<double> atol_s(static_cast<std::size_t>(ns), atol);
   check_setup(CVodeSensSStolerances(cv, rtol, atol_s.data()), "CVodeSensSStolerances");
   check_setup(CVodeSetSensErrCon(cv, SUNFALSE), "CVodeSetSensErrCon");
@@ -140,22 +144,27 @@ NVectorArrayPtr SensitivityExtension<SensitivityRhs>::attach(void* cv, N_Vector 
 /// @return the states as simulate() returns them, and the sensitivities at every output time.
 /// @throws std::invalid_argument as simulate() does, or if s0 has the wrong size or is not finite.
 template <typename Rhs, typename SensitivityRhs>
-SensitivityResult simulate_with_sensitivities(const Rhs& rhs, const SensitivityRhs& sensitivity_rhs,
-                                              const Eigen::Ref<const Eigen::VectorXd>& x0,
-                                              const Eigen::Ref<const Eigen::MatrixXd>& s0,
-                                              const Eigen::Ref<const Eigen::VectorXd>& t,
-                                              const SimulatorOptions& options = SimulatorOptions()) {
+SensitivityResult simulate_with_sensitivities(
+    const Rhs& rhs, const SensitivityRhs& sensitivity_rhs,
+    const Eigen::Ref<const Eigen::VectorXd>& x0, const Eigen::Ref<const Eigen::MatrixXd>& s0,
+    const Eigen::Ref<const Eigen::VectorXd>& t,
+    const SimulatorOptions& options = SimulatorOptions()) {
   if (s0.rows() != x0.size() || s0.cols() < 1)
-    throw std::invalid_argument("sid::simulate_with_sensitivities: s0 must have x0.size() rows and >= 1 column");
-  if (!s0.allFinite()) throw std::invalid_argument("sid::simulate_with_sensitivities: s0 must be finite");
+    throw std::invalid_argument(
+        "sid::simulate_with_sensitivities: s0 must have x0.size() rows and >= 1 column");
+  if (!s0.allFinite())
+    throw std::invalid_argument("sid::simulate_with_sensitivities: s0 must be finite");
   if (options.method == IntegrationMethod::AdamsFixedPoint)
-    throw std::invalid_argument("sid::simulate_with_sensitivities: needs a Newton method (AdamsNewton or Bdf)");
+    throw std::invalid_argument(
+        "sid::simulate_with_sensitivities: needs a Newton method (AdamsNewton or Bdf)");
   const Eigen::MatrixXd initial = s0;
   SensitivityResult result;
   result.sensitivities.setConstant(t.size(), s0.size(), std::numeric_limits<double>::quiet_NaN());
-  if (t.size() > 0) result.sensitivities.row(0) = Eigen::Map<const Eigen::VectorXd>(initial.data(), initial.size());
-  detail::SensitivityExtension<SensitivityRhs> extension{&sensitivity_rhs, &initial, options.rtol, options.atol,
-                                                         &result.sensitivities, initial, initial, nullptr};
+  if (t.size() > 0)
+    result.sensitivities.row(0) = Eigen::Map<const Eigen::VectorXd>(initial.data(), initial.size());
+  detail::SensitivityExtension<SensitivityRhs> extension{
+      &sensitivity_rhs,      &initial, options.rtol, options.atol,
+      &result.sensitivities, initial,  initial,      nullptr};
   result.simulation = detail::run_cvode(rhs, x0, t, options, extension);
   return result;
 }

@@ -67,28 +67,37 @@ struct SimulatorOptions {
 /// @brief Outcome of a simulation; every value but Success means the states stop early.
 enum class SimulationStatus {
   Success,
-  TooMuchWork,         ///< CV_TOO_MUCH_WORK: max_steps taken before the next output time.
-  TooMuchAccuracy,     ///< CV_TOO_MUCH_ACC: tolerances below what double precision can give.
-  ErrorTestFailure,    ///< CV_ERR_FAILURE: local error test failed repeatedly (or |h| = hmin).
-  ConvergenceFailure,  ///< CV_CONV_FAILURE: the nonlinear iteration failed repeatedly.
-  LinearSolverFailure, ///< CV_LSETUP_FAIL / CV_LSOLVE_FAIL: e.g. a singular Newton matrix.
-  RhsFailure,          ///< The right-hand side threw an exception (see SimulationResult::message).
-  NonFinite,           ///< The right-hand side or the state became NaN or infinite.
-  OtherFailure,        ///< Any other CVODE failure (see flag_name and message).
+  TooMuchWork,          ///< CV_TOO_MUCH_WORK: max_steps taken before the next output time.
+  TooMuchAccuracy,      ///< CV_TOO_MUCH_ACC: tolerances below what double precision can give.
+  ErrorTestFailure,     ///< CV_ERR_FAILURE: local error test failed repeatedly (or |h| = hmin).
+  ConvergenceFailure,   ///< CV_CONV_FAILURE: the nonlinear iteration failed repeatedly.
+  LinearSolverFailure,  ///< CV_LSETUP_FAIL / CV_LSOLVE_FAIL: e.g. a singular Newton matrix.
+  RhsFailure,           ///< The right-hand side threw an exception (see SimulationResult::message).
+  NonFinite,            ///< The right-hand side or the state became NaN or infinite.
+  OtherFailure,         ///< Any other CVODE failure (see flag_name and message).
 };
 
 /// @brief Name of a status, for messages ("Success", "TooMuchWork", ...).
 inline const char* to_string(SimulationStatus status) {
   switch (status) {
-    case SimulationStatus::Success: return "Success";
-    case SimulationStatus::TooMuchWork: return "TooMuchWork";
-    case SimulationStatus::TooMuchAccuracy: return "TooMuchAccuracy";
-    case SimulationStatus::ErrorTestFailure: return "ErrorTestFailure";
-    case SimulationStatus::ConvergenceFailure: return "ConvergenceFailure";
-    case SimulationStatus::LinearSolverFailure: return "LinearSolverFailure";
-    case SimulationStatus::RhsFailure: return "RhsFailure";
-    case SimulationStatus::NonFinite: return "NonFinite";
-    case SimulationStatus::OtherFailure: return "OtherFailure";
+    case SimulationStatus::Success:
+      return "Success";
+    case SimulationStatus::TooMuchWork:
+      return "TooMuchWork";
+    case SimulationStatus::TooMuchAccuracy:
+      return "TooMuchAccuracy";
+    case SimulationStatus::ErrorTestFailure:
+      return "ErrorTestFailure";
+    case SimulationStatus::ConvergenceFailure:
+      return "ConvergenceFailure";
+    case SimulationStatus::LinearSolverFailure:
+      return "LinearSolverFailure";
+    case SimulationStatus::RhsFailure:
+      return "RhsFailure";
+    case SimulationStatus::NonFinite:
+      return "NonFinite";
+    case SimulationStatus::OtherFailure:
+      return "OtherFailure";
   }
   return "Unknown";
 }
@@ -188,10 +197,10 @@ template <typename Rhs>
 struct RhsContext {
   const Rhs* rhs;
   Eigen::Index n;
-  std::string rhs_error;     // text of the exception the RHS threw
-  std::string nonfinite;     // where the RHS produced a non-finite derivative
-  std::string cvode_error;   // CVODE's last error message
-  void* extension = nullptr; // what an extension of the run (sensitivities) needs in callbacks
+  std::string rhs_error;      // text of the exception the RHS threw
+  std::string nonfinite;      // where the RHS produced a non-finite derivative
+  std::string cvode_error;    // CVODE's last error message
+  void* extension = nullptr;  // what an extension of the run (sensitivities) needs in callbacks
 };
 
 /// The run of simulate() without extension: nothing attached, nothing recorded.
@@ -216,8 +225,8 @@ void evaluate_rhs(const Rhs& rhs, double t, const Eigen::Map<const Eigen::Vector
                   "xdot = rhs(t, x)");
     const Eigen::VectorXd value = rhs(t, x);
     if (value.size() != xdot.size())
-      throw std::length_error("rhs returned " + std::to_string(value.size()) +
-                              " derivatives for " + std::to_string(xdot.size()) + " states");
+      throw std::length_error("rhs returned " + std::to_string(value.size()) + " derivatives for " +
+                              std::to_string(xdot.size()) + " states");
     xdot = value;
   }
 }
@@ -255,8 +264,8 @@ void cvode_error_handler(int error_code, const char* module, const char* functio
   if (error_code == CV_WARNING) return;  // e.g. "t + h = t": CVODE carries on; nothing to report
   auto* context = static_cast<RhsContext<Rhs>*>(user_data);
   try {
-    context->cvode_error = std::string(module ? module : "CVODE") + "::" +
-                           (function ? function : "?") + ": " + (msg ? msg : "");
+    context->cvode_error = std::string(module ? module : "CVODE") +
+                           "::" + (function ? function : "?") + ": " + (msg ? msg : "");
   } catch (...) {
     // Out of memory while formatting: keep the flag name alone.
   }
@@ -267,19 +276,26 @@ inline SimulationStatus status_from_flag(int flag, bool rhs_threw, bool nonfinit
   if (rhs_threw) return SimulationStatus::RhsFailure;
   if (nonfinite) return SimulationStatus::NonFinite;
   switch (flag) {
-    case CV_TOO_MUCH_WORK: return SimulationStatus::TooMuchWork;
-    case CV_TOO_MUCH_ACC: return SimulationStatus::TooMuchAccuracy;
-    case CV_ERR_FAILURE: return SimulationStatus::ErrorTestFailure;
+    case CV_TOO_MUCH_WORK:
+      return SimulationStatus::TooMuchWork;
+    case CV_TOO_MUCH_ACC:
+      return SimulationStatus::TooMuchAccuracy;
+    case CV_ERR_FAILURE:
+      return SimulationStatus::ErrorTestFailure;
     case CV_CONV_FAILURE:
-    case CV_NLS_FAIL: return SimulationStatus::ConvergenceFailure;
+    case CV_NLS_FAIL:
+      return SimulationStatus::ConvergenceFailure;
     case CV_LINIT_FAIL:
     case CV_LSETUP_FAIL:
-    case CV_LSOLVE_FAIL: return SimulationStatus::LinearSolverFailure;
+    case CV_LSOLVE_FAIL:
+      return SimulationStatus::LinearSolverFailure;
     case CV_RHSFUNC_FAIL:
     case CV_FIRST_RHSFUNC_ERR:
     case CV_REPTD_RHSFUNC_ERR:
-    case CV_UNREC_RHSFUNC_ERR: return SimulationStatus::RhsFailure;
-    default: return SimulationStatus::OtherFailure;
+    case CV_UNREC_RHSFUNC_ERR:
+      return SimulationStatus::RhsFailure;
+    default:
+      return SimulationStatus::OtherFailure;
   }
 }
 
@@ -350,8 +366,8 @@ SimulationResult run_cvode(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorX
   detail::SunLinearSolverPtr linear_solver;
   detail::SunNonlinearSolverPtr fixed_point;
   if (newton) {
-    jacobian.reset(SUNDenseMatrix(static_cast<sunindextype>(n), static_cast<sunindextype>(n),
-                                  ctx.get()));
+    jacobian.reset(
+        SUNDenseMatrix(static_cast<sunindextype>(n), static_cast<sunindextype>(n), ctx.get()));
     if (!jacobian) throw std::bad_alloc();
     linear_solver.reset(SUNLinSol_Dense(y.get(), jacobian.get(), ctx.get()));
     if (!linear_solver) throw std::bad_alloc();
@@ -379,8 +395,7 @@ SimulationResult run_cvode(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorX
     detail::check_setup(CVodeSetLinearSolver(cv, linear_solver.get(), jacobian.get()),
                         "CVodeSetLinearSolver");
   } else {
-    detail::check_setup(CVodeSetNonlinearSolver(cv, fixed_point.get()),
-                        "CVodeSetNonlinearSolver");
+    detail::check_setup(CVodeSetNonlinearSolver(cv, fixed_point.get()), "CVodeSetNonlinearSolver");
   }
   [[maybe_unused]] const auto attachment = extension.attach(cv, y.get(), ctx.get(), context);
 
@@ -391,8 +406,8 @@ SimulationResult run_cvode(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorX
     flag = CVode(cv, t[k], y.get(), &t_returned, CV_NORMAL);
     result.t_reached = t_returned;
     if (flag < 0) {
-      result.status = detail::status_from_flag(flag, !context.rhs_error.empty(),
-                                               !context.nonfinite.empty());
+      result.status =
+          detail::status_from_flag(flag, !context.rhs_error.empty(), !context.nonfinite.empty());
       break;
     }
     if (!y_view.allFinite()) {

@@ -88,7 +88,8 @@ SID_INLINE int newey_west_bandwidth(const Eigen::Ref<const Eigen::MatrixXd>& sco
       std::clamp(std::ceil(lag), 1.0, std::max(1.0, static_cast<double>(n / 4))));
 }
 
-SID_INLINE Eigen::MatrixXd newey_west_sum(const Eigen::Ref<const Eigen::MatrixXd>& scores, int lag) {
+SID_INLINE Eigen::MatrixXd newey_west_sum(const Eigen::Ref<const Eigen::MatrixXd>& scores,
+                                          int lag) {
   if (lag < 0) throw std::invalid_argument("sid::newey_west_sum: lag must be >= 0");
   const Eigen::Index n = scores.rows();
   Eigen::MatrixXd s = scores.transpose() * scores;
@@ -109,8 +110,8 @@ SID_INLINE Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::Matrix
   if (!b.allFinite()) return newey_west_sum(scores, newey_west_bandwidth(scores));
   // B is square: Eigen's QR preconditioner would never run, and instantiating it costs
   // seconds of compile time in every file that includes this header.
-  Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(b, Eigen::ComputeFullU |
-                                                                          Eigen::ComputeFullV);
+  Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(
+      b, Eigen::ComputeFullU | Eigen::ComputeFullV);
   constexpr double kMaxRoot = 0.97;
   if (svd.singularValues().maxCoeff() > kMaxRoot)
     b = svd.matrixU() * svd.singularValues().cwiseMin(kMaxRoot).asDiagonal() *
@@ -125,7 +126,7 @@ SID_INLINE Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::Matrix
 }
 
 SID_INLINE double wald_statistic(const Eigen::Ref<const Eigen::VectorXd>& gamma,
-                             const Eigen::Ref<const Eigen::MatrixXd>& covariance) {
+                                 const Eigen::Ref<const Eigen::MatrixXd>& covariance) {
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(covariance);
   if (ldlt.info() == Eigen::Success && ldlt.isPositive() && (ldlt.vectorD().array() > 0.0).all())
     return gamma.dot(ldlt.solve(gamma));

@@ -67,7 +67,7 @@ SID_INLINE Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::Matrix
 
 /// @brief Wald statistic γ̂ᵀ V⁻¹ γ̂ (V symmetric positive definite; pseudo-inverse otherwise).
 SID_INLINE double wald_statistic(const Eigen::Ref<const Eigen::VectorXd>& gamma,
-                             const Eigen::Ref<const Eigen::MatrixXd>& covariance);
+                                 const Eigen::Ref<const Eigen::MatrixXd>& covariance);
 
 }  // namespace sid
 

@@ -6,12 +6,12 @@
 namespace sid {
 
 SID_INLINE Vector2<double> kinematic_noise_rms(const Model<double>& model,
-                                           const Eigen::Ref<const Eigen::VectorXd>& theta,
-                                           const Kinematics<double>& knots_kinematics,
-                                           const Vector2<double>& sigma_q, const Vector2<double>& p,
-                                           Eigen::Index first, Eigen::Index count,
-                                           const Eigen::VectorXd& weight, int runs,
-                                           std::uint64_t seed) {
+                                               const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                               const Kinematics<double>& knots_kinematics,
+                                               const Vector2<double>& sigma_q,
+                                               const Vector2<double>& p, Eigen::Index first,
+                                               Eigen::Index count, const Eigen::VectorXd& weight,
+                                               int runs, std::uint64_t seed) {
   constexpr const char* who = "sid::kinematic_noise_rms";
   const Kinematics<double>& k = knots_kinematics;
   const Eigen::Index n = k.size();

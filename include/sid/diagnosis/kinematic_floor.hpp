@@ -30,12 +30,12 @@ namespace sid {
 ///   joint 2's) 1 for a row that counts, 0 for one that does not.
 /// @throws std::invalid_argument on bad sizes, σ_q or p not finite and > 0, runs < 1.
 SID_INLINE Vector2<double> kinematic_noise_rms(const Model<double>& model,
-                                           const Eigen::Ref<const Eigen::VectorXd>& theta,
-                                           const Kinematics<double>& knots_kinematics,
-                                           const Vector2<double>& sigma_q, const Vector2<double>& p,
-                                           Eigen::Index first, Eigen::Index count,
-                                           const Eigen::VectorXd& weight, int runs,
-                                           std::uint64_t seed);
+                                               const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                               const Kinematics<double>& knots_kinematics,
+                                               const Vector2<double>& sigma_q,
+                                               const Vector2<double>& p, Eigen::Index first,
+                                               Eigen::Index count, const Eigen::VectorXd& weight,
+                                               int runs, std::uint64_t seed);
 
 }  // namespace sid
 

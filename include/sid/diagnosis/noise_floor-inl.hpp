@@ -21,7 +21,7 @@ SID_INLINE double noise_sigma_second_differences(const Eigen::Ref<const Eigen::V
 }
 
 SID_INLINE double noise_sigma_gcv(const Eigen::Ref<const Eigen::VectorXd>& t,
-                              const Eigen::Ref<const Eigen::VectorXd>& y) {
+                                  const Eigen::Ref<const Eigen::VectorXd>& y) {
   const SmoothingSpline<double> spline(t);
   return spline.fit_cross_validated(y, 1.0, SmoothingCriterion::Gcv).sigma;
 }

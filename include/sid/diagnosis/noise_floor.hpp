@@ -26,7 +26,7 @@ SID_INLINE double noise_sigma_second_differences(const Eigen::Ref<const Eigen::V
 /// @param t strictly increasing times [s]; y the signal (n >= 4).
 /// @throws std::invalid_argument as SmoothingSpline does (too few samples, bad t, non-finite y).
 SID_INLINE double noise_sigma_gcv(const Eigen::Ref<const Eigen::VectorXd>& t,
-                              const Eigen::Ref<const Eigen::VectorXd>& y);
+                                  const Eigen::Ref<const Eigen::VectorXd>& y);
 
 }  // namespace sid
 

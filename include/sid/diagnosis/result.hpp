@@ -95,7 +95,7 @@ struct FrictionCheck {
   double score = std::numeric_limits<double>::quiet_NaN();
   double score_velocity = std::numeric_limits<double>::quiet_NaN();
   bool stribeck_fitted = false;  ///< false: the score stayed below the screen's level
-  Eigen::Index windows = 0;  ///< simulation windows (one per reversal used)
+  Eigen::Index windows = 0;      ///< simulation windows (one per reversal used)
   /// RMS of (measured − simulated q) / σq over the windows for each curve (1 = the noise).
   double normalized_rms_coulomb = std::numeric_limits<double>::quiet_NaN();
   double normalized_rms_stribeck = std::numeric_limits<double>::quiet_NaN();
@@ -116,11 +116,11 @@ struct DiagnosisResult {
   std::vector<ParameterDrift> drift;  ///< empty without reference_theta
   /// One per joint with named friction, filled by diagnose_with_simulation (empty otherwise).
   std::vector<FrictionCheck> friction_checks;
-  Kinematics<double> kinematics;      ///< the smoothed samples the fits used
+  Kinematics<double> kinematics;  ///< the smoothed samples the fits used
   /// Per equation (joint 1's samples, then joint 2's): 1 if the fits used it, 0 if that joint was
   /// at rest there (DiagnoseOptions::rest_velocity).
   Eigen::VectorXd kept;
-  Model<double> final_model;          ///< two_link_arm_model + named effect terms
+  Model<double> final_model;  ///< two_link_arm_model + named effect terms
   Model<double> nominal_model;
   /// The settings the final model's effect terms were built with, per named effect (stribeck
   /// at its chosen vs), in final_model's term order after rigid_body and viscous_friction.

@@ -7,9 +7,9 @@ namespace sid {
 
 SID_INLINE const std::vector<std::string>& effect_ids() {
   static const std::vector<std::string> ids{
-      "coulomb_j1",       "coulomb_j2",       "stribeck_j1",    "stribeck_j2",
+      "coulomb_j1",       "coulomb_j2",       "stribeck_j1",     "stribeck_j2",
       "torque_offset_j1", "torque_offset_j2", "angle_offset_q1", "angle_offset_q2",
-      "armature_j1",      "armature_j2",      "spring_j1",      "spring_j2"};
+      "armature_j1",      "armature_j2",      "spring_j1",       "spring_j2"};
   return ids;
 }
 
@@ -172,13 +172,14 @@ SID_INLINE Term<double> effect_term(const std::string& id, const EffectSettings&
                 out(other, 0) = 0.0;
               }};
     case detail::EffectKind::Stribeck:
-      return {id, {id + ".Fc", id + ".Fs_minus_Fc"}, [j, other, eps, vs, shape](V, V qd, V, Out out) {
-                const double sign = detail::smooth_sign(qd[j], eps, shape);
-                out(j, 0) = sign;
-                out(j, 1) = detail::stribeck_bump(qd[j], vs) * sign;
-                out(other, 0) = 0.0;
-                out(other, 1) = 0.0;
-              }};
+      return {
+          id, {id + ".Fc", id + ".Fs_minus_Fc"}, [j, other, eps, vs, shape](V, V qd, V, Out out) {
+            const double sign = detail::smooth_sign(qd[j], eps, shape);
+            out(j, 0) = sign;
+            out(j, 1) = detail::stribeck_bump(qd[j], vs) * sign;
+            out(other, 0) = 0.0;
+            out(other, 1) = 0.0;
+          }};
     case detail::EffectKind::TorqueOffset:
       return {id, {id + ".b"}, [j, other](V, V, V, Out out) {
                 out(j, 0) = 1.0;
@@ -216,10 +217,10 @@ SID_INLINE Term<double> effect_term(const std::string& id, const EffectSettings&
 }
 
 SID_INLINE EffectEstimate effect_estimate(const std::string& id,
-                                      const Eigen::Ref<const Eigen::VectorXd>& theta_full,
-                                      const Eigen::Ref<const Eigen::MatrixXd>& covariance_full,
-                                      const Model<double>& model,
-                                      const EffectSettings& settings) {
+                                          const Eigen::Ref<const Eigen::VectorXd>& theta_full,
+                                          const Eigen::Ref<const Eigen::MatrixXd>& covariance_full,
+                                          const Model<double>& model,
+                                          const EffectSettings& settings) {
   constexpr const char* who = "sid::effect_estimate";
   const detail::EffectInfo info = detail::effect_info(id, who);
   detail::check_effect_settings(settings, who);
@@ -310,8 +311,10 @@ SID_INLINE void validate_effect(const EffectSpec& spec, const char* who) {
     case detail::EffectKind::Stribeck:
       require_positive(0, "N m");
       if (!(v[1] > v[0]))
-        throw std::invalid_argument(prefix + "Fs must be > Fc (static friction above Coulomb), "
-                                             "got Fs = " + detail::format_value(v[1]) +
+        throw std::invalid_argument(prefix +
+                                    "Fs must be > Fc (static friction above Coulomb), "
+                                    "got Fs = " +
+                                    detail::format_value(v[1]) +
                                     ", Fc = " + detail::format_value(v[0]));
       require_positive(2, "rad/s");
       return;
@@ -364,8 +367,8 @@ SID_INLINE EffectSpec parse_effect(const std::string& text) {
 }
 
 SID_INLINE EffectfulArm effectful_arm(const TwoLinkParameters<double>& theta,
-                                  const std::vector<EffectSpec>& effects,
-                                  const EffectSettings& settings) {
+                                      const std::vector<EffectSpec>& effects,
+                                      const EffectSettings& settings) {
   constexpr const char* who = "sid::effectful_arm";
   detail::check_effect_settings(settings, who);
   if (!theta.allFinite()) throw std::invalid_argument(std::string(who) + ": theta must be finite");

@@ -163,10 +163,10 @@ struct EffectEstimate {
 /// @throws std::invalid_argument for an unknown id, a model without the term (or, for angle
 ///         offsets, without "rigid_body"), or wrongly sized theta/covariance.
 SID_INLINE EffectEstimate effect_estimate(const std::string& id,
-                                      const Eigen::Ref<const Eigen::VectorXd>& theta_full,
-                                      const Eigen::Ref<const Eigen::MatrixXd>& covariance_full,
-                                      const Model<double>& model,
-                                      const EffectSettings& settings = {});
+                                          const Eigen::Ref<const Eigen::VectorXd>& theta_full,
+                                          const Eigen::Ref<const Eigen::MatrixXd>& covariance_full,
+                                          const Model<double>& model,
+                                          const EffectSettings& settings = {});
 
 /// @brief A user-given effect with its physical values in effect_value_names(id) order, e.g.
 /// {"stribeck_j1", {0.1, 0.3, 0.2}} (Fc, Fs, vs).
@@ -207,8 +207,8 @@ struct EffectfulArm {
 /// @throws std::invalid_argument for an invalid spec, an id given twice, non-finite theta or bad
 ///         settings.
 SID_INLINE EffectfulArm effectful_arm(const TwoLinkParameters<double>& theta,
-                                  const std::vector<EffectSpec>& effects,
-                                  const EffectSettings& settings = {});
+                                      const std::vector<EffectSpec>& effects,
+                                      const EffectSettings& settings = {});
 
 }  // namespace sid
 

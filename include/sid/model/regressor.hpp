@@ -181,9 +181,8 @@ void stack_two_link_regressor(const detail::ConstSamplesRef<Scalar>& q,
     return;
   }
   for (Eigen::Index i = 0; i < n; ++i) {
-    const TwoLinkRegressor<Scalar> z =
-        two_link_regressor<Scalar>(q.row(i).transpose(), qd.row(i).transpose(),
-                                   qdd.row(i).transpose(), g);
+    const TwoLinkRegressor<Scalar> z = two_link_regressor<Scalar>(
+        q.row(i).transpose(), qd.row(i).transpose(), qdd.row(i).transpose(), g);
     X.row(i) = z.row(0);
     X.row(n + i) = z.row(1);
   }
@@ -191,9 +190,8 @@ void stack_two_link_regressor(const detail::ConstSamplesRef<Scalar>& q,
 
 /// @brief X and y for a whole Kinematics with the closed-form arm regressor (allocates once).
 template <typename Scalar>
-StackedRegression<Scalar> stack_two_link_regression(const Kinematics<Scalar>& kinematics,
-                                                    detail::NoDeduce<Scalar> g =
-                                                        Scalar(kPaperGravity)) {
+StackedRegression<Scalar> stack_two_link_regression(
+    const Kinematics<Scalar>& kinematics, detail::NoDeduce<Scalar> g = Scalar(kPaperGravity)) {
   const Eigen::Index n = kinematics.q.rows();
   if (kinematics.tau.rows() != n)
     throw std::invalid_argument("sid::stack_two_link_regression: kinematics.q has " +

@@ -106,8 +106,8 @@ Term<Scalar> term_from_torque(std::string name, std::vector<std::string> paramet
                       ModelParameters<Scalar> unit = ModelParameters<Scalar>::Zero(p);
                       for (Eigen::Index j = 0; j < p; ++j) {
                         unit[j] = Scalar(1);
-                        out.col(j) = torque(static_cast<const ModelParameters<Scalar>&>(unit), q,
-                                            qd, qdd);
+                        out.col(j) =
+                            torque(static_cast<const ModelParameters<Scalar>&>(unit), q, qd, qdd);
                         unit[j] = Scalar(0);
                       }
                     }};

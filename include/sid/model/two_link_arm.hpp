@@ -1,7 +1,8 @@
 #pragma once
 /// @file
-/// @brief The paper's two-link planar arm (eq. 38-40, corrected as docs/paper-reproduction.md lists): its
-/// parameters, its terms for sid::Model, and closed-form fixed-size fast paths for control loops.
+/// @brief The paper's two-link planar arm (eq. 38-40, corrected as docs/paper-reproduction.md
+/// lists): its parameters, its terms for sid::Model, and closed-form fixed-size fast paths for
+/// control loops.
 ///
 /// Conventions: q1 from the downward vertical (gravity pulls toward q = 0), q2 relative to link 1,
 /// counter-clockwise positive. D(q) qdd + C(q, qd) qd + G(q) + diag(theta6, theta7) qd = tau with
@@ -46,8 +47,8 @@ struct TwoLinkPhysical {
   Scalar mu2;  ///< viscous friction of joint 2 [N m s/rad]
 };
 
-/// @brief The paper's arm with the corrections listed in docs/paper-reproduction.md (lc1 = 0.0398 m, lc2 = 0.0392 m,
-/// not the printed 0.00398/0.00392; mu1 = mu2 = 0.6189 from the tables).
+/// @brief The paper's arm with the corrections listed in docs/paper-reproduction.md (lc1 = 0.0398
+/// m, lc2 = 0.0392 m, not the printed 0.00398/0.00392; mu1 = mu2 = 0.6189 from the tables).
 template <typename Scalar = double>
 TwoLinkPhysical<Scalar> paper_arm_physical() noexcept {
   return {Scalar(0.2675), Scalar(0.0398), Scalar(0.0392), Scalar(0.4347), Scalar(0.4322),
@@ -59,8 +60,8 @@ TwoLinkPhysical<Scalar> paper_arm_physical() noexcept {
 template <typename Scalar = double>
 TwoLinkParameters<Scalar> paper_arm_parameters() noexcept {
   TwoLinkParameters<Scalar> theta;
-  theta << Scalar(0.034015193438), Scalar(0.003064135808), Scalar(0.0045320492),
-      Scalar(0.13291456), Scalar(0.01694224), Scalar(0.6189), Scalar(0.6189);
+  theta << Scalar(0.034015193438), Scalar(0.003064135808), Scalar(0.0045320492), Scalar(0.13291456),
+      Scalar(0.01694224), Scalar(0.6189), Scalar(0.6189);
   return theta;
 }
 
@@ -160,11 +161,10 @@ Vector2<Scalar> two_link_inverse_dynamics(const TwoLinkParameters<Scalar>& theta
   const Scalar t5gs12 = theta[4] * g * (s1 * c2 + c1 * s2);
   const Scalar t3c2 = theta[2] * c2, t3s2 = theta[2] * s2;
   const Scalar d11 = theta[0] + theta[1] + Scalar(2) * t3c2, d12 = theta[1] + t3c2;
-  return Vector2<Scalar>(d11 * qdd[0] + d12 * qdd[1] -
-                             t3s2 * (Scalar(2) * qd[0] + qd[1]) * qd[1] + theta[3] * g * s1 +
-                             t5gs12 + theta[5] * qd[0],
-                         d12 * qdd[0] + theta[1] * qdd[1] + t3s2 * qd[0] * qd[0] + t5gs12 +
-                             theta[6] * qd[1]);
+  return Vector2<Scalar>(
+      d11 * qdd[0] + d12 * qdd[1] - t3s2 * (Scalar(2) * qd[0] + qd[1]) * qd[1] + theta[3] * g * s1 +
+          t5gs12 + theta[5] * qd[0],
+      d12 * qdd[0] + theta[1] * qdd[1] + t3s2 * qd[0] * qd[0] + t5gs12 + theta[6] * qd[1]);
 }
 
 /// @brief Forward dynamics qdd = D(q)^-1 (tau - h(q, qd)) [rad/s^2] for applied torques tau [N m].
@@ -198,12 +198,11 @@ ArmState<Scalar> two_link_state_derivative(const TwoLinkParameters<Scalar>& thet
 /// @param g gravity [m/s^2], a fixed hyper-parameter of the term.
 template <typename Scalar>
 Term<Scalar> two_link_rigid_body_term(Scalar g = Scalar(kPaperGravity)) {
-  return {"rigid_body",
-          {"theta1", "theta2", "theta3", "theta4", "theta5"},
-          [g](const Vector2<Scalar>& q, const Vector2<Scalar>& qd, const Vector2<Scalar>& qdd,
-              RegressorView<Scalar> out) {
-            detail::two_link_rigid_body_columns(q, qd, qdd, g, out);
-          }};
+  return {
+      "rigid_body",
+      {"theta1", "theta2", "theta3", "theta4", "theta5"},
+      [g](const Vector2<Scalar>& q, const Vector2<Scalar>& qd, const Vector2<Scalar>& qdd,
+          RegressorView<Scalar> out) { detail::two_link_rigid_body_columns(q, qd, qdd, g, out); }};
 }
 
 /// @brief Viscous joint friction tau_j = mu_j qd_j, parameters "theta6", "theta7" [N m s/rad].

@@ -7,24 +7,34 @@ namespace sid {
 
 SID_INLINE const char* study_method_name(StudyMethod method) {
   switch (method) {
-    case StudyMethod::Raw: return "raw";
-    case StudyMethod::Filtered: return "filtered";
-    case StudyMethod::Css: return "css";
-    case StudyMethod::CssGcv: return "css_gcv";
-    case StudyMethod::CssWls: return "css_wls";
-    case StudyMethod::CssIv: return "css_iv";
-    case StudyMethod::CssTorqueCv: return "css_tcv";
-    case StudyMethod::Oracle: return "oracle";
+    case StudyMethod::Raw:
+      return "raw";
+    case StudyMethod::Filtered:
+      return "filtered";
+    case StudyMethod::Css:
+      return "css";
+    case StudyMethod::CssGcv:
+      return "css_gcv";
+    case StudyMethod::CssWls:
+      return "css_wls";
+    case StudyMethod::CssIv:
+      return "css_iv";
+    case StudyMethod::CssTorqueCv:
+      return "css_tcv";
+    case StudyMethod::Oracle:
+      return "oracle";
   }
   return "unknown";
 }
 
 SID_INLINE StudyMethod parse_study_method(const std::string& name) {
-  for (StudyMethod m : {StudyMethod::Raw, StudyMethod::Filtered, StudyMethod::Css, StudyMethod::CssGcv,
-                        StudyMethod::CssWls, StudyMethod::CssIv, StudyMethod::CssTorqueCv, StudyMethod::Oracle})
+  for (StudyMethod m :
+       {StudyMethod::Raw, StudyMethod::Filtered, StudyMethod::Css, StudyMethod::CssGcv,
+        StudyMethod::CssWls, StudyMethod::CssIv, StudyMethod::CssTorqueCv, StudyMethod::Oracle})
     if (name == study_method_name(m)) return m;
-  throw std::invalid_argument("sid::parse_study_method: unknown method '" + name +
-                              "' (expected raw, filtered, css, css_gcv, css_wls, css_iv, css_tcv or oracle)");
+  throw std::invalid_argument(
+      "sid::parse_study_method: unknown method '" + name +
+      "' (expected raw, filtered, css, css_gcv, css_wls, css_iv, css_tcv or oracle)");
 }
 
 SID_INLINE std::mt19937_64 run_generator(std::uint64_t seed, std::size_t level, int run) {
@@ -34,8 +44,8 @@ SID_INLINE std::mt19937_64 run_generator(std::uint64_t seed, std::size_t level, 
 }
 
 SID_INLINE Kinematics<double> study_kinematics(StudyMethod method, const Kinematics<double>& truth,
-                                           const Trajectory<double>& measured, double sigma_q2,
-                                           const IdentifyOptions& base) {
+                                               const Trajectory<double>& measured, double sigma_q2,
+                                               const IdentifyOptions& base) {
   if (method == StudyMethod::Oracle) {
     Kinematics<double> k = truth;
     k.tau = measured.tau;
@@ -48,23 +58,27 @@ SID_INLINE Kinematics<double> study_kinematics(StudyMethod method, const Kinemat
     choice.skip_end = base.skip_end;
     choice.threads = 1;
     const std::vector<Trajectory<double>> runs{measured};
-    return kinematics_at_cutoff(measured, choose_cutoff(runs, two_link_arm_model<double>(base.gravity), choice).cutoff_hz);
+    return kinematics_at_cutoff(
+        measured, choose_cutoff(runs, two_link_arm_model<double>(base.gravity), choice).cutoff_hz);
   }
   IdentifyOptions options = base;
   options.method = method == StudyMethod::Raw        ? DerivativeMethod::ForwardDifference
                    : method == StudyMethod::Filtered ? DerivativeMethod::FilteredDifference
                                                      : DerivativeMethod::SmoothingSpline;
   options.sigma_q = Vector2<double>::Constant(std::sqrt(sigma_q2));
-  const bool gcv = method == StudyMethod::CssGcv || method == StudyMethod::CssWls || method == StudyMethod::CssIv;
+  const bool gcv = method == StudyMethod::CssGcv || method == StudyMethod::CssWls ||
+                   method == StudyMethod::CssIv;
   options.smoothing = gcv ? SmoothingMode::Gcv : SmoothingMode::SConstraint;
-  if (method == StudyMethod::CssIv) options.cross_validation_lambda_scale = kInstrumentalVariableLambdaScale;
+  if (method == StudyMethod::CssIv)
+    options.cross_validation_lambda_scale = kInstrumentalVariableLambdaScale;
   return estimate_kinematics(measured, options);
 }
 
-SID_INLINE LeastSquaresResult<double> fit_study_method(StudyMethod method, const Kinematics<double>& truth,
-                                                   const Trajectory<double>& measured, double sigma_q2,
-                                                   const IdentifyOptions& base,
-                                                   const EstimateRefinement& refine) {
+SID_INLINE LeastSquaresResult<double> fit_study_method(StudyMethod method,
+                                                       const Kinematics<double>& truth,
+                                                       const Trajectory<double>& measured,
+                                                       double sigma_q2, const IdentifyOptions& base,
+                                                       const EstimateRefinement& refine) {
   if (method == StudyMethod::CssIv && !refine)
     throw std::invalid_argument(
         "sid::fit_study_method: css_iv needs the IV step (sid::instrumental_variable_step() from "
@@ -72,7 +86,8 @@ SID_INLINE LeastSquaresResult<double> fit_study_method(StudyMethod method, const
   const Kinematics<double> k = study_kinematics(method, truth, measured, sigma_q2, base);
   const double skip = method == StudyMethod::Filtered ? base.filtered_skip : base.skip;
   const Kinematics<double> kept = window(k, truth.t[0] + skip);
-  if (method == StudyMethod::CssWls) return fit_two_link_weighted(kept, base.gravity, base.least_squares);
+  if (method == StudyMethod::CssWls)
+    return fit_two_link_weighted(kept, base.gravity, base.least_squares);
   LeastSquaresResult<double> fit = fit_two_link(kept, base.gravity, base.least_squares);
   if (method == StudyMethod::CssIv && fit.ok()) return refine(kept, fit);
   return fit;
@@ -108,27 +123,35 @@ SID_INLINE void summarize(MethodSummary& s, const TwoLinkParameters<double>& the
   s.bias_pct = 100.0 * (s.mean - theta).cwiseQuotient(abs_theta);
   s.std_pct = 100.0 * s.variance.cwiseSqrt().cwiseQuotient(abs_theta);
   s.standard_error = (s.variance / std::max(good, 1)).cwiseSqrt();
-  s.rms_rel_error_pct = good > 0 ? 100.0 * std::sqrt(sum_sq_rel / (good * static_cast<double>(p))) : nan;
+  s.rms_rel_error_pct =
+      good > 0 ? 100.0 * std::sqrt(sum_sq_rel / (good * static_cast<double>(p))) : nan;
   s.worst_abs_bias_pct = s.bias_pct.cwiseAbs().maxCoeff();
 }
 
 }  // namespace detail
 
-SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth, const MonteCarloOptions& options) {
+SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth,
+                                            const MonteCarloOptions& options) {
   const char* who = "sid::run_monte_carlo";
-  if (options.runs < 2) throw std::invalid_argument(std::string(who) + ": runs must be >= 2 (a variance needs two)");
-  if (options.sigma_q2_levels.empty()) throw std::invalid_argument(std::string(who) + ": no noise levels");
+  if (options.runs < 2)
+    throw std::invalid_argument(std::string(who) + ": runs must be >= 2 (a variance needs two)");
+  if (options.sigma_q2_levels.empty())
+    throw std::invalid_argument(std::string(who) + ": no noise levels");
   for (double v : options.sigma_q2_levels)
     if (!(v > 0.0) || !std::isfinite(v))
-      throw std::invalid_argument(std::string(who) + ": every sigma_q2 level must be finite and > 0 (CSS needs "
-                                  "δq = σq > 0), got " + std::to_string(v));
+      throw std::invalid_argument(std::string(who) +
+                                  ": every sigma_q2 level must be finite and > 0 (CSS needs "
+                                  "δq = σq > 0), got " +
+                                  std::to_string(v));
   if (!(options.sigma_tau2 >= 0.0) || !std::isfinite(options.sigma_tau2))
     throw std::invalid_argument(std::string(who) + ": sigma_tau2 must be finite and >= 0");
   if (options.methods.empty()) throw std::invalid_argument(std::string(who) + ": no methods");
   for (StudyMethod m : options.methods)
     if (m == StudyMethod::CssIv && !options.refine)
-      throw std::invalid_argument(std::string(who) + ": method css_iv needs options.refine (the IV step, "
-                                  "sid::instrumental_variable_step() from sid/cvode/instrumental_variables.hpp)");
+      throw std::invalid_argument(
+          std::string(who) +
+          ": method css_iv needs options.refine (the IV step, "
+          "sid::instrumental_variable_step() from sid/cvode/instrumental_variables.hpp)");
   const Eigen::Index n = truth.size();
   if (truth.q.rows() != n || truth.qd.rows() != n || truth.qdd.rows() != n || truth.tau.rows() != n)
     throw std::invalid_argument(std::string(who) + ": truth has columns of different lengths");
@@ -166,7 +189,8 @@ SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth, con
         MethodSummary& summary = result.levels[l].methods[m];
         std::string failure;
         try {
-          const auto fit = fit_study_method(options.methods[m], truth, measured, sigma_q2, options.identify, options.refine);
+          const auto fit = fit_study_method(options.methods[m], truth, measured, sigma_q2,
+                                            options.identify, options.refine);
           if (fit.ok())
             summary.estimates.row(run) = fit.theta.transpose();
           else
@@ -176,7 +200,8 @@ SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth, con
         }
         if (!failure.empty()) {
           std::lock_guard<std::mutex> lock(mutex);
-          if (summary.failures.size() < 5) summary.failures.push_back("run " + std::to_string(run) + ": " + failure);
+          if (summary.failures.size() < 5)
+            summary.failures.push_back("run " + std::to_string(run) + ": " + failure);
         }
       }
       const int finished = ++done;
@@ -195,7 +220,8 @@ SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth, con
       next = total;
     }
   };
-  int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  int threads =
+      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::max(1, std::min(threads, total));
   result.threads_used = threads;
   if (threads == 1) {
@@ -208,7 +234,8 @@ SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth, con
   if (error) std::rethrow_exception(error);
   for (auto& level : result.levels)
     for (auto& summary : level.methods) detail::summarize(summary, options.theta);
-  result.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 

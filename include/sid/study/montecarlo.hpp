@@ -36,16 +36,16 @@ namespace sid {
 
 /// @brief The estimators the study compares.
 enum class StudyMethod {
-  Raw,       ///< forward differences
-  Filtered,  ///< forward differences + Butterworth filtfilt (paper's filters)
-  Css,       ///< Reinsch smoothing spline, δq = σq, S = n
-  CssGcv,    ///< Reinsch smoothing spline with λ chosen by GCV: no noise level needed
-  CssWls,    ///< css_gcv kinematics, Gautier's IDIM-WLS (per-joint noise from a first fit)
-  CssIv,     ///< GCV's λ × kInstrumentalVariableLambdaScale, LS, then the IDIM-IV step (needs
-             ///< MonteCarloOptions::refine)
+  Raw,          ///< forward differences
+  Filtered,     ///< forward differences + Butterworth filtfilt (paper's filters)
+  Css,          ///< Reinsch smoothing spline, δq = σq, S = n
+  CssGcv,       ///< Reinsch smoothing spline with λ chosen by GCV: no noise level needed
+  CssWls,       ///< css_gcv kinematics, Gautier's IDIM-WLS (per-joint noise from a first fit)
+  CssIv,        ///< GCV's λ × kInstrumentalVariableLambdaScale, LS, then the IDIM-IV step (needs
+                ///< MonteCarloOptions::refine)
   CssTorqueCv,  ///< the spline at the cutoff chosen by cross-validating the torque prediction
                 ///< (sid::choose_cutoff): no noise level needed; the default on measured data
-  Oracle,    ///< exact q, q̇, q̈ with the noisy τ: the floor no estimator beats on average
+  Oracle,       ///< exact q, q̇, q̈ with the noisy τ: the floor no estimator beats on average
 };
 
 SID_INLINE const char* study_method_name(StudyMethod method);
@@ -57,14 +57,14 @@ SID_INLINE StudyMethod parse_study_method(const std::string& name);
 /// @brief A refinement of a first least-squares fit on the windowed kinematics, such as the
 /// IDIM-IV step of sid/cvode/instrumental_variables.hpp (sid::instrumental_variable_step()).
 /// The study stays free of SUNDIALS by taking it as a function. It may throw to fail a run.
-using EstimateRefinement =
-    std::function<LeastSquaresResult<double>(const Kinematics<double>&, const LeastSquaresResult<double>&)>;
+using EstimateRefinement = std::function<LeastSquaresResult<double>(
+    const Kinematics<double>&, const LeastSquaresResult<double>&)>;
 
 /// @brief Settings of the study; the defaults are the paper's.
 struct MonteCarloOptions {
   int runs = 30;
   std::vector<double> sigma_q2_levels = {1e-8, 1e-6, 1e-4};  ///< angle noise variances [rad²]
-  double sigma_tau2 = 1e-2;                                 ///< torque noise variance [N²m²]
+  double sigma_tau2 = 1e-2;                                  ///< torque noise variance [N²m²]
   /// The paper's three and the oracle; CssGcv is available but not part of the paper's study.
   std::vector<StudyMethod> methods = {StudyMethod::Raw, StudyMethod::Filtered, StudyMethod::Css,
                                       StudyMethod::Oracle};
@@ -82,11 +82,11 @@ struct MonteCarloOptions {
 /// @brief θ̂ of every run of one method at one level, and their statistics.
 struct MethodSummary {
   StudyMethod method = StudyMethod::Raw;
-  Eigen::MatrixXd estimates;  ///< runs × 7; a failed run's row is NaN
-  Eigen::VectorXd mean, variance;   ///< sample mean, variance (ddof = 1) over the good runs
-  Eigen::VectorXd bias_pct;         ///< 100 (mean − θ) / |θ|
-  Eigen::VectorXd std_pct;          ///< 100 √variance / |θ|
-  Eigen::VectorXd standard_error;   ///< √(variance / runs): the uncertainty of mean
+  Eigen::MatrixXd estimates;       ///< runs × 7; a failed run's row is NaN
+  Eigen::VectorXd mean, variance;  ///< sample mean, variance (ddof = 1) over the good runs
+  Eigen::VectorXd bias_pct;        ///< 100 (mean − θ) / |θ|
+  Eigen::VectorXd std_pct;         ///< 100 √variance / |θ|
+  Eigen::VectorXd standard_error;  ///< √(variance / runs): the uncertainty of mean
   /// √(mean over runs and parameters of ((θ̂ − θ)/θ)²) in %: one number that ranks methods.
   double rms_rel_error_pct = std::numeric_limits<double>::quiet_NaN();
   double worst_abs_bias_pct = std::numeric_limits<double>::quiet_NaN();
@@ -114,16 +114,17 @@ SID_INLINE std::mt19937_64 run_generator(std::uint64_t seed, std::size_t level, 
 /// @brief The kinematics one method estimates from one noisy data set (before the window is
 /// applied by fit_study_method; useful for plots).
 SID_INLINE Kinematics<double> study_kinematics(StudyMethod method, const Kinematics<double>& truth,
-                                           const Trajectory<double>& measured, double sigma_q2,
-                                           const IdentifyOptions& base);
+                                               const Trajectory<double>& measured, double sigma_q2,
+                                               const IdentifyOptions& base);
 
 /// @brief θ̂ of one method on one noisy data set (the paper's windows); NaN-free on success.
 /// @param refine the IV step for StudyMethod::CssIv (ignored by the other methods).
 /// @throws std::invalid_argument for css_iv without refine.
-SID_INLINE LeastSquaresResult<double> fit_study_method(StudyMethod method, const Kinematics<double>& truth,
-                                                   const Trajectory<double>& measured, double sigma_q2,
-                                                   const IdentifyOptions& base,
-                                                   const EstimateRefinement& refine = {});
+SID_INLINE LeastSquaresResult<double> fit_study_method(StudyMethod method,
+                                                       const Kinematics<double>& truth,
+                                                       const Trajectory<double>& measured,
+                                                       double sigma_q2, const IdentifyOptions& base,
+                                                       const EstimateRefinement& refine = {});
 
 namespace detail {
 
@@ -134,7 +135,8 @@ SID_INLINE void summarize(MethodSummary& s, const TwoLinkParameters<double>& the
 /// @brief Runs the study on a true trajectory (t, q, q̇, q̈, τ at the sample times).
 /// @throws std::invalid_argument on runs < 2, an empty or negative noise level, σ_τ² < 0, no
 /// methods, or a truth with inconsistent sizes.
-SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth, const MonteCarloOptions& options);
+SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth,
+                                            const MonteCarloOptions& options);
 
 }  // namespace sid
 

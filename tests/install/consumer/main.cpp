@@ -23,7 +23,8 @@ int main() {
     data.tau.row(i) = sid::two_link_inverse_dynamics(theta, q, qd, qdd).transpose();
   }
   const sid::DiagnosisResult result = sid::diagnose(data);
-  const double error = ((result.nominal.theta.head(7) - theta).array() / theta.array()).abs().maxCoeff();
+  const double error =
+      ((result.nominal.theta.head(7) - theta).array() / theta.array()).abs().maxCoeff();
   std::printf("nominal theta: largest relative error %.2e, %zu effects named\n", error,
               result.effects.size());
   return error < 1e-2 ? 0 : 1;
