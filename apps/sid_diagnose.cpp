@@ -227,20 +227,14 @@ int diagnose_measured_runs(const Options& o) {
             "--gear-ratio must be a finite number > 0, got " + short_number(*o.gear_ratio));
     in.gear_ratio = o.gear_ratio;
   }
-  int stdin_uses = 0;
-  for (const auto& f : o.inputs) stdin_uses += f == "-";
-  for (const auto& f : o.validate) stdin_uses += f == "-";
-  require(stdin_uses <= 1, "standard input ('-') can be read only once");
+  sid::app::require_stdin_at_most_once(o.inputs, o.validate);
   if (!o.json.empty()) for_option("--json", [&] { sid::app::ensure_writable(o.json, o.force); });
 
   const sid::app::TrajectoryColumns columns = columns_of(o);
+  in.runs = sid::app::read_runs(o.inputs, columns);
   std::vector<sid::Trajectory<double>> data;
-  for (const auto& file : o.inputs) {
-    in.runs.push_back(sid::app::read_run(file, columns));
-    data.push_back(in.runs.back().data);
-  }
-  std::vector<sid::app::RunFile> held_out;
-  for (const auto& file : o.validate) held_out.push_back(sid::app::read_run(file, columns));
+  for (const auto& run : in.runs) data.push_back(run.data);
+  const std::vector<sid::app::RunFile> held_out = sid::app::read_runs(o.validate, columns);
   try {
     in.diagnosis = sid::diagnose_runs(data, in.options);
   } catch (const std::invalid_argument& e) {

@@ -2,9 +2,10 @@
 SID_PACKAGES=(cmake g++ make libeigen3-dev libsundials-dev libgtest-dev libbenchmark-dev
               libcli11-dev nlohmann-json3-dev gnuplot-nox)
 
+# Extra packages a caller needs beyond SID_PACKAGES are given as arguments.
 sid_install_missing_packages() {
   local missing=()
-  for pkg in "${SID_PACKAGES[@]}"; do
+  for pkg in "${SID_PACKAGES[@]}" "$@"; do
     dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q 'install ok installed' \
       || missing+=("$pkg")
   done

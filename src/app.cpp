@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -250,6 +251,13 @@ TrajectoryColumns parse_trajectory_columns(const std::string& text, const std::s
     *hit->second = name;
   }
   return columns;
+}
+
+std::string format_number(const char* format, double v) {
+  if (std::isnan(v)) return "n/a";
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, format, v);
+  return buffer;
 }
 
 }  // namespace sid::app

@@ -4,6 +4,7 @@
 /// refusing to overwrite outputs, parsing lists of numbers, writing JSON.
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstddef>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -86,6 +87,21 @@ std::vector<std::string> parse_name_list(const std::string& text, const std::str
 /// @brief An Eigen vector as a JSON array (numbers keep every bit: nlohmann prints the shortest
 /// text that reads back the same double; NaN/Inf become null).
 nlohmann::json to_json_array(const Eigen::Ref<const Eigen::VectorXd>& v);
+
+/// @brief v printed with a printf format, or "n/a" for NaN (a figure the report could not compute).
+std::string format_number(const char* format, double v);
+
+/// @brief The width of a column of file names: the longest `file` of the entries, at least
+/// `minimum`, so that the columns after it stay aligned.
+template <typename... Lists>
+int file_column_width(std::size_t minimum, const Lists&... lists) {
+  std::size_t width = minimum;
+  const auto widen = [&width](const auto& list) {
+    for (const auto& entry : list) width = std::max(width, entry.file.size());
+  };
+  (widen(lists), ...);
+  return static_cast<int>(width);
+}
 
 /// @brief A matrix as a JSON array of rows.
 nlohmann::json to_json_rows(const Eigen::Ref<const Eigen::MatrixXd>& m);

@@ -11,23 +11,14 @@
 namespace sid::app {
 namespace {
 
-std::string number(const char* format, double v) {
-  if (std::isnan(v)) return "n/a";
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, format, v);
-  return buffer;
-}
-
-nlohmann::json pair(const sid::Vector2<double>& v) { return to_json_array(v); }
-
 std::string values_text(const sid::RunsEffectTest& t) {
   const auto names = sid::effect_value_names(t.id);
   const auto units = sid::effect_value_units(t.id);
   std::string text;
   for (std::size_t k = 0; k < names.size(); ++k) {
     const auto i = static_cast<Eigen::Index>(k);
-    text += (k ? ", " : "") + names[k] + " = " + number("%.4g", t.estimate.value[i]);
-    if (t.estimate.std[i] > 0.0) text += " +- " + number("%.2g", t.estimate.std[i]);
+    text += (k ? ", " : "") + names[k] + " = " + format_number("%.4g", t.estimate.value[i]);
+    if (t.estimate.std[i] > 0.0) text += " +- " + format_number("%.2g", t.estimate.std[i]);
     text += " " + units[k];
   }
   return text;
@@ -41,21 +32,14 @@ nlohmann::json effect_json(const sid::RunsEffectTest& t) {
           {"std", to_json_array(t.estimate.std)},
           {"wald", t.wald},
           {"p_value", t.p_value},
-          {"prediction_gain", pair(t.prediction_gain)},
+          {"prediction_gain", to_json_array(t.prediction_gain)},
           {"reason", t.reason}};
-}
-
-int file_width(const RunsDiagnoseReportInput& in) {
-  std::size_t width = 12;
-  for (const auto& r : in.runs) width = std::max(width, r.file.size());
-  for (const auto& v : in.validation) width = std::max(width, v.file.size());
-  return static_cast<int>(width);
 }
 
 void runs_table(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlohmann::json& j) {
   const sid::RunsDiagnosis& d = in.diagnosis;
   const bool left_out = d.final.left_out_prediction_rms.size() == in.runs.size();
-  const int w = file_width(in);
+  const int w = file_column_width(12, in.runs, in.validation);
   out << "\ntorque per run [N m], joint 1 / joint 2: the floor (content above the cutoff, which no "
          "model on\n"
          "the smoothed angles can explain), the residual RMS of the nominal and the final model"
@@ -78,14 +62,14 @@ void runs_table(const RunsDiagnoseReportInput& in, std::ostringstream& out, nloh
     nlohmann::json row{{"file", in.runs[r].file},
                        {"samples", in.runs[r].data.size()},
                        {"used", d.final.kinematics[r].size()},
-                       {"floor", pair(f)},
-                       {"nominal_residual_rms", pair(nominal)},
-                       {"residual_rms", pair(final)}};
+                       {"floor", to_json_array(f)},
+                       {"nominal_residual_rms", to_json_array(nominal)},
+                       {"residual_rms", to_json_array(final)}};
     if (left_out) {
       const auto& p = d.final.left_out_prediction_rms[r];
       std::snprintf(line, sizeof line, " %7.4f %7.4f", p[0], p[1]);
       out << line;
-      row["left_out_prediction_rms"] = pair(p);
+      row["left_out_prediction_rms"] = to_json_array(p);
       mean_left_out += p / static_cast<double>(in.runs.size());
     }
     out << "\n";
@@ -95,7 +79,7 @@ void runs_table(const RunsDiagnoseReportInput& in, std::ostringstream& out, nloh
     std::snprintf(line, sizeof line, "  %-*s %55s %7.4f %7.4f", w, "mean", "", mean_left_out[0],
                   mean_left_out[1]);
     out << line << "\n";
-    j["mean_left_out_prediction_rms"] = pair(mean_left_out);
+    j["mean_left_out_prediction_rms"] = to_json_array(mean_left_out);
   }
   j["runs"] = rows;
 }
@@ -109,14 +93,15 @@ void friction_shape_lines(const RunsDiagnoseReportInput& in, std::ostringstream&
         << (s.asymmetric ? "asymmetric" : "symmetric") << " (atan instead of tanh: held-out "
         << sid::detail::mean_square_change(s.atan_gain)
         << "; asymmetric: " << sid::detail::mean_square_change(s.asymmetric_gain)
-        << ", Wald p = " << number("%.2g", s.asymmetric_p_value) << ", forward "
-        << number("%.4g", s.forward) << " +- " << number("%.2g", s.forward_std) << ", backward "
-        << number("%.4g", s.backward) << " +- " << number("%.2g", s.backward_std) << " N m)\n";
+        << ", Wald p = " << format_number("%.2g", s.asymmetric_p_value) << ", forward "
+        << format_number("%.4g", s.forward) << " +- " << format_number("%.2g", s.forward_std)
+        << ", backward " << format_number("%.4g", s.backward) << " +- "
+        << format_number("%.2g", s.backward_std) << " N m)\n";
     rows.push_back({{"id", s.id},
                     {"shape", atan ? "atan" : "tanh"},
                     {"asymmetric", s.asymmetric},
-                    {"atan_gain", pair(s.atan_gain)},
-                    {"asymmetric_gain", pair(s.asymmetric_gain)},
+                    {"atan_gain", to_json_array(s.atan_gain)},
+                    {"asymmetric_gain", to_json_array(s.asymmetric_gain)},
                     {"asymmetric_p_value", s.asymmetric_p_value},
                     {"forward", s.forward},
                     {"backward", s.backward},
@@ -160,18 +145,18 @@ void rotor_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlo
   if (!t) return;
   const bool supported = named != d.named.end();
   const double ia = t->estimate.value[0], ia_std = t->estimate.std[0];
-  out << "\nrotor coupling of drive 2 on link 1 (armature_j2): Ia = " << number("%.4g", ia)
-      << " +- " << number("%.2g", ia_std) << " kg m^2";
+  out << "\nrotor coupling of drive 2 on link 1 (armature_j2): Ia = " << format_number("%.4g", ia)
+      << " +- " << format_number("%.2g", ia_std) << " kg m^2";
   nlohmann::json rj{{"Ia", ia},
                     {"Ia_std", ia_std},
                     {"supported", supported},
-                    {"prediction_gain", pair(t->prediction_gain)},
+                    {"prediction_gain", to_json_array(t->prediction_gain)},
                     {"p_value", t->p_value}};
   if (in.gear_ratio) {
     const double factor = *in.gear_ratio * *in.gear_ratio + *in.gear_ratio;
-    out << ", so Ir = Ia / (gr^2 + gr) = " << number("%.3g", ia / factor) << " +- "
-        << number("%.2g", ia_std / factor) << " kg m^2 (gear ratio " << number("%g", *in.gear_ratio)
-        << ")";
+    out << ", so Ir = Ia / (gr^2 + gr) = " << format_number("%.3g", ia / factor) << " +- "
+        << format_number("%.2g", ia_std / factor) << " kg m^2 (gear ratio "
+        << format_number("%g", *in.gear_ratio) << ")";
     rj["gear_ratio"] = *in.gear_ratio;
     rj["Ir"] = ia / factor;
     rj["Ir_std"] = ia_std / factor;
@@ -215,9 +200,9 @@ void simulation_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out
   out << "\nfree simulation of the final model (driven by the measured torque, restarted from the "
          "smoothed\n"
          "state every "
-      << number("%g", in.segment) << " s), q error RMS [rad]:\n";
+      << format_number("%g", in.segment) << " s), q error RMS [rad]:\n";
   nlohmann::json rows = nlohmann::json::array();
-  const int w = file_width(in);
+  const int w = file_column_width(12, in.runs, in.validation);
   for (std::size_t r = 0; r < in.simulations.size(); ++r) {
     const auto& s = in.simulations[r];
     char head[256];
@@ -225,7 +210,7 @@ void simulation_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out
     out << head << simulation_summary(s) << "\n";
     rows.push_back({{"file", in.runs[r].file},
                     {"ok", s.ok},
-                    {"error_rms", pair(s.error_rms)},
+                    {"error_rms", to_json_array(s.error_rms)},
                     {"segments", s.segment_starts.size()},
                     {"failed_segments", s.failed_segments},
                     {"message", s.message.substr(0, s.message.find("; "))}});
@@ -239,7 +224,7 @@ void validation_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out
   if (!in.validation.empty()) {
     out << "\nvalidation (runs not used in the fit): torque prediction RMS [N m], joint 1 / joint "
            "2\n";
-    const int w = file_width(in);
+    const int w = file_column_width(12, in.runs, in.validation);
     char line[512];
     std::snprintf(line, sizeof line, "  %-*s %8s %17s %17s", w, "file", "samples", "final",
                   "nominal");
@@ -251,8 +236,8 @@ void validation_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out
       out << line << "\n";
       rows.push_back({{"file", v.file},
                       {"samples", v.final.samples},
-                      {"residual_rms", pair(v.final.residual_rms)},
-                      {"nominal_residual_rms", pair(v.nominal.residual_rms)}});
+                      {"residual_rms", to_json_array(v.final.residual_rms)},
+                      {"nominal_residual_rms", to_json_array(v.nominal.residual_rms)}});
     }
   }
   j["validation"] = rows;
@@ -268,8 +253,8 @@ RunsReport make_runs_diagnose_report(const RunsDiagnoseReportInput& in) {
   for (const auto& k : d.final.kinematics) samples += k.size();
   out << "sid_diagnose: " << in.runs.size() << " run" << (in.runs.size() == 1 ? "" : "s")
       << " diagnosed together (" << samples << " equations per joint), "
-      << number("%.2f", d.seconds) << " s\n";
-  out << "smoothing: cutoff " << number("%.3g", d.cutoff_hz) << " Hz"
+      << format_number("%.2f", d.seconds) << " s\n";
+  out << "smoothing: cutoff " << format_number("%.3g", d.cutoff_hz) << " Hz"
       << (d.cutoff_chosen ? " (chosen by torque cross-validation)" : " (given)") << "; held out: "
       << (in.runs.size() >= 3 ? "each run in turn"
                               : "each of " + std::to_string(in.options.identify.folds_per_run) +
@@ -284,14 +269,14 @@ RunsReport make_runs_diagnose_report(const RunsDiagnoseReportInput& in) {
   rotor_lines(in, out, j);
   out << "\nwhat no effect explains (residual excess over the floor, over all runs), joint 1 / "
          "joint 2: "
-      << number("%.4f", d.excess_rms[0]) << " / " << number("%.4f", d.excess_rms[1])
+      << format_number("%.4f", d.excess_rms[0]) << " / " << format_number("%.4f", d.excess_rms[1])
       << " N m fitted";
   if (!std::isnan(d.left_out_excess_rms[0]))
-    out << ", " << number("%.4f", d.left_out_excess_rms[0]) << " / "
-        << number("%.4f", d.left_out_excess_rms[1]) << " N m held out";
+    out << ", " << format_number("%.4f", d.left_out_excess_rms[0]) << " / "
+        << format_number("%.4f", d.left_out_excess_rms[1]) << " N m held out";
   out << "\n";
-  j["excess_rms"] = pair(d.excess_rms);
-  j["left_out_excess_rms"] = pair(d.left_out_excess_rms);
+  j["excess_rms"] = to_json_array(d.excess_rms);
+  j["left_out_excess_rms"] = to_json_array(d.left_out_excess_rms);
   theta_lines(in, out, j);
   physical_lines(d.final_model, in.physical, in.consistent, out, j);
   simulation_lines(in, out, j);

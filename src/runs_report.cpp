@@ -15,15 +15,6 @@ bool ends_with(const std::string& text, const std::string& tail) {
          text.compare(text.size() - tail.size(), tail.size(), tail) == 0;
 }
 
-std::string number(const char* format, double v) {
-  if (std::isnan(v)) return "n/a";
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, format, v);
-  return buffer;
-}
-
-nlohmann::json pair(const sid::Vector2<double>& v) { return to_json_array(v); }
-
 // The rotor of drive 2 rides on link 1. With θ1 and θ2 free its inertia Ir enters the
 // regression only as an armature on joint 2, Ia = (gr² + gr) Ir (see docs/real-data.md).
 void rotor_line(const RunsReportInput& in, std::ostringstream& out, nlohmann::json& j) {
@@ -31,9 +22,9 @@ void rotor_line(const RunsReportInput& in, std::ostringstream& out, nlohmann::js
   const auto k = in.model.parameter_offset("armature_j2");
   const double gr = *in.gear_ratio, factor = gr * gr + gr;
   const double ir = in.id.fit.theta[k] / factor, ir_std = in.id.fit.std_dev[k] / factor;
-  out << "rotor of drive 2 on link 1 (gear ratio " << number("%g", gr)
-      << "): Ir = Ia / (gr^2 + gr) = " << number("%.4g", ir) << " +- " << number("%.2g", ir_std)
-      << " kg m^2"
+  out << "rotor of drive 2 on link 1 (gear ratio " << format_number("%g", gr)
+      << "): Ir = Ia / (gr^2 + gr) = " << format_number("%.4g", ir) << " +- "
+      << format_number("%.2g", ir_std) << " kg m^2"
       << (ir > 2.0 * ir_std ? " (supported: positive, more than 2 std from zero)"
           : ir < 0.0        ? " (not supported: negative, not physical)"
                             : " (not supported: within 2 std of zero)")
@@ -48,16 +39,17 @@ void physical_lines(const sid::Model<double>& model, const sid::PhysicalCheck& p
                     const std::optional<sid::ConsistentEstimate>& consistent,
                     std::ostringstream& out, nlohmann::json& j) {
   out << "physical plausibility: mass matrix "
-      << (p.mass_matrix_positive_definite
-              ? "positive definite for every q2"
-              : "NOT positive definite at q2 = " + number("%.3f", p.min_eigenvalue_q2) + " rad")
-      << " (smallest eigenvalue " << number("%.4g", p.min_eigenvalue) << " kg m^2); ";
+      << (p.mass_matrix_positive_definite ? "positive definite for every q2"
+                                          : "NOT positive definite at q2 = " +
+                                                format_number("%.3f", p.min_eigenvalue_q2) + " rad")
+      << " (smallest eigenvalue " << format_number("%.4g", p.min_eigenvalue) << " kg m^2); ";
   if (p.negative_parameters.empty()) {
     out << "gravity, friction and armature terms non-negative";
   } else {
     out << "negative:";
     for (std::size_t k = 0; k < p.negative_parameters.size(); ++k)
-      out << " " << p.negative_parameters[k] << " = " << number("%.4g", p.negative_values[k]);
+      out << " " << p.negative_parameters[k] << " = "
+          << format_number("%.4g", p.negative_values[k]);
   }
   out << (p.plausible() ? " -> plausible\n" : " -> NOT plausible\n");
   nlohmann::json pj;
@@ -74,9 +66,9 @@ void physical_lines(const sid::Model<double>& model, const sid::PhysicalCheck& p
            "above is "
            "the unconstrained one):\n";
     for (std::size_t k = 0; k < names.size(); ++k)
-      out << "  " << names[k] << " " << number("%.8g", c.theta[static_cast<Eigen::Index>(k)])
+      out << "  " << names[k] << " " << format_number("%.8g", c.theta[static_cast<Eigen::Index>(k)])
           << "\n";
-    out << "  cost increase " << number("%.4g", c.cost_increase) << " N^2 m^2"
+    out << "  cost increase " << format_number("%.4g", c.cost_increase) << " N^2 m^2"
         << (c.converged ? "" : " (iteration limit: feasible, maybe not the closest)") << "\n";
     pj["consistent_theta"] = to_json_array(c.theta);
     pj["consistent_cost_increase"] = c.cost_increase;
@@ -95,18 +87,24 @@ RunFile read_run(const std::string& file, const TrajectoryColumns& columns) {
   return run;
 }
 
-namespace {
-
-// Wide enough for every file name shown, so the columns stay aligned.
-int file_width(const RunsReportInput& in) {
-  std::size_t width = 20;
-  for (const auto& r : in.runs) width = std::max(width, r.file.size());
-  for (const auto& v : in.validation) width = std::max(width, v.file.size());
-  return static_cast<int>(width);
+std::vector<RunFile> read_runs(const std::vector<std::string>& files,
+                               const TrajectoryColumns& columns) {
+  std::vector<RunFile> runs;
+  for (const auto& file : files) runs.push_back(read_run(file, columns));
+  return runs;
 }
 
+void require_stdin_at_most_once(const std::vector<std::string>& fitted,
+                                const std::vector<std::string>& held_out) {
+  const auto uses = std::count(fitted.begin(), fitted.end(), "-") +
+                    std::count(held_out.begin(), held_out.end(), "-");
+  require(uses <= 1, "standard input ('-') can be read only once");
+}
+
+namespace {
+
 void validation_lines(const RunsReportInput& in, std::ostringstream& out, nlohmann::json& j) {
-  const int w = file_width(in);
+  const int w = file_column_width(20, in.runs, in.validation);
   nlohmann::json rows = nlohmann::json::array();
   if (!in.validation.empty()) {
     out << "\nvalidation (runs not used in the fit): torque prediction RMS [N m]\n";
@@ -122,14 +120,14 @@ void validation_lines(const RunsReportInput& in, std::ostringstream& out, nlohma
       out << line;
       nlohmann::json r{{"file", v.file},
                        {"samples", v.prediction.samples},
-                       {"residual_rms", pair(v.prediction.residual_rms)},
-                       {"nominal_residual_rms", pair(v.prediction.residual_rms)}};
+                       {"residual_rms", to_json_array(v.prediction.residual_rms)},
+                       {"nominal_residual_rms", to_json_array(v.prediction.residual_rms)}};
       mean += v.prediction.residual_rms / static_cast<double>(in.validation.size());
       if (v.reference) {
         std::snprintf(line, sizeof line, "   %10.4f %10.4f", v.reference->residual_rms[0],
                       v.reference->residual_rms[1]);
         out << line;
-        r["reference_residual_rms"] = pair(v.reference->residual_rms);
+        r["reference_residual_rms"] = to_json_array(v.reference->residual_rms);
         reference_mean += v.reference->residual_rms / static_cast<double>(in.validation.size());
       }
       out << "\n";
@@ -149,7 +147,7 @@ void validation_lines(const RunsReportInput& in, std::ostringstream& out, nlohma
 }
 
 void runs_table(const RunsReportInput& in, std::ostringstream& out, nlohmann::json& j) {
-  const int w = file_width(in);
+  const int w = file_column_width(20, in.runs, in.validation);
   char line[512];
   const bool left_out = in.id.left_out_prediction_rms.size() == in.runs.size();
   std::snprintf(line, sizeof line, "  %-*s %8s %8s %12s %10s %10s", w, "run (fitted)", "samples",
@@ -172,14 +170,14 @@ void runs_table(const RunsReportInput& in, std::ostringstream& out, nlohmann::js
                        {"samples_total", in.runs[r].data.size()},
                        {"samples_used", in.id.kinematics[r].size()},
                        {"lambda", in.id.lambda[r]},
-                       {"residual_rms", pair(rms)}};
+                       {"residual_rms", to_json_array(rms)}};
     run["left_out_prediction_rms"] =
-        left_out ? pair(in.id.left_out_prediction_rms[r]) : nlohmann::json(nullptr);
+        left_out ? to_json_array(in.id.left_out_prediction_rms[r]) : nlohmann::json(nullptr);
     if (r < in.reference_on_fitted.size()) {
       std::snprintf(line, sizeof line, "   %8.4f %8.4f", in.reference_on_fitted[r].residual_rms[0],
                     in.reference_on_fitted[r].residual_rms[1]);
       out << line;
-      run["reference_residual_rms"] = pair(in.reference_on_fitted[r].residual_rms);
+      run["reference_residual_rms"] = to_json_array(in.reference_on_fitted[r].residual_rms);
     }
     out << "\n";
     runs.push_back(run);
@@ -189,15 +187,16 @@ void runs_table(const RunsReportInput& in, std::ostringstream& out, nlohmann::js
 
 void smoothing_lines(const RunsReportInput& in, std::ostringstream& out, nlohmann::json& j) {
   const sid::RunsIdentification& id = in.id;
-  out << "smoothing: cutoff " << number("%.4g", id.cutoff_hz) << " Hz";
+  out << "smoothing: cutoff " << format_number("%.4g", id.cutoff_hz) << " Hz";
   std::size_t best = 0;
   for (std::size_t g = 0; g < id.grid_hz.size(); ++g)
     if (id.grid_hz[g] == id.cutoff_hz) best = g;
   if (id.cutoff_chosen)
     out << ", chosen by " << in.options.folds_per_run
         << "-fold cross-validation of the torque prediction over "
-        << number("%g", id.grid_hz.front()) << ".." << number("%g", id.grid_hz.back())
-        << " Hz (held-out torque RMS " << number("%.4g", id.cross_validation_rms[best]) << " N m)";
+        << format_number("%g", id.grid_hz.front()) << ".." << format_number("%g", id.grid_hz.back())
+        << " Hz (held-out torque RMS " << format_number("%.4g", id.cross_validation_rms[best])
+        << " N m)";
   else
     out << " (given)";
   if (id.cutoff_chosen && (best == 0 || best + 1 == id.grid_hz.size()))
@@ -228,18 +227,19 @@ void parameter_table(const RunsReportInput& in, std::ostringstream& out, nlohman
     const auto i = static_cast<Eigen::Index>(k);
     units.push_back(parameter_unit(names[k]));
     std::snprintf(line, sizeof line, "%-22s %15s %12s %11s %12s  %-10s", names[k].c_str(),
-                  number("%.8g", fit.theta[i]).c_str(), number("%.3g", std_dev[i]).c_str(),
-                  number("%.4f", relative[i]).c_str(),
-                  jackknife ? number("%.3g", in.id.jackknife_std_dev[i]).c_str() : "",
+                  format_number("%.8g", fit.theta[i]).c_str(),
+                  format_number("%.3g", std_dev[i]).c_str(),
+                  format_number("%.4f", relative[i]).c_str(),
+                  jackknife ? format_number("%.3g", in.id.jackknife_std_dev[i]).c_str() : "",
                   units.back().c_str());
     out << line;
-    if (in.reference_theta) out << "  " << number("%.6g", (*in.reference_theta)[i]);
+    if (in.reference_theta) out << "  " << format_number("%.6g", (*in.reference_theta)[i]);
     out << "\n";
   }
   out << "std (HAC): from the residuals' autocorrelation (Newey-West); the least-squares std "
          "assumes none and is "
-      << number("%.2g", (std_dev.cwiseQuotient(fit.std_dev)).minCoeff()) << "-"
-      << number("%.2g", (std_dev.cwiseQuotient(fit.std_dev)).maxCoeff()) << "x smaller here"
+      << format_number("%.2g", (std_dev.cwiseQuotient(fit.std_dev)).minCoeff()) << "-"
+      << format_number("%.2g", (std_dev.cwiseQuotient(fit.std_dev)).maxCoeff()) << "x smaller here"
       << (jackknife ? ";\nstd (runs): jackknife over the fits that leave one run out (what differs "
                       "between runs)"
                     : "")
@@ -281,10 +281,10 @@ RunsReport make_runs_report(const RunsReportInput& in) {
   out << "\n";
   parameter_table(in, out, j);
   out << "\nresidual RMS [N m] over the fitted runs: joint 1 "
-      << number("%.4g", fit.residual_rms[0]) << ", joint 2 " << number("%.4g", fit.residual_rms[1])
-      << "\n";
-  out << "condition number (column-scaled regressor): " << number("%.4g", fit.condition_number)
-      << "\n";
+      << format_number("%.4g", fit.residual_rms[0]) << ", joint 2 "
+      << format_number("%.4g", fit.residual_rms[1]) << "\n";
+  out << "condition number (column-scaled regressor): "
+      << format_number("%.4g", fit.condition_number) << "\n";
   runs_table(in, out, j);
   validation_lines(in, out, j);
   out << "\n";

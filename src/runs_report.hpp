@@ -65,4 +65,14 @@ void physical_lines(const sid::Model<double>& model, const sid::PhysicalCheck& c
 /// @throws InputError on a bad file or fewer than 3 rows.
 RunFile read_run(const std::string& file, const TrajectoryColumns& columns);
 
+/// @brief Reads runs in order (columns mapped as given).
+/// @throws InputError as read_run.
+std::vector<RunFile> read_runs(const std::vector<std::string>& files,
+                               const TrajectoryColumns& columns);
+
+/// @brief Refuses standard input ('-') named more than once among the fitted and held-out runs.
+/// @throws InputError naming the problem.
+void require_stdin_at_most_once(const std::vector<std::string>& fitted,
+                                const std::vector<std::string>& held_out);
+
 }  // namespace sid::app

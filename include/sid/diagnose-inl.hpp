@@ -473,242 +473,366 @@ SID_INLINE void fit_final_model(DiagnosisResult& result, const std::vector<Selec
 
 }  // namespace detail
 
-SID_INLINE DiagnosisResult diagnose(const Trajectory<double>& data,
-                                    const DiagnoseOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
+namespace detail {
+
+constexpr Eigen::Index kDiagnoseMinSamples = 50;
+
+SID_INLINE void check_diagnose_input(const Trajectory<double>& data,
+                                     const DiagnoseOptions& options) {
   constexpr const char* who = "sid::diagnose";
-  detail::check_diagnose_options(options);
+  check_diagnose_options(options);
   data.validate(who);
-  constexpr Eigen::Index kMinSamples = 50;
-  if (data.size() < kMinSamples)
+  if (data.size() < kDiagnoseMinSamples)
     throw std::invalid_argument(std::string(who) + ": data has " + std::to_string(data.size()) +
-                                " samples; at least " + std::to_string(kMinSamples) +
+                                " samples; at least " + std::to_string(kDiagnoseMinSamples) +
                                 " are needed");
   const IdentifyOptions& io = options.identify;
   if (!(io.skip >= 0.0) || !std::isfinite(io.skip) || !(io.skip_end >= 0.0) ||
       !std::isfinite(io.skip_end))
     throw std::invalid_argument(std::string(who) +
                                 ": options.identify.skip and skip_end must be finite and >= 0 [s]");
+}
 
-  DiagnosisResult result;
+/// The equations every later stage works on: the smoothed record, the analysed span, the rows
+/// kept (moving joints) and the nominal regression per sample and in integral form.
+struct DiagnosisEquations {
+  Kinematics<double> all;  ///< the whole smoothed record (the kinematic floor resamples its noise)
   SmoothingReport smoothing;
-  const Kinematics<double> all = estimate_kinematics(data, io, &smoothing);
-  result.kinematics = window(all, data.t[0] + io.skip, data.t[data.size() - 1] - io.skip_end);
-  const Kinematics<double>& k = result.kinematics;
-  const Eigen::Index n = k.size();
-  const Eigen::Index min_window = std::max<Eigen::Index>(kMinSamples, 10 * options.cv_blocks);
+  Kinematics<double> k;  ///< the span after the skips
+  Eigen::VectorXd kept;  ///< row weights (DiagnosisResult::kept)
+  int window = 1;        ///< DiagnoseOptions::integration_window
+  StackedRegression<double> nominal_samples;
+  Eigen::MatrixXd x0;  ///< the nominal columns in integral form
+  Eigen::VectorXd y;   ///< the torques in integral form
+
+  Eigen::MatrixXd integral_form(const Eigen::Ref<const Eigen::MatrixXd>& rows) const {
+    return integrate_windows(rows, k.t, window, kept);
+  }
+  Eigen::MatrixXd effect_columns(const std::string& id, const EffectSettings& settings) const {
+    return integral_form(stack_term(effect_term(id, settings), k));
+  }
+};
+
+SID_INLINE DiagnosisEquations diagnosis_equations(const Trajectory<double>& data,
+                                                  const DiagnoseOptions& options) {
+  constexpr const char* who = "sid::diagnose";
+  const IdentifyOptions& io = options.identify;
+  DiagnosisEquations eq;
+  eq.all = estimate_kinematics(data, io, &eq.smoothing);
+  eq.k = window(eq.all, data.t[0] + io.skip, data.t[data.size() - 1] - io.skip_end);
+  const Eigen::Index n = eq.k.size();
+  const Eigen::Index min_window =
+      std::max<Eigen::Index>(kDiagnoseMinSamples, 10 * options.cv_blocks);
   if (n < min_window)
     throw std::invalid_argument(std::string(who) + ": only " + std::to_string(n) +
                                 " samples are left after the skip " + "window; at least " +
                                 std::to_string(min_window) + " are needed");
-  for (int j = 0; j < 2; ++j) result.noise_floor[j] = noise_sigma_gcv(k.t, k.tau.col(j));
-
-  const double g = io.gravity;
-  result.nominal_model = two_link_arm_model<double>(g);
-  const StackedRegression<double> nominal_regression = stack_two_link_regression(k, g);
-  const Eigen::MatrixXd& x0_samples = nominal_regression.X;
-  const Eigen::VectorXd& y_samples = nominal_regression.y;
-  const int iw = options.integration_window;
+  eq.nominal_samples = stack_two_link_regression(eq.k, io.gravity);
+  eq.window = options.integration_window;
+  const int iw = eq.window;
   if ((n - 1) / iw < 4 * options.cv_blocks)
     throw std::invalid_argument(std::string(who) + ": only " + std::to_string((n - 1) / iw) +
                                 " integration windows of " + std::to_string(iw) +
                                 " samples fit in the data; at least " +
                                 std::to_string(4 * options.cv_blocks) + " are needed");
-  result.kept = detail::moving_rows(k, options.rest_velocity, options.rest_margin);
-  const Eigen::VectorXd& row_weight = result.kept;
-  const auto integral_form = [&](const Eigen::Ref<const Eigen::MatrixXd>& rows) {
-    return detail::integrate_windows(rows, k.t, iw, row_weight);
-  };
-  const auto stack_effect = [&](const std::string& id, const EffectSettings& settings) {
-    return integral_form(detail::stack_term(effect_term(id, settings), k));
-  };
-  const Eigen::MatrixXd x0 = integral_form(x0_samples);
-  const Eigen::VectorXd y = integral_form(y_samples);
-  {
-    const auto check = least_squares(x0, y, 2);
-    if (!check.ok())
-      throw std::invalid_argument(std::string(who) +
-                                  ": the data do not excite the nominal model: " + check.message);
+  eq.kept = moving_rows(eq.k, options.rest_velocity, options.rest_margin);
+  eq.x0 = eq.integral_form(eq.nominal_samples.X);
+  eq.y = eq.integral_form(eq.nominal_samples.y);
+  const auto check = least_squares(eq.x0, eq.y, 2);
+  if (!check.ok())
+    throw std::invalid_argument(std::string(who) +
+                                ": the data do not excite the nominal model: " + check.message);
+  return eq;
+}
+
+/// The residual a perfect model would leave per joint: torque sensor noise and, when the
+/// smoothing's noise level is known, the torque error the smoothed kinematics carry.
+struct TorqueFloors {
+  Vector2<double> noise = Vector2<double>::Zero();
+  Vector2<double> kinematic = Vector2<double>::Zero();
+  Vector2<double> combined() const {
+    return (noise.array().square() + kinematic.array().square()).sqrt();
   }
-  const detail::HacFit nominal_fit = detail::hac_fit(x0, y);
+};
+
+SID_INLINE TorqueFloors torque_floors(const DiagnosisEquations& eq, const Model<double>& nominal,
+                                      const Eigen::VectorXd& nominal_theta,
+                                      const DiagnoseOptions& options) {
+  TorqueFloors floors;
+  const Kinematics<double>& k = eq.k;
+  for (int j = 0; j < 2; ++j) floors.noise[j] = noise_sigma_gcv(k.t, k.tau.col(j));
+  const IdentifyOptions& io = options.identify;
   const bool cross_validated =
       io.smoothing == SmoothingMode::Gcv || io.smoothing == SmoothingMode::Cv;
+  const SmoothingReport& smoothing = eq.smoothing;
   if (options.kinematic_noise_runs > 0 && io.method == DerivativeMethod::SmoothingSpline &&
       cross_validated && smoothing.sigma.allFinite() && (smoothing.sigma.array() > 0.0).all()) {
+    const Kinematics<double>& all = eq.all;
     const Eigen::Index first =
         std::lower_bound(all.t.data(), all.t.data() + all.size(), k.t[0]) - all.t.data();
-    result.kinematic_floor = kinematic_noise_rms(
-        result.nominal_model, nominal_fit.theta, all, smoothing.sigma, smoothing.p, first, n,
-        row_weight, options.kinematic_noise_runs, options.kinematic_noise_seed);
+    floors.kinematic = kinematic_noise_rms(
+        nominal, nominal_theta, all, smoothing.sigma, smoothing.p, first, k.size(), eq.kept,
+        options.kinematic_noise_runs, options.kinematic_noise_seed);
   }
-  const Vector2<double> floor =
-      (result.noise_floor.array().square() + result.kinematic_floor.array().square()).sqrt();
-  detail::fill_report(result.nominal, nominal_fit, result.nominal_model.parameter_names(), k,
-                      x0_samples, y_samples, row_weight, floor, options.window_length,
-                      options.family_alpha);
+  return floors;
+}
 
-  // Candidates, and those the nominal model cannot be told apart from.
-  std::vector<std::string> remaining;
+/// The candidates the selection may name, and those the nominal model cannot be told apart from.
+struct CandidateScreen {
+  std::vector<std::string> separable;
+  std::vector<NotSeparable> not_separable;
+};
+
+SID_INLINE CandidateScreen screen_candidates(const DiagnosisEquations& eq,
+                                             const DiagnoseOptions& options) {
+  CandidateScreen screen;
   const std::vector<std::string>& ids =
       options.candidates.empty() ? effect_ids() : options.candidates;
-  const detail::Projector nominal_projector(x0);
+  const Projector nominal_projector(eq.x0);
   for (const auto& id : ids) {
-    if (std::find(remaining.begin(), remaining.end(), id) != remaining.end()) continue;
-    const Eigen::MatrixXd z = stack_effect(id, options.effects);
+    if (std::find(screen.separable.begin(), screen.separable.end(), id) != screen.separable.end())
+      continue;
+    const Eigen::MatrixXd z = eq.effect_columns(id, options.effects);
     double max_r2 = 0;
-    const auto kept = detail::separable_columns(z, nominal_projector.residualize(z),
-                                                options.separability_r2, &max_r2);
+    const auto kept =
+        separable_columns(z, nominal_projector.residualize(z), options.separability_r2, &max_r2);
     if (!kept.empty()) {
-      remaining.push_back(id);
+      screen.separable.push_back(id);
       continue;
     }
-    std::string explanation = id == "armature_j1"
-                                  ? "its column equals theta1's (the rotor inertia adds to D11 "
-                                    "only): visible only as theta1 drift from a "
-                                    "reference theta"
-                                  : "its columns are explained by the nominal model's (R^2 = " +
-                                        detail::format_value(max_r2) + ")";
-    result.not_separable.push_back({id, effect_name(id), explanation});
+    std::string explanation =
+        id == "armature_j1"
+            ? "its column equals theta1's (the rotor inertia adds to D11 "
+              "only): visible only as theta1 drift from a "
+              "reference theta"
+            : "its columns are explained by the nominal model's (R^2 = " + format_value(max_r2) +
+                  ")";
+    screen.not_separable.push_back({id, effect_name(id), explanation});
   }
+  return screen;
+}
 
-  const std::vector<double> grid = options.stribeck_velocities.empty()
-                                       ? detail::default_stribeck_grid()
-                                       : options.stribeck_velocities;
-  std::vector<detail::SelectedTerm> selected;
-  std::vector<detail::CandidateTest> last_round;
-  std::vector<std::pair<std::string, std::string>> dropped;  // id, reason
+/// The model a selection round tests candidates against.
+struct RoundModel {
+  Eigen::MatrixXd x;
+  Projector projector;
+  HacFit fit;
+  double cv_error;
+
+  RoundModel(const DiagnosisEquations& eq, const std::vector<SelectedTerm>& selected, int cv_blocks)
+      : x(assemble_columns(eq.x0, selected)),
+        projector(x),
+        fit(hac_fit(x, eq.y)),
+        cv_error(blocked_cv_error(x, eq.y, cv_blocks)) {}
+};
+
+/// The state of the forward selection between rounds; its final value is the stage's result.
+struct Selection {
+  std::vector<std::string> remaining;
+  std::vector<SelectedTerm> selected;
   std::vector<NamedEffect> named;
-  while (!remaining.empty()) {
-    const Eigen::MatrixXd x = detail::assemble_columns(x0, selected);
-    const detail::Projector projector(x);
-    const detail::HacFit current = detail::hac_fit(x, y);
-    const double cv_old = detail::blocked_cv_error(x, y, options.cv_blocks);
-    std::vector<detail::CandidateTest> tests;
-    for (auto it = remaining.begin(); it != remaining.end();) {
-      detail::CandidateTest t;
-      t.id = *it;
-      t.settings = options.effects;
-      if (detail::starts_with(t.id, "stribeck_j")) {
-        t.settings.stribeck_velocity = detail::best_stribeck_velocity(
-            t.id, options.effects, grid, k, iw, row_weight, projector, current.residual,
-            options.separability_r2, options.stribeck_min_support);
-        if (std::isnan(t.settings.stribeck_velocity)) {
-          dropped.emplace_back(t.id, "no Stribeck width is resolved: fewer than " +
+  std::vector<CandidateTest> last_round;                     ///< the tests of the final round
+  std::vector<std::pair<std::string, std::string>> dropped;  ///< id, why it left untested
+};
+
+/// Tests every remaining candidate against the round's model; those that cannot be tested (no
+/// resolved Stribeck width, columns explained by the named effects) leave `remaining`.
+SID_INLINE std::vector<CandidateTest> test_round(const DiagnosisEquations& eq,
+                                                 const RoundModel& model,
+                                                 const std::vector<double>& stribeck_grid,
+                                                 Selection& s, const DiagnoseOptions& options) {
+  std::vector<CandidateTest> tests;
+  for (auto it = s.remaining.begin(); it != s.remaining.end();) {
+    CandidateTest t;
+    t.id = *it;
+    t.settings = options.effects;
+    if (starts_with(t.id, "stribeck_j")) {
+      t.settings.stribeck_velocity = best_stribeck_velocity(
+          t.id, options.effects, stribeck_grid, eq.k, eq.window, eq.kept, model.projector,
+          model.fit.residual, options.separability_r2, options.stribeck_min_support);
+      if (std::isnan(t.settings.stribeck_velocity)) {
+        s.dropped.emplace_back(t.id, "no Stribeck width is resolved: fewer than " +
                                          std::to_string(options.stribeck_min_support) +
                                          " kept samples lie within the bump's half height "
                                          "for every vs tried");
-          it = remaining.erase(it);
-          continue;
-        }
-      }
-      t.z = stack_effect(t.id, t.settings);
-      const Eigen::MatrixXd z_resid = projector.residualize(t.z);
-      t.kept = detail::separable_columns(t.z, z_resid, options.separability_r2, &t.max_r2);
-      if (t.kept.empty()) {
-        std::string by;
-        for (const auto& s : selected) by += (by.empty() ? "" : ", ") + s.id;
-        dropped.emplace_back(t.id, "explained by the named effects (" + by + ")");
-        it = remaining.erase(it);
+        it = s.remaining.erase(it);
         continue;
       }
-      detail::wald_test(t, detail::select_columns(z_resid, t.kept), current.residual, current.rss);
-      Eigen::MatrixXd xa(x.rows(), x.cols() + static_cast<Eigen::Index>(t.kept.size()));
-      xa << x, detail::select_columns(t.z, t.kept);
-      t.cv_drop = (cv_old - detail::blocked_cv_error(xa, y, options.cv_blocks)) / cv_old;
-      tests.push_back(std::move(t));
-      ++it;
     }
+    t.z = eq.effect_columns(t.id, t.settings);
+    const Eigen::MatrixXd z_resid = model.projector.residualize(t.z);
+    t.kept = separable_columns(t.z, z_resid, options.separability_r2, &t.max_r2);
+    if (t.kept.empty()) {
+      std::string by;
+      for (const auto& named : s.selected) by += (by.empty() ? "" : ", ") + named.id;
+      s.dropped.emplace_back(t.id, "explained by the named effects (" + by + ")");
+      it = s.remaining.erase(it);
+      continue;
+    }
+    wald_test(t, select_columns(z_resid, t.kept), model.fit.residual, model.fit.rss);
+    Eigen::MatrixXd xa(model.x.rows(), model.x.cols() + static_cast<Eigen::Index>(t.kept.size()));
+    xa << model.x, select_columns(t.z, t.kept);
+    t.cv_drop = (model.cv_error - blocked_cv_error(xa, eq.y, options.cv_blocks)) / model.cv_error;
+    tests.push_back(std::move(t));
+    ++it;
+  }
+  return tests;
+}
+
+/// Holm's step-down adjustment over one round's candidates.
+SID_INLINE void holm_adjust(std::vector<CandidateTest>& tests) {
+  std::vector<std::size_t> order(tests.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return tests[a].p_raw < tests[b].p_raw; });
+  double running = 0.0;
+  const double count = static_cast<double>(tests.size());
+  for (std::size_t r = 0; r < order.size(); ++r) {
+    running =
+        std::max(running, std::min(1.0, (count - static_cast<double>(r)) * tests[order[r]].p_raw));
+    tests[order[r]].p_adjusted = running;
+  }
+}
+
+/// Fills a tested candidate's detection limit and, if its tests pass, its admissibility, from a
+/// fit of the model with the term (a Stribeck term replacing its joint's Coulomb term).
+SID_INLINE void judge_candidate(CandidateTest& t, const DiagnosisEquations& eq,
+                                const RoundModel& model, const Selection& s, double critical_alpha,
+                                const DiagnoseOptions& options) {
+  const Eigen::VectorXd a =
+      select_columns(effect_signature(t.id, model.fit.theta).transpose(), t.kept).transpose();
+  const double sensitivity = a.dot(t.covariance.ldlt().solve(a));
+  if (sensitivity > 0.0)
+    t.detection_limit = std::sqrt(
+        chi_square_critical(critical_alpha, static_cast<double>(t.kept.size())) / sensitivity);
+  if (!(t.p_adjusted < options.family_alpha && t.bic_drop > 0.0 && t.cv_drop > 0.0)) return;
+  std::vector<SelectedTerm> trial;
+  for (const auto& named : s.selected)
+    if (named.id != superseded_effect(t.id)) trial.push_back(named);
+  trial.push_back({t.id, t.settings, t.z});
+  const Eigen::MatrixXd xt = assemble_columns(eq.x0, trial);
+  const auto ls = least_squares(xt, eq.y, 2);
+  if (!ls.ok()) {
+    t.inadmissible = "rank deficient with the named effects";
+    return;
+  }
+  const EffectEstimate e = effect_estimate(
+      t.id, ls.theta, ls.covariance, assemble_model(options.identify.gravity, trial), t.settings);
+  t.inadmissible = inadmissibility(e);
+  t.admissible = t.inadmissible.empty();
+  t.passed = t.admissible;
+}
+
+/// Adds the chosen candidate to the model; a Stribeck term replaces its joint's Coulomb term.
+SID_INLINE void name_candidate(const CandidateTest& chosen, Selection& s) {
+  NamedEffect effect;
+  effect.id = chosen.id;
+  effect.name = effect_name(chosen.id);
+  effect.value_names = effect_value_names(chosen.id);
+  effect.wald = chosen.wald;
+  effect.p_value = chosen.p_adjusted;
+  effect.information_drop = chosen.bic_drop;
+  effect.cv_drop = chosen.cv_drop;
+  effect.note = effect_note(chosen.id);
+  const std::string superseded = superseded_effect(chosen.id);
+  for (auto it = s.selected.begin(); it != s.selected.end();)
+    it = it->id == superseded ? s.selected.erase(it) : it + 1;
+  for (auto e = s.named.begin(); e != s.named.end();) {
+    if (e->id == superseded) {
+      effect.note = "contains the Coulomb level Fc; replaces " + superseded + ", named earlier";
+      e = s.named.erase(e);
+    } else {
+      ++e;
+    }
+  }
+  s.selected.push_back({chosen.id, chosen.settings, chosen.z});
+  s.named.push_back(std::move(effect));
+  s.remaining.erase(std::find(s.remaining.begin(), s.remaining.end(), chosen.id));
+}
+
+/// Forward selection: each round names the passing candidate with the largest BIC drop, until
+/// none passes.
+SID_INLINE Selection forward_selection(const DiagnosisEquations& eq,
+                                       std::vector<std::string> candidates,
+                                       const DiagnoseOptions& options) {
+  const std::vector<double> grid =
+      options.stribeck_velocities.empty() ? default_stribeck_grid() : options.stribeck_velocities;
+  Selection s;
+  s.remaining = std::move(candidates);
+  while (!s.remaining.empty()) {
+    const RoundModel model(eq, s.selected, options.cv_blocks);
+    std::vector<CandidateTest> tests = test_round(eq, model, grid, s, options);
     if (tests.empty()) break;
-    // Holm's step-down adjustment over this round's candidates.
-    std::vector<std::size_t> order(tests.size());
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::sort(order.begin(), order.end(),
-              [&](std::size_t a, std::size_t b) { return tests[a].p_raw < tests[b].p_raw; });
-    double running = 0.0;
-    const double count = static_cast<double>(tests.size());
-    for (std::size_t r = 0; r < order.size(); ++r) {
-      running = std::max(running,
-                         std::min(1.0, (count - static_cast<double>(r)) * tests[order[r]].p_raw));
-      tests[order[r]].p_adjusted = running;
-    }
-    const double critical_alpha = options.family_alpha / count;
+    holm_adjust(tests);
+    const double critical_alpha = options.family_alpha / static_cast<double>(tests.size());
     int best = -1;
     for (std::size_t i = 0; i < tests.size(); ++i) {
-      auto& t = tests[i];
-      const Eigen::VectorXd a =
-          detail::select_columns(detail::effect_signature(t.id, current.theta).transpose(), t.kept)
-              .transpose();
-      const double sensitivity = a.dot(t.covariance.ldlt().solve(a));
-      if (sensitivity > 0.0)
-        t.detection_limit = std::sqrt(
-            chi_square_critical(critical_alpha, static_cast<double>(t.kept.size())) / sensitivity);
-      if (!(t.p_adjusted < options.family_alpha && t.bic_drop > 0.0 && t.cv_drop > 0.0)) continue;
-      // Admissibility from a fit of the model with the term (a Stribeck term replacing Coulomb).
-      std::vector<detail::SelectedTerm> trial;
-      for (const auto& s : selected)
-        if (s.id != detail::superseded_effect(t.id)) trial.push_back(s);
-      trial.push_back({t.id, t.settings, t.z});
-      const Eigen::MatrixXd xt = detail::assemble_columns(x0, trial);
-      const auto ls = least_squares(xt, y, 2);
-      if (!ls.ok()) {
-        t.inadmissible = "rank deficient with the named effects";
-        continue;
-      }
-      const EffectEstimate e = effect_estimate(t.id, ls.theta, ls.covariance,
-                                               detail::assemble_model(g, trial), t.settings);
-      t.inadmissible = detail::inadmissibility(e);
-      t.admissible = t.inadmissible.empty();
-      t.passed = t.admissible;
+      CandidateTest& t = tests[i];
+      judge_candidate(t, eq, model, s, critical_alpha, options);
       if (t.passed && (best < 0 || t.bic_drop > tests[static_cast<std::size_t>(best)].bic_drop))
         best = static_cast<int>(i);
     }
     if (best < 0) {
-      last_round = std::move(tests);
+      s.last_round = std::move(tests);
       break;
     }
-    const detail::CandidateTest& chosen = tests[static_cast<std::size_t>(best)];
-    NamedEffect effect;
-    effect.id = chosen.id;
-    effect.name = effect_name(chosen.id);
-    effect.value_names = effect_value_names(chosen.id);
-    effect.wald = chosen.wald;
-    effect.p_value = chosen.p_adjusted;
-    effect.information_drop = chosen.bic_drop;
-    effect.cv_drop = chosen.cv_drop;
-    effect.note = detail::effect_note(chosen.id);
-    const std::string superseded = detail::superseded_effect(chosen.id);
-    for (auto s = selected.begin(); s != selected.end();)
-      s = s->id == superseded ? selected.erase(s) : s + 1;
-    for (auto e = named.begin(); e != named.end();) {
-      if (e->id == superseded) {
-        effect.note = "contains the Coulomb level Fc; replaces " + superseded + ", named earlier";
-        e = named.erase(e);
-      } else {
-        ++e;
-      }
-    }
-    selected.push_back({chosen.id, chosen.settings, chosen.z});
-    named.push_back(std::move(effect));
-    remaining.erase(std::find(remaining.begin(), remaining.end(), chosen.id));
+    name_candidate(tests[static_cast<std::size_t>(best)], s);
   }
+  return s;
+}
 
-  result.effects = std::move(named);
-  detail::fit_final_model(result, selected, x0, y, x0_samples, y_samples, floor, options);
-  for (const auto& d : dropped)
-    result.not_named.push_back({d.first, effect_name(d.first), d.second, std::nan("")});
-  for (const auto& t : last_round) {
+/// Why each candidate tested but not named was left out, with its detection limit.
+SID_INLINE std::vector<UnnamedEffect> unnamed_effects(const Selection& s,
+                                                      const DiagnoseOptions& options) {
+  std::vector<UnnamedEffect> out;
+  for (const auto& d : s.dropped)
+    out.push_back({d.first, effect_name(d.first), d.second, std::nan("")});
+  for (const auto& t : s.last_round) {
     std::string reason;
     if (!(t.p_adjusted < options.family_alpha))
-      reason =
-          "not significant (HAC Wald p = " + detail::format_value(t.p_adjusted) + " after Holm)";
+      reason = "not significant (HAC Wald p = " + format_value(t.p_adjusted) + " after Holm)";
     else if (!(t.bic_drop > 0.0))
       reason = "no BIC drop";
     else if (!(t.cv_drop > 0.0))
       reason = "no blocked-CV gain";
     else
       reason = "not admissible: " + t.inadmissible;
-    result.not_named.push_back({t.id, effect_name(t.id), reason, t.detection_limit});
+    out.push_back({t.id, effect_name(t.id), reason, t.detection_limit});
   }
+  return out;
+}
+
+}  // namespace detail
+
+SID_INLINE DiagnosisResult diagnose(const Trajectory<double>& data,
+                                    const DiagnoseOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  detail::check_diagnose_input(data, options);
+  detail::DiagnosisEquations eq = detail::diagnosis_equations(data, options);
+
+  DiagnosisResult result;
+  result.nominal_model = two_link_arm_model<double>(options.identify.gravity);
+  const detail::HacFit nominal_fit = detail::hac_fit(eq.x0, eq.y);
+  const detail::TorqueFloors floors =
+      detail::torque_floors(eq, result.nominal_model, nominal_fit.theta, options);
+  result.noise_floor = floors.noise;
+  result.kinematic_floor = floors.kinematic;
+  const Vector2<double> floor = floors.combined();
+  detail::fill_report(result.nominal, nominal_fit, result.nominal_model.parameter_names(), eq.k,
+                      eq.nominal_samples.X, eq.nominal_samples.y, eq.kept, floor,
+                      options.window_length, options.family_alpha);
+
+  detail::CandidateScreen screen = detail::screen_candidates(eq, options);
+  result.not_separable = std::move(screen.not_separable);
+  detail::Selection selection = detail::forward_selection(eq, std::move(screen.separable), options);
+
+  result.kinematics = std::move(eq.k);
+  result.kept = std::move(eq.kept);
+  result.effects = std::move(selection.named);
+  detail::fit_final_model(result, selection.selected, eq.x0, eq.y, eq.nominal_samples.X,
+                          eq.nominal_samples.y, floor, options);
+  const std::vector<UnnamedEffect> unnamed = detail::unnamed_effects(selection, options);
+  result.not_named.insert(result.not_named.end(), unnamed.begin(), unnamed.end());
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -38,24 +38,23 @@ SID_INLINE RunsEquations runs_equations(const Model<double>& model,
       e.groups.push_back(std::move(g));
     }
   }
+  e.gram = Eigen::MatrixXd::Zero(p, p);
+  e.cross = Eigen::VectorXd::Zero(p);
+  for (const auto& g : e.groups) {
+    e.gram += g.gram[0] + g.gram[1];
+    e.cross += g.cross[0] + g.cross[1];
+  }
   return e;
 }
 
 SID_INLINE Vector2<double> left_out_mean_square(const RunsEquations& e) {
-  const Eigen::Index p = e.scale.size();
-  Eigen::MatrixXd gram_all = Eigen::MatrixXd::Zero(p, p);
-  Eigen::VectorXd cross_all = Eigen::VectorXd::Zero(p);
-  for (const auto& g : e.groups) {
-    gram_all += g.gram[0] + g.gram[1];
-    cross_all += g.cross[0] + g.cross[1];
-  }
   Vector2<double> sse = Vector2<double>::Zero();
   double count = 0.0;
   for (const auto& g : e.groups) {
-    const Eigen::LDLT<Eigen::MatrixXd> ldlt(gram_all - g.gram[0] - g.gram[1]);
+    const Eigen::LDLT<Eigen::MatrixXd> ldlt(e.gram - g.gram[0] - g.gram[1]);
     if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().array() > 0.0).all())
       return Vector2<double>::Constant(std::numeric_limits<double>::infinity());
-    const Eigen::VectorXd beta = ldlt.solve(cross_all - g.cross[0] - g.cross[1]);
+    const Eigen::VectorXd beta = ldlt.solve(e.cross - g.cross[0] - g.cross[1]);
     for (int j = 0; j < 2; ++j)
       sse[j] += g.yy[j] - 2.0 * beta.dot(g.cross[j]) + beta.dot(g.gram[j] * beta);
     count += static_cast<double>(g.size);
@@ -65,14 +64,8 @@ SID_INLINE Vector2<double> left_out_mean_square(const RunsEquations& e) {
 
 SID_INLINE std::pair<Eigen::VectorXd, Eigen::MatrixXd> fit_with_hac(const RunsEquations& e) {
   const Eigen::Index p = e.scale.size();
-  Eigen::MatrixXd gram = Eigen::MatrixXd::Zero(p, p);
-  Eigen::VectorXd cross = Eigen::VectorXd::Zero(p);
-  for (const auto& g : e.groups) {
-    gram += g.gram[0] + g.gram[1];
-    cross += g.cross[0] + g.cross[1];
-  }
-  const Eigen::LDLT<Eigen::MatrixXd> ldlt(gram);
-  const Eigen::VectorXd beta = ldlt.solve(cross);
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(e.gram);
+  const Eigen::VectorXd beta = ldlt.solve(e.cross);
   Eigen::MatrixXd long_run = Eigen::MatrixXd::Zero(p, p);
   for (const auto& r : e.runs) {
     const Eigen::MatrixXd x = r.X * e.scale.cwiseInverse().asDiagonal();
@@ -300,6 +293,81 @@ SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(
 
 }  // namespace detail
 
+namespace detail {
+
+/// The forward selection's result: the effects named, in the model's order, with their tests.
+struct RunsSelection {
+  std::vector<std::pair<std::string, EffectSettings>> named;
+  std::vector<RunsEffectTest> chosen;
+  std::vector<RunsEffectTest> not_named;  ///< the final round's tests
+};
+
+SID_INLINE RunsSelection select_effects(const std::vector<Kinematics<double>>& k,
+                                        const RunsDiagnoseOptions& fixed) {
+  std::vector<std::string> remaining;
+  for (const auto& id : fixed.candidates.empty() ? effect_ids() : fixed.candidates)
+    if (id != "armature_j1" && std::find(remaining.begin(), remaining.end(), id) == remaining.end())
+      remaining.push_back(id);
+  RunsSelection s;
+  while (!remaining.empty()) {
+    std::vector<RunsEffectTest> tests = selection_round(remaining, s.named, k, fixed);
+    const RunsEffectTest* best = best_candidate(tests, fixed.min_prediction_gain);
+    if (!best) {
+      s.not_named = std::move(tests);
+      break;
+    }
+    s.named = with_candidate(s.named, best->id, best->settings);
+    const std::string superseded = superseded_effect(best->id);
+    s.chosen.erase(std::remove_if(s.chosen.begin(), s.chosen.end(),
+                                  [&](const auto& c) { return c.id == superseded; }),
+                   s.chosen.end());
+    s.chosen.push_back(*best);
+    remaining.erase(std::find(remaining.begin(), remaining.end(), best->id));
+    if (!superseded.empty())
+      remaining.erase(std::remove(remaining.begin(), remaining.end(), superseded), remaining.end());
+  }
+  return s;
+}
+
+/// The rotor coupling's test against the final model, unless it was named: from the last round
+/// if it was tested there, otherwise tested now.
+SID_INLINE std::optional<RunsEffectTest> rotor_coupling_test(
+    const std::vector<std::pair<std::string, EffectSettings>>& named,
+    const std::vector<RunsEffectTest>& not_named, const std::vector<Kinematics<double>>& k,
+    const RunsDiagnoseOptions& fixed) {
+  const bool rotor_named = std::any_of(named.begin(), named.end(),
+                                       [](const auto& e) { return e.first == "armature_j2"; });
+  if (rotor_named) return std::nullopt;
+  const auto it = std::find_if(not_named.begin(), not_named.end(),
+                               [](const RunsEffectTest& t) { return t.id == "armature_j2"; });
+  if (it != not_named.end()) return *it;
+  return selection_round({"armature_j2"}, named, k, fixed).front();
+}
+
+/// The final model's residual in excess of the floor, fitted and held out, over all runs.
+SID_INLINE void excess_over_floor(RunsDiagnosis& result) {
+  Vector2<double> residual_ss = Vector2<double>::Zero(), left_out_ss = Vector2<double>::Zero(),
+                  floor_ss = Vector2<double>::Zero();
+  double samples = 0.0;
+  for (std::size_t r = 0; r < result.floor.size(); ++r) {
+    const double n = static_cast<double>(result.final.kinematics[r].size());
+    residual_ss += n * result.final.residual_rms[r].cwiseAbs2();
+    if (!result.final.left_out_prediction_rms.empty())
+      left_out_ss += n * result.final.left_out_prediction_rms[r].cwiseAbs2();
+    floor_ss += n * result.floor[r].cwiseAbs2();
+    samples += n;
+  }
+  for (int j = 0; j < 2; ++j) {
+    result.excess_rms[j] = std::sqrt(std::max(0.0, (residual_ss[j] - floor_ss[j]) / samples));
+    result.left_out_excess_rms[j] =
+        result.final.left_out_prediction_rms.empty()
+            ? std::nan("")
+            : std::sqrt(std::max(0.0, (left_out_ss[j] - floor_ss[j]) / samples));
+  }
+}
+
+}  // namespace detail
+
 SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& runs,
                                        const RunsDiagnoseOptions& options) {
   const auto start = std::chrono::steady_clock::now();
@@ -319,36 +387,15 @@ SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& ru
   for (const auto& run : runs)
     result.floor.push_back(detail::torque_above_cutoff(run, result.cutoff_hz, options.identify));
 
-  std::vector<std::string> remaining;
-  for (const auto& id : options.candidates.empty() ? effect_ids() : options.candidates)
-    if (id != "armature_j1" && std::find(remaining.begin(), remaining.end(), id) == remaining.end())
-      remaining.push_back(id);
-  std::vector<std::pair<std::string, EffectSettings>> named;
-  std::vector<RunsEffectTest> chosen;
-  while (!remaining.empty()) {
-    std::vector<RunsEffectTest> tests = detail::selection_round(remaining, named, k, fixed);
-    const RunsEffectTest* best = detail::best_candidate(tests, fixed.min_prediction_gain);
-    if (!best) {
-      result.not_named = std::move(tests);
-      break;
-    }
-    named = detail::with_candidate(named, best->id, best->settings);
-    const std::string superseded = detail::superseded_effect(best->id);
-    chosen.erase(std::remove_if(chosen.begin(), chosen.end(),
-                                [&](const auto& c) { return c.id == superseded; }),
-                 chosen.end());
-    chosen.push_back(*best);
-    remaining.erase(std::find(remaining.begin(), remaining.end(), best->id));
-    if (!superseded.empty())
-      remaining.erase(std::remove(remaining.begin(), remaining.end(), superseded), remaining.end());
-  }
-
-  result.friction_shapes = detail::test_friction_shapes(named, chosen, k, fixed);
-  result.final_model = detail::model_with(g, named);
+  detail::RunsSelection selection = detail::select_effects(k, fixed);
+  result.not_named = std::move(selection.not_named);
+  result.friction_shapes =
+      detail::test_friction_shapes(selection.named, selection.chosen, k, fixed);
+  result.final_model = detail::model_with(g, selection.named);
   result.final = identify_runs(runs, result.final_model, fixed.identify);
   const StackedRegression<double> all = stack_runs(result.final_model, result.final.kinematics);
   result.final_covariance = hac_covariance(all, result.final.kinematics, result.final.fit);
-  for (auto& c : chosen) {
+  for (auto& c : selection.chosen) {
     c.estimate = effect_estimate(c.id, result.final.fit.theta, result.final_covariance,
                                  result.final_model, c.settings);
     result.named.push_back(std::move(c));
@@ -357,37 +404,8 @@ SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& ru
     if (shape.asymmetric)
       detail::directional_levels(shape, result.final.fit.theta, result.final_covariance,
                                  result.final_model.parameter_offset(shape.id));
-  const bool rotor_named = std::any_of(named.begin(), named.end(),
-                                       [](const auto& e) { return e.first == "armature_j2"; });
-  if (!rotor_named) {
-    const auto it = std::find_if(result.not_named.begin(), result.not_named.end(),
-                                 [](const RunsEffectTest& t) { return t.id == "armature_j2"; });
-    if (it != result.not_named.end()) {
-      result.rotor_coupling = *it;
-    } else {
-      std::vector<RunsEffectTest> rotor = detail::selection_round({"armature_j2"}, named, k, fixed);
-      result.rotor_coupling = rotor.front();
-    }
-  }
-
-  Vector2<double> residual_ss = Vector2<double>::Zero(), left_out_ss = Vector2<double>::Zero(),
-                  floor_ss = Vector2<double>::Zero();
-  double samples = 0.0;
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    const double n = static_cast<double>(result.final.kinematics[r].size());
-    residual_ss += n * result.final.residual_rms[r].cwiseAbs2();
-    if (!result.final.left_out_prediction_rms.empty())
-      left_out_ss += n * result.final.left_out_prediction_rms[r].cwiseAbs2();
-    floor_ss += n * result.floor[r].cwiseAbs2();
-    samples += n;
-  }
-  for (int j = 0; j < 2; ++j) {
-    result.excess_rms[j] = std::sqrt(std::max(0.0, (residual_ss[j] - floor_ss[j]) / samples));
-    result.left_out_excess_rms[j] =
-        result.final.left_out_prediction_rms.empty()
-            ? std::nan("")
-            : std::sqrt(std::max(0.0, (left_out_ss[j] - floor_ss[j]) / samples));
-  }
+  result.rotor_coupling = detail::rotor_coupling_test(selection.named, result.not_named, k, fixed);
+  detail::excess_over_floor(result);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

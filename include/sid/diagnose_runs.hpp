@@ -125,6 +125,8 @@ struct RunsEquations {
     double yy[2] = {0.0, 0.0};
   };
   std::vector<Group> groups;
+  Eigen::MatrixXd gram;  ///< the sums of the groups' (both joints)
+  Eigen::VectorXd cross;
 };
 
 SID_INLINE RunsEquations runs_equations(const Model<double>& model,

@@ -69,11 +69,9 @@ SID_INLINE std::vector<FlaggedWindow> simulation_windows(
   return windows;
 }
 
-SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
-                                                    const DiagnoseOptions& options,
-                                                    const FreeSimulationOptions& sim,
-                                                    const SimulationCheckOptions& check,
-                                                    SimulationCheck* details) {
+namespace detail {
+
+SID_INLINE void check_simulation_check_options(const SimulationCheckOptions& check) {
   const std::string who = "sid::diagnose_with_simulation: ";
   if (check.noise_runs < 1) throw std::invalid_argument(who + "check.noise_runs must be >= 1");
   if (!(check.threshold > 0.0) || !std::isfinite(check.threshold))
@@ -84,6 +82,31 @@ SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& da
     throw std::invalid_argument(who + "check.noise_tolerance must be finite and > 0");
   if (!(check.checked_tolerance >= 0.0) || !std::isfinite(check.checked_tolerance))
     throw std::invalid_argument(who + "check.checked_tolerance must be finite and >= 0 (0: sim's)");
+}
+
+/// Copies of k whose torques carry white noise at the floor. The draws come first, in order, so
+/// that the simulations (independent) can run on every core and still be reproducible.
+SID_INLINE std::vector<Kinematics<double>> with_torque_noise(const Kinematics<double>& k,
+                                                             const Vector2<double>& sigma, int runs,
+                                                             std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<Kinematics<double>> noisy(static_cast<std::size_t>(runs), k);
+  for (auto& run : noisy)
+    for (int j = 0; j < 2; ++j)
+      for (Eigen::Index i = 0; i < k.size(); ++i)
+        run.tau(i, j) = k.tau(i, j) + sigma[j] * normal(rng);
+  return noisy;
+}
+
+}  // namespace detail
+
+SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& data,
+                                                    const DiagnoseOptions& options,
+                                                    const FreeSimulationOptions& sim,
+                                                    const SimulationCheckOptions& check,
+                                                    SimulationCheck* details) {
+  detail::check_simulation_check_options(check);
   const auto start = std::chrono::steady_clock::now();
   DiagnosisResult result = diagnose(data, options);
   const Kinematics<double>& k = result.kinematics;
@@ -107,17 +130,11 @@ SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& da
     check_result.nominal = nominal.get();
   }
 
-  // The noise alone: (sim with tau + w) - (sim with tau), w white at the noise floor. The draws
-  // come first, in order, so that the simulations (independent) can run on every core.
+  // The noise alone: (sim with tau + w) - (sim with tau), w white at the noise floor.
   FreeSimulationOptions loose = sim;
   loose.simulator.rtol = loose.simulator.atol = check.noise_tolerance;
-  std::mt19937_64 rng(check.seed);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  std::vector<Kinematics<double>> noisy(static_cast<std::size_t>(check.noise_runs), k);
-  for (auto& run : noisy)
-    for (int j = 0; j < 2; ++j)
-      for (Eigen::Index i = 0; i < n; ++i)
-        run.tau(i, j) = k.tau(i, j) + result.noise_floor[j] * normal(rng);
+  const std::vector<Kinematics<double>> noisy =
+      detail::with_torque_noise(k, result.noise_floor, check.noise_runs, check.seed);
   FreeSimulation base;
   std::vector<FreeSimulation> perturbed(noisy.size());
   const bool named = !result.effects.empty();
