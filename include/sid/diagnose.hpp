@@ -67,8 +67,9 @@ struct DiagnoseOptions {
   /// velocity the data resolve (the spline's q̇ noise is about 0.01–0.03 rad/s at σq² = 1e-6).
   /// That joint's equations at those samples, and within rest_margin [s] of them (where the
   /// spline's q̈ smears the stick and breakaway), are left out of the fits, the tests and the
-  /// residual figures. On data with Stribeck friction this took the naming from 3 to 7 of 8
-  /// data sets. 0 keeps every sample.
+  /// residual figures: kept, those equations hide a Stribeck bump (on the 8 data sets with
+  /// Stribeck friction of the diagnosis tests, it is named in 7 with them left out, in 3 with
+  /// them kept). 0 keeps every sample.
   double rest_velocity = 0.03;
   double rest_margin = 0.02;  ///< [s]
   /// A Stribeck width vs is tried only if at least this many kept samples of the joint lie within
