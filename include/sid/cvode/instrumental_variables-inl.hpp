@@ -55,12 +55,10 @@ SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::Vector
   fit.dependent_columns.clear();
 }
 
-}  // namespace detail
-
-SID_INLINE InstrumentalVariableResult
-refine_instrumental_variables(const Kinematics<double>& k, const LeastSquaresResult<double>& first,
-                              const InstrumentalVariableOptions& options) {
-  const char* who = "sid::refine_instrumental_variables";
+/// Throws std::invalid_argument, with its reason, on input refine_instrumental_variables refuses.
+SID_INLINE void check_iv_inputs(const Kinematics<double>& k,
+                                const LeastSquaresResult<double>& first,
+                                const InstrumentalVariableOptions& options, const char* who) {
   const Eigen::Index n = k.size();
   if (first.theta.size() != 7 || !first.ok())
     throw std::invalid_argument(std::string(who) +
@@ -74,78 +72,130 @@ refine_instrumental_variables(const Kinematics<double>& k, const LeastSquaresRes
     throw std::invalid_argument(std::string(who) + ": segment must be > 0");
   if (!(options.tolerance > 0.0))
     throw std::invalid_argument(std::string(who) + ": tolerance must be > 0");
+}
 
-  const StackedRegression<double> measured = stack_two_link_regression(k, options.gravity);
-  const Eigen::VectorXd scale = measured.X.colwise().norm().cwiseMax(1e-300).transpose();
-  const Eigen::MatrixXd x_scaled = measured.X * scale.cwiseInverse().asDiagonal();
+/// The drive at `time`: linear between the samples at t, held beyond the ends.
+SID_INLINE Vector2<double> drive_at(const VectorX<double>& t, const MatrixX2<double>& drive,
+                                    double time) {
+  const Eigen::Index n = t.size();
+  if (time <= t[0]) return Vector2<double>(drive.row(0).transpose());
+  if (time >= t[n - 1]) return Vector2<double>(drive.row(n - 1).transpose());
+  const Eigen::Index i = std::upper_bound(t.data(), t.data() + n, time) - t.data() - 1;
+  const double a = (time - t[i]) / (t[i + 1] - t[i]);
+  return Vector2<double>((1.0 - a) * drive.row(i).transpose() + a * drive.row(i + 1).transpose());
+}
 
-  const MatrixX2<double> drive = detail::smoothed_torque(k);
-  auto torque = [&](double time) {  // linear between samples, held beyond the ends
-    if (time <= k.t[0]) return Vector2<double>(drive.row(0).transpose());
-    if (time >= k.t[n - 1]) return Vector2<double>(drive.row(n - 1).transpose());
-    const Eigen::Index i = std::upper_bound(k.t.data(), k.t.data() + n, time) - k.t.data() - 1;
-    const double a = (time - k.t[i]) / (k.t[i + 1] - k.t[i]);
-    return Vector2<double>((1.0 - a) * drive.row(i).transpose() + a * drive.row(i + 1).transpose());
-  };
-
-  InstrumentalVariableResult result;
-  result.fit = first;
+/// Kinematics at k's times, driven by `drive`, with room for the simulated states.
+SID_INLINE Kinematics<double> instrument_kinematics(const Kinematics<double>& k,
+                                                    const MatrixX2<double>& drive) {
+  const Eigen::Index n = k.size();
   Kinematics<double> simulated;
   simulated.t = k.t;
   simulated.q.resize(n, 2);
   simulated.qd.resize(n, 2);
   simulated.qdd.resize(n, 2);
   simulated.tau = drive;
+  return simulated;
+}
+
+/// Simulates the arm at θ, driven by `drive`, into simulated.q and qd. False, with the failure
+/// in result (`it` numbers the iteration), if a simulation failed.
+SID_INLINE bool simulate_states(const Kinematics<double>& k, const MatrixX2<double>& drive,
+                                const TwoLinkParameters<double>& theta,
+                                const InstrumentalVariableOptions& options, const char* who, int it,
+                                Kinematics<double>& simulated, InstrumentalVariableResult& result) {
+  const Eigen::Index n = k.size();
+  auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
+                 Eigen::Map<Eigen::VectorXd>& xdot) {
+    const Vector2<double> q = x.head<2>(), qd = x.tail<2>();
+    xdot.head<2>() = qd;
+    xdot.tail<2>() =
+        two_link_forward_dynamics(theta, q, qd, drive_at(k.t, drive, time), options.gravity);
+  };
+  // Segments [begin, end] share their boundary sample; each starts from the smoothed state.
+  for (Eigen::Index begin = 0; begin < n - 1;) {
+    Eigen::Index end = begin + 1;
+    while (end < n - 1 && k.t[end] < k.t[begin] + options.segment) ++end;
+    Eigen::VectorXd start(4);
+    start << k.q.row(begin).transpose(), k.qd.row(begin).transpose();
+    const SimulationResult sim =
+        simulate(rhs, start, k.t.segment(begin, end - begin + 1), options.simulator);
+    if (!sim.ok()) {
+      result.failed = true;
+      result.message = std::string(who) + ": the simulation of iteration " + std::to_string(it) +
+                       " failed at t = " + std::to_string(k.t[begin]) + " s (" + sim.flag_name +
+                       "): " + sim.message;
+      return false;
+    }
+    simulated.q.middleRows(begin, end - begin + 1) = sim.states.leftCols(2);
+    simulated.qd.middleRows(begin, end - begin + 1) = sim.states.rightCols(2);
+    begin = end;
+  }
+  return true;
+}
+
+/// simulated.qdd from the model at θ in the simulated states, driven by `drive` at the samples.
+SID_INLINE void fill_simulated_accelerations(const TwoLinkParameters<double>& theta,
+                                             const MatrixX2<double>& drive, double gravity,
+                                             Kinematics<double>& simulated) {
+  for (Eigen::Index i = 0; i < simulated.size(); ++i)
+    simulated.qdd.row(i) =
+        two_link_forward_dynamics(theta, Vector2<double>(simulated.q.row(i).transpose()),
+                                  Vector2<double>(simulated.qd.row(i).transpose()),
+                                  Vector2<double>(drive.row(i).transpose()), gravity)
+            .transpose();
+}
+
+/// The IV estimate θ of (WᵀX) θ = Wᵀy, solved with both sides column-scaled by `scale`
+/// (x_scaled = X diag(scale)⁻¹) into `next`. False, with the failure in result (`it` numbers
+/// the iteration), if WᵀX is singular or θ not finite.
+SID_INLINE bool solve_iv(const Eigen::MatrixXd& w, const Eigen::MatrixXd& x_scaled,
+                         const Eigen::VectorXd& y, const Eigen::VectorXd& scale, const char* who,
+                         int it, Eigen::VectorXd& next, InstrumentalVariableResult& result) {
+  const Eigen::MatrixXd w_scaled = w * scale.cwiseInverse().asDiagonal();
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(w_scaled.transpose() * x_scaled);
+  if (qr.rank() < 7) {
+    result.failed = true;
+    result.message = std::string(who) + ": the instruments of iteration " + std::to_string(it) +
+                     " are not correlated with every regressor column (W^T X is singular)";
+    return false;
+  }
+  next = qr.solve(w_scaled.transpose() * y).cwiseQuotient(scale);
+  if (!next.allFinite()) {
+    result.failed = true;
+    result.message =
+        std::string(who) + ": iteration " + std::to_string(it) + " gave a non-finite estimate";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace detail
+
+SID_INLINE InstrumentalVariableResult
+refine_instrumental_variables(const Kinematics<double>& k, const LeastSquaresResult<double>& first,
+                              const InstrumentalVariableOptions& options) {
+  const char* who = "sid::refine_instrumental_variables";
+  detail::check_iv_inputs(k, first, options, who);
+
+  const StackedRegression<double> measured = stack_two_link_regression(k, options.gravity);
+  const Eigen::VectorXd scale = measured.X.colwise().norm().cwiseMax(1e-300).transpose();
+  const Eigen::MatrixXd x_scaled = measured.X * scale.cwiseInverse().asDiagonal();
+
+  const MatrixX2<double> drive = detail::smoothed_torque(k);
+  InstrumentalVariableResult result;
+  result.fit = first;
+  Kinematics<double> simulated = detail::instrument_kinematics(k, drive);
   for (int it = 1; it <= options.max_iterations; ++it) {
     const TwoLinkParameters<double> theta = result.fit.theta;
-    auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
-                   Eigen::Map<Eigen::VectorXd>& xdot) {
-      const Vector2<double> q = x.head<2>(), qd = x.tail<2>();
-      xdot.head<2>() = qd;
-      xdot.tail<2>() = two_link_forward_dynamics(theta, q, qd, torque(time), options.gravity);
-    };
-    // Segments [begin, end] share their boundary sample; each starts from the smoothed state.
-    for (Eigen::Index begin = 0; begin < n - 1;) {
-      Eigen::Index end = begin + 1;
-      while (end < n - 1 && k.t[end] < k.t[begin] + options.segment) ++end;
-      Eigen::VectorXd start(4);
-      start << k.q.row(begin).transpose(), k.qd.row(begin).transpose();
-      const SimulationResult sim =
-          simulate(rhs, start, k.t.segment(begin, end - begin + 1), options.simulator);
-      if (!sim.ok()) {
-        result.failed = true;
-        result.message = std::string(who) + ": the simulation of iteration " + std::to_string(it) +
-                         " failed at t = " + std::to_string(k.t[begin]) + " s (" + sim.flag_name +
-                         "): " + sim.message;
-        return result;
-      }
-      simulated.q.middleRows(begin, end - begin + 1) = sim.states.leftCols(2);
-      simulated.qd.middleRows(begin, end - begin + 1) = sim.states.rightCols(2);
-      begin = end;
-    }
-    for (Eigen::Index i = 0; i < n; ++i)
-      simulated.qdd.row(i) =
-          two_link_forward_dynamics(theta, Vector2<double>(simulated.q.row(i).transpose()),
-                                    Vector2<double>(simulated.qd.row(i).transpose()),
-                                    Vector2<double>(drive.row(i).transpose()), options.gravity)
-              .transpose();
+    if (!detail::simulate_states(k, drive, theta, options, who, it, simulated, result))
+      return result;
+    detail::fill_simulated_accelerations(theta, drive, options.gravity, simulated);
     const StackedRegression<double> instruments =
         stack_two_link_regression(simulated, options.gravity);
-    const Eigen::MatrixXd w_scaled = instruments.X * scale.cwiseInverse().asDiagonal();
-    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(w_scaled.transpose() * x_scaled);
-    if (qr.rank() < 7) {
-      result.failed = true;
-      result.message = std::string(who) + ": the instruments of iteration " + std::to_string(it) +
-                       " are not correlated with every regressor column (W^T X is singular)";
+    Eigen::VectorXd next;
+    if (!detail::solve_iv(instruments.X, x_scaled, measured.y, scale, who, it, next, result))
       return result;
-    }
-    const Eigen::VectorXd next = qr.solve(w_scaled.transpose() * measured.y).cwiseQuotient(scale);
-    if (!next.allFinite()) {
-      result.failed = true;
-      result.message =
-          std::string(who) + ": iteration " + std::to_string(it) + " gave a non-finite estimate";
-      return result;
-    }
     const double change =
         (next - result.fit.theta).cwiseQuotient(result.fit.theta).cwiseAbs().maxCoeff();
     detail::fill_iv_statistics(measured.X, measured.y, instruments.X, scale, next, result.fit);
