@@ -115,47 +115,41 @@ void check_least_squares_input(const char* who, const Eigen::MatrixBase<DerivedX
   if (!y.allFinite()) throw std::invalid_argument(prefix + "y must be finite");
 }
 
-/// The fit proper. root_weights: sqrt(w) for the weighted fit, nullptr for the unweighted one.
-/// Allocation matters here (an 8002 x 7 copy costs page faults): the only m x p temporary is the
-/// scaled regressor, which the QR then overwrites in place.
-template <typename Scalar, typename DerivedX, typename DerivedY>
-LeastSquaresResult<Scalar> solve_least_squares(
-    const char* who, const Eigen::MatrixBase<DerivedX>& x, const Eigen::MatrixBase<DerivedY>& y,
-    const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>* root_weights, Eigen::Index joints,
-    const LeastSquaresOptions& options) {
-  using std::sqrt;
-  using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
+/// (Weighted) x with unit-norm columns; their original norms go into column_scale.
+template <typename Scalar, typename DerivedX>
+Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> scaled_regressor(
+    const Eigen::MatrixBase<DerivedX>& x,
+    const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>* root_weights,
+    Eigen::Matrix<Scalar, Eigen::Dynamic, 1>& column_scale) {
   using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
-  const Eigen::Index m = x.rows(), p = x.cols();
-  const Scalar nan = std::numeric_limits<Scalar>::quiet_NaN();
-  LeastSquaresResult<Scalar> result;
-
   // Unit-norm columns make the condition number and the rank decision independent of the
   // parameters' units (theta1 ~ 1e-2 kg m^2 next to theta6 ~ 1 N m s).
   Matrix xs = root_weights ? Matrix(root_weights->asDiagonal() * x) : Matrix(x);
-  result.column_scale = xs.colwise().norm().transpose();
-  for (Eigen::Index j = 0; j < p; ++j)
-    if (result.column_scale(j) == Scalar(0))
-      result.column_scale(j) = Scalar(1);  // zero column stays zero
-  xs *= result.column_scale.cwiseInverse().asDiagonal();
+  column_scale = xs.colwise().norm().transpose();
+  for (Eigen::Index j = 0; j < xs.cols(); ++j)
+    if (column_scale(j) == Scalar(0)) column_scale(j) = Scalar(1);  // zero column stays zero
+  xs *= column_scale.cwiseInverse().asDiagonal();
+  return xs;
+}
 
-  // Plain Householder QR suffices: rank, condition number and null space all come from the SVD of
-  // R, whose singular values are those of the scaled X (Q is orthogonal).
-  const Eigen::HouseholderQR<Eigen::Ref<Matrix>> qr(xs);
-  Vector qty = root_weights ? Vector(root_weights->cwiseProduct(y)) : Vector(y);
-  for (Eigen::Index k = 0; k < p; ++k) {
+/// Q' v for the Q of qr, reflector by reflector, without forming Q.
+template <typename QR, typename Vector>
+void apply_q_transpose(const QR& qr, Vector& v) {
+  using Scalar = typename Vector::Scalar;
+  const Eigen::Index m = v.size();
+  for (Eigen::Index k = 0; k < qr.matrixQR().cols(); ++k) {
     Scalar workspace;
-    qty.tail(m - k).applyHouseholderOnTheLeft(qr.matrixQR().col(k).tail(m - k - 1), qr.hCoeffs()(k),
-                                              &workspace);
+    v.tail(m - k).applyHouseholderOnTheLeft(qr.matrixQR().col(k).tail(m - k - 1), qr.hCoeffs()(k),
+                                            &workspace);
   }
-  const Matrix r = qr.matrixQR().topLeftCorner(p, p).template triangularView<Eigen::Upper>();
-  const auto qty_head = qty.head(p);
+}
 
-  // R is p x p: its SVD is cheap, and square (Eigen's QR preconditioner, which costs seconds of
-  // compile time per file, would never run).
-  const Eigen::JacobiSVD<Matrix, Eigen::NoQRPreconditioner> svd(
-      r, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Vector& sv = svd.singularValues();
+/// Numerical rank and condition number of the scaled x from the singular values sv of R.
+template <typename Scalar>
+void set_rank_and_condition(const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>& sv, Eigen::Index m,
+                            const LeastSquaresOptions& options,
+                            LeastSquaresResult<Scalar>& result) {
+  const Eigen::Index p = sv.size();
   const Scalar tol = (options.rank_tolerance > 0.0
                           ? Scalar(options.rank_tolerance)
                           : Scalar(std::max(m, p)) * std::numeric_limits<Scalar>::epsilon()) *
@@ -165,35 +159,51 @@ LeastSquaresResult<Scalar> solve_least_squares(
     if (sv(k) > tol) ++result.rank;
   result.condition_number =
       sv(p - 1) > Scalar(0) ? sv(0) / sv(p - 1) : std::numeric_limits<Scalar>::infinity();
+}
 
-  Vector theta_scaled(p);
-  if (result.rank == p) {
-    theta_scaled = r.template triangularView<Eigen::Upper>().solve(qty_head);
-  } else {
-    result.status = LeastSquaresStatus::RankDeficient;
-    const Eigen::Index k = result.rank;
-    theta_scaled.setZero();
-    if (k > 0)
-      theta_scaled = svd.matrixV().leftCols(k) *
-                     (svd.matrixU().leftCols(k).transpose() * qty_head).cwiseQuotient(sv.head(k));
-    // A column is unidentifiable iff its unit vector is not orthogonal to the null space; entries
-    // of an orthonormal null basis are O(1) on involved columns and O(eps / gap) elsewhere.
-    const Matrix null_basis = svd.matrixV().rightCols(p - k);
-    const Scalar involved = sqrt(std::numeric_limits<Scalar>::epsilon());
-    for (Eigen::Index j = 0; j < p; ++j)
-      if (null_basis.row(j).norm() > involved) result.dependent_columns.push_back(j);
-    std::string list;
-    for (std::size_t i = 0; i < result.dependent_columns.size(); ++i)
-      list += (i ? ", " : "") + column_label(options.column_names, result.dependent_columns[i]);
-    result.message =
-        std::string(who) + ": x has rank " + std::to_string(k) + " < " + std::to_string(p) +
-        " columns: " +
-        (result.dependent_columns.size() == 1 ? "column " + list + " is zero"
-                                              : "columns " + list + " are linearly dependent") +
-        " and cannot be identified separately";
-  }
-  result.theta = theta_scaled.cwiseQuotient(result.column_scale);
+/// RankDeficient: the minimum-norm solution in scaled coordinates, and the columns that cannot
+/// be identified, listed in result.dependent_columns and named in result.message.
+template <typename Scalar, typename Svd, typename QtyHead>
+void solve_rank_deficient(const char* who, const Svd& svd, const QtyHead& qty_head,
+                          const LeastSquaresOptions& options,
+                          Eigen::Matrix<Scalar, Eigen::Dynamic, 1>& theta_scaled,
+                          LeastSquaresResult<Scalar>& result) {
+  using std::sqrt;
+  using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
+  const Eigen::Index p = theta_scaled.size();
+  const auto& sv = svd.singularValues();
+  result.status = LeastSquaresStatus::RankDeficient;
+  const Eigen::Index k = result.rank;
+  theta_scaled.setZero();
+  if (k > 0)
+    theta_scaled = svd.matrixV().leftCols(k) *
+                   (svd.matrixU().leftCols(k).transpose() * qty_head).cwiseQuotient(sv.head(k));
+  // A column is unidentifiable iff its unit vector is not orthogonal to the null space; entries
+  // of an orthonormal null basis are O(1) on involved columns and O(eps / gap) elsewhere.
+  const Matrix null_basis = svd.matrixV().rightCols(p - k);
+  const Scalar involved = sqrt(std::numeric_limits<Scalar>::epsilon());
+  for (Eigen::Index j = 0; j < p; ++j)
+    if (null_basis.row(j).norm() > involved) result.dependent_columns.push_back(j);
+  std::string list;
+  for (std::size_t i = 0; i < result.dependent_columns.size(); ++i)
+    list += (i ? ", " : "") + column_label(options.column_names, result.dependent_columns[i]);
+  result.message =
+      std::string(who) + ": x has rank " + std::to_string(k) + " < " + std::to_string(p) +
+      " columns: " +
+      (result.dependent_columns.size() == 1 ? "column " + list + " is zero"
+                                            : "columns " + list + " are linearly dependent") +
+      " and cannot be identified separately";
+}
 
+/// residual, sigma2 and the per-joint sigma2 and residual RMS at result.theta.
+template <typename Scalar, typename DerivedX, typename DerivedY>
+void set_residual_statistics(const Eigen::MatrixBase<DerivedX>& x,
+                             const Eigen::MatrixBase<DerivedY>& y,
+                             const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>* root_weights,
+                             Eigen::Index joints, LeastSquaresResult<Scalar>& result) {
+  using std::sqrt;
+  using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
+  const Eigen::Index m = x.rows();
   result.residual = y - x * result.theta;
   const Vector weighted_residual =
       root_weights ? Vector(root_weights->cwiseProduct(result.residual)) : result.residual;
@@ -207,22 +217,70 @@ LeastSquaresResult<Scalar> solve_least_squares(
     result.residual_rms(j) =
         sqrt(result.residual.segment(j * m_j, m_j).squaredNorm() / Scalar(m_j));
   }
+}
 
+/// Full rank: covariance, standard deviations, and the warning when x is ill conditioned.
+template <typename Scalar>
+void set_covariance(const char* who, const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>& r,
+                    const LeastSquaresOptions& options, LeastSquaresResult<Scalar>& result) {
+  using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
+  using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
+  const Eigen::Index p = r.cols();
+  // (Xs^T Xs)^-1 = R^-1 R^-T; X = Xs D, so cov(theta) = D^-1 cov(theta_s) D^-1.
+  const Matrix r_inv = r.template triangularView<Eigen::Upper>().solve(Matrix::Identity(p, p));
+  const Vector inv_scale = result.column_scale.cwiseInverse();
+  result.covariance = result.sigma2 * (inv_scale.asDiagonal() * (r_inv * r_inv.transpose()) *
+                                       inv_scale.asDiagonal());
+  result.std_dev = result.covariance.diagonal().cwiseSqrt();
+  result.relative_std_dev = Scalar(100) * result.std_dev.cwiseQuotient(result.theta.cwiseAbs());
+  if (result.condition_number > Scalar(options.condition_warning)) {
+    result.ill_conditioned = true;
+    result.message = std::string(who) + ": warning: condition number " +
+                     format_number(result.condition_number) + " of the column-scaled x exceeds " +
+                     format_number(options.condition_warning) +
+                     "; the estimate is sensitive to noise";
+  }
+}
+
+/// The fit proper. root_weights: sqrt(w) for the weighted fit, nullptr for the unweighted one.
+/// Allocation matters here (an 8002 x 7 copy costs page faults): the only m x p temporary is the
+/// scaled regressor, which the QR then overwrites in place.
+template <typename Scalar, typename DerivedX, typename DerivedY>
+LeastSquaresResult<Scalar> solve_least_squares(
+    const char* who, const Eigen::MatrixBase<DerivedX>& x, const Eigen::MatrixBase<DerivedY>& y,
+    const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>* root_weights, Eigen::Index joints,
+    const LeastSquaresOptions& options) {
+  using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
+  using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
+  const Eigen::Index m = x.rows(), p = x.cols();
+  const Scalar nan = std::numeric_limits<Scalar>::quiet_NaN();
+  LeastSquaresResult<Scalar> result;
+
+  Matrix xs = scaled_regressor(x, root_weights, result.column_scale);
+  // Plain Householder QR suffices: rank, condition number and null space all come from the SVD of
+  // R, whose singular values are those of the scaled X (Q is orthogonal).
+  const Eigen::HouseholderQR<Eigen::Ref<Matrix>> qr(xs);
+  Vector qty = root_weights ? Vector(root_weights->cwiseProduct(y)) : Vector(y);
+  apply_q_transpose(qr, qty);
+  const Matrix r = qr.matrixQR().topLeftCorner(p, p).template triangularView<Eigen::Upper>();
+  const auto qty_head = qty.head(p);
+
+  // R is p x p: its SVD is cheap, and square (Eigen's QR preconditioner, which costs seconds of
+  // compile time per file, would never run).
+  const Eigen::JacobiSVD<Matrix, Eigen::NoQRPreconditioner> svd(
+      r, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  set_rank_and_condition(svd.singularValues(), m, options, result);
+
+  Vector theta_scaled(p);
+  if (result.rank == p)
+    theta_scaled = r.template triangularView<Eigen::Upper>().solve(qty_head);
+  else
+    solve_rank_deficient(who, svd, qty_head, options, theta_scaled, result);
+  result.theta = theta_scaled.cwiseQuotient(result.column_scale);
+
+  set_residual_statistics(x, y, root_weights, joints, result);
   if (result.ok()) {
-    // (Xs^T Xs)^-1 = R^-1 R^-T; X = Xs D, so cov(theta) = D^-1 cov(theta_s) D^-1.
-    const Matrix r_inv = r.template triangularView<Eigen::Upper>().solve(Matrix::Identity(p, p));
-    const Vector inv_scale = result.column_scale.cwiseInverse();
-    result.covariance = result.sigma2 * (inv_scale.asDiagonal() * (r_inv * r_inv.transpose()) *
-                                         inv_scale.asDiagonal());
-    result.std_dev = result.covariance.diagonal().cwiseSqrt();
-    result.relative_std_dev = Scalar(100) * result.std_dev.cwiseQuotient(result.theta.cwiseAbs());
-    if (result.condition_number > Scalar(options.condition_warning)) {
-      result.ill_conditioned = true;
-      result.message = std::string(who) + ": warning: condition number " +
-                       format_number(result.condition_number) + " of the column-scaled x exceeds " +
-                       format_number(options.condition_warning) +
-                       "; the estimate is sensitive to noise";
-    }
+    set_covariance(who, r, options, result);
   } else {
     result.ill_conditioned = true;
     result.covariance = Matrix::Constant(p, p, nan);

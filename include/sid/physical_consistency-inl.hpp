@@ -315,6 +315,204 @@ SID_INLINE Eigen::VectorXd physical_interior_point(const Eigen::MatrixXd& basis,
   }
 }
 
+SID_INLINE void check_nearest_physical_input(const char* who, const std::string& prefix,
+                                             const Model<double>& model,
+                                             const Eigen::Ref<const Eigen::MatrixXd>& X,
+                                             const Eigen::Ref<const Eigen::VectorXd>& y,
+                                             const PhysicalConstraints& c,
+                                             const NearestPhysicalOptions& options) {
+  const Eigen::Index m = X.rows(), p = X.cols();
+  if (p != model.num_parameters())
+    throw std::invalid_argument(prefix + "X has " + std::to_string(p) +
+                                " columns but the model has " +
+                                std::to_string(model.num_parameters()) + " parameters");
+  if (p < 1) throw std::invalid_argument(prefix + "the model has no parameters");
+  if (m <= p)
+    throw std::invalid_argument(prefix + "X must have more rows than columns, got " +
+                                std::to_string(m) + " x " + std::to_string(p));
+  if (y.size() != m)
+    throw std::invalid_argument(prefix + "y must have as many entries as X has rows (" +
+                                std::to_string(m) + "), got " + std::to_string(y.size()));
+  if (!X.allFinite()) throw std::invalid_argument(prefix + "X must be finite");
+  if (!y.allFinite()) throw std::invalid_argument(prefix + "y must be finite");
+  check_grid_size(who, c);
+  if (!(options.margin >= 0.0) || !std::isfinite(options.margin))
+    throw std::invalid_argument(prefix + "options.margin must be finite and >= 0");
+  if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
+    throw std::invalid_argument(prefix + "options.tolerance must be finite and > 0");
+  if (options.max_iterations < 1)
+    throw std::invalid_argument(prefix + "options.max_iterations must be >= 1");
+}
+
+/// The least-squares cost in scaled coordinates phi = scale .* theta:
+/// ||X theta - y||^2 = ||r (phi - phi_hat)||^2 + rss.
+struct WhitenedLeastSquares {
+  Eigen::VectorXd scale;    ///< column norms of X, 1 for a zero column
+  Eigen::MatrixXd r;        ///< R of the QR of X with unit-norm columns
+  Eigen::VectorXd phi_hat;  ///< the unconstrained minimiser
+  double rss = 0.0;         ///< the cost at phi_hat
+};
+
+SID_INLINE WhitenedLeastSquares whiten_least_squares(const std::string& prefix,
+                                                     const Eigen::Ref<const Eigen::MatrixXd>& X,
+                                                     const Eigen::Ref<const Eigen::VectorXd>& y) {
+  const Eigen::Index m = X.rows(), p = X.cols();
+  WhitenedLeastSquares w;
+  // Whitening: unit-norm columns, then X_s = Q R; Q' y gives phi_hat and the residual sum RSS.
+  w.scale = X.colwise().norm().transpose();
+  for (Eigen::Index j = 0; j < p; ++j)
+    if (w.scale(j) == 0.0) w.scale(j) = 1.0;  // a zero column: caught as rank deficiency below
+  Eigen::MatrixXd xs = X * w.scale.cwiseInverse().asDiagonal();
+  const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(xs);
+  const Eigen::VectorXd qty = qr.householderQ().adjoint() * y;
+  w.r = qr.matrixQR().topLeftCorner(p, p).triangularView<Eigen::Upper>();
+  {
+    const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(w.r);
+    const Eigen::VectorXd& sv = svd.singularValues();
+    if (!(sv(p - 1) > static_cast<double>(m) * std::numeric_limits<double>::epsilon() * sv(0)))
+      throw std::invalid_argument(prefix +
+                                  "X is rank deficient (after scaling its columns to unit norm): "
+                                  "the constrained fit needs every parameter identifiable");
+  }
+  w.phi_hat = w.r.triangularView<Eigen::Upper>().solve(qty.head(p));
+  w.rss = qty.tail(m - p).squaredNorm();
+  return w;
+}
+
+/// s_D: the largest |eigenvalue| of the stacked matrices d over the grid, the unit of the margin.
+SID_INLINE double max_abs_eigenvalue_on_grid(const Eigen::VectorXd& d, Eigen::Index grid_size) {
+  double s_d = 0.0;
+  for (Eigen::Index g = 0; g < grid_size; ++g)
+    s_d = std::max(s_d, max_abs_eigenvalue_2x2(d(3 * g), d(3 * g + 1), d(3 * g + 2)));
+  return s_d;
+}
+
+SID_INLINE bool meets_constraints(const Eigen::VectorXd& d_hat, const Eigen::VectorXd& phi_hat,
+                                  const std::vector<Eigen::Index>& bounded, double eps) {
+  const GridMinimum worst_hat = grid_min_eigenvalue(d_hat);
+  bool bounds_hold = true;
+  for (const Eigen::Index k : bounded) bounds_hold = bounds_hold && phi_hat(k) >= 0.0;
+  return worst_hat.value > 0.0 && worst_hat.value >= eps && bounds_hold;
+}
+
+/// Sets theta and where the smallest eigenvalue of D(theta) lies on the grid.
+SID_INLINE void record_estimate(ConsistentEstimate& result, const Eigen::VectorXd& theta,
+                                const Eigen::MatrixXd& basis, Eigen::Index grid_size) {
+  result.theta = theta;
+  const GridMinimum worst = grid_min_eigenvalue(basis * theta);
+  result.min_eigenvalue = worst.value;
+  result.min_eigenvalue_q2 = physical_grid_q2(worst.index, grid_size);
+}
+
+/// The c for which phi_hat + c phi_f meets every constraint, from Weyl's inequality
+/// lambda_min(D(phi_hat + c phi_f)) >= lambda_min(D(phi_hat)) + c lambda_min(D(phi_f)).
+SID_INLINE double weyl_step_to_feasible(const Eigen::VectorXd& d_hat,
+                                        const Eigen::MatrixXd& basis_phi,
+                                        const Eigen::VectorXd& phi_hat,
+                                        const Eigen::VectorXd& phi_f,
+                                        const std::vector<Eigen::Index>& bounded, double eps,
+                                        Eigen::Index grid_size) {
+  const Eigen::VectorXd d_f = basis_phi * phi_f;
+  double c_needed = 0.0;
+  for (Eigen::Index g = 0; g < grid_size; ++g) {
+    const double lam_hat = min_eigenvalue_2x2(d_hat(3 * g), d_hat(3 * g + 1), d_hat(3 * g + 2));
+    const double lam_f = min_eigenvalue_2x2(d_f(3 * g), d_f(3 * g + 1), d_f(3 * g + 2));
+    c_needed = std::max(c_needed, (eps - lam_hat) / lam_f);
+  }
+  for (const Eigen::Index k : bounded) c_needed = std::max(c_needed, -phi_hat(k) / phi_f(k));
+  return c_needed;
+}
+
+/// The fit in phi units: ||r (phi - phi_hat)||^2 subject to D(phi) >= eps I on the grid and
+/// phi_k >= 0 on the bounded indices.
+SID_INLINE BarrierProblem margin_fit_problem(const Eigen::MatrixXd& basis_phi,
+                                             const std::vector<Eigen::Index>& bounded, double eps,
+                                             const WhitenedLeastSquares& ls,
+                                             Eigen::Index grid_size) {
+  const Eigen::Index p = ls.phi_hat.size();
+  BarrierProblem fit;
+  fit.lmi = basis_phi;
+  fit.lmi_offset = Eigen::VectorXd::Zero(3 * grid_size);
+  for (Eigen::Index g = 0; g < grid_size; ++g) {
+    fit.lmi_offset(3 * g) = -eps;
+    fit.lmi_offset(3 * g + 2) = -eps;
+  }
+  const Eigen::Index nb = static_cast<Eigen::Index>(bounded.size());
+  fit.lin = Eigen::MatrixXd::Zero(nb, p);
+  for (Eigen::Index i = 0; i < nb; ++i) fit.lin(i, bounded[static_cast<std::size_t>(i)]) = 1.0;
+  fit.lin_offset = Eigen::VectorXd::Zero(nb);
+  fit.w = ls.r;
+  fit.z0 = ls.phi_hat;
+  fit.c = Eigen::VectorXd::Zero(p);
+  return fit;
+}
+
+/// phi_hat + step phi_f, doubling step from 2 c_needed until the solver's constraints hold
+/// strictly (c_needed may fall short through rounding).
+SID_INLINE Eigen::VectorXd strictly_feasible_start(BarrierSolver& solver,
+                                                   const Eigen::VectorXd& phi_hat,
+                                                   const Eigen::VectorXd& phi_f, double c_needed,
+                                                   const std::string& prefix) {
+  double step = c_needed > 0.0 ? 2.0 * c_needed : 1e-3;
+  Eigen::VectorXd phi = phi_hat + step * phi_f;
+  for (int doubling = 0; !solver.strictly_feasible(phi); ++doubling) {
+    if (doubling == 60)
+      throw std::runtime_error(prefix + "could not place a strictly feasible start");
+    step *= 2.0;
+    phi = phi_hat + step * phi_f;
+  }
+  return phi;
+}
+
+struct CentralPathEnd {
+  double t = 0.0;          ///< the barrier weight of the last centring
+  bool converged = false;  ///< the duality-gap bound met the tolerance
+};
+
+/// Centres phi at barrier weights rising tenfold from nu / cost until the duality-gap bound
+/// nu / t meets tolerance * (rss + cost), or the iterations or stages run out.
+SID_INLINE CentralPathEnd follow_central_path(BarrierSolver& solver, Eigen::VectorXd& phi,
+                                              double nu, double rss,
+                                              const NearestPhysicalOptions& options,
+                                              int& iterations) {
+  CentralPathEnd end;
+  double t = nu / std::max(solver.cost(phi), std::numeric_limits<double>::min());
+  const auto never = [](const Eigen::VectorXd&) { return false; };
+  for (int stage = 0;; ++stage, t *= 10.0) {
+    solver.centre(phi, t, iterations, options.max_iterations, never);
+    if (nu / t <= options.tolerance * (rss + solver.cost(phi))) {
+      end.converged = true;
+      break;
+    }
+    if (iterations >= options.max_iterations || stage == kMaxBarrierStages) break;
+  }
+  end.t = t;
+  return end;
+}
+
+/// The bounds active at barrier weight t; sets them to zero in phi where that keeps D's margin.
+SID_INLINE std::vector<Eigen::Index> snap_active_bounds(Eigen::VectorXd& phi,
+                                                        const std::vector<Eigen::Index>& bounded,
+                                                        const Eigen::MatrixXd& basis,
+                                                        const Eigen::MatrixXd& basis_phi, double t,
+                                                        double eps) {
+  // Active bounds: on the central path phi_k * lambda_k = 1 / t (lambda_k the bound's
+  // multiplier, same units as phi_k), so phi_k < 1 / sqrt(t) means lambda_k > phi_k: the
+  // strict-complementarity split between "held at zero" and "free".
+  const double zero_below = 1.0 / std::sqrt(t);
+  std::vector<Eigen::Index> active;
+  for (const Eigen::Index k : bounded)
+    if (phi(k) < zero_below) active.push_back(k);
+  Eigen::VectorXd snapped = phi;
+  for (const Eigen::Index k : active)
+    if (basis.col(k).isZero(0.0)) snapped(k) = 0.0;  // no effect on D
+  Eigen::VectorXd all_snapped = snapped;
+  for (const Eigen::Index k : active) all_snapped(k) = 0.0;
+  const double snapped_min = grid_min_eigenvalue(basis_phi * all_snapped).value;
+  if (snapped_min > 0.0 && snapped_min >= eps) snapped = all_snapped;
+  phi = snapped;
+  return active;
+}
 }  // namespace detail
 
 SID_INLINE PhysicalCheck check_physical(const Model<double>& model,
@@ -350,149 +548,48 @@ SID_INLINE ConsistentEstimate nearest_physical(const Model<double>& model,
                                                const NearestPhysicalOptions& options) {
   constexpr const char* who = "sid::nearest_physical";
   const std::string prefix = std::string(who) + ": ";
-  const Eigen::Index m = X.rows(), p = X.cols();
-  if (p != model.num_parameters())
-    throw std::invalid_argument(prefix + "X has " + std::to_string(p) +
-                                " columns but the model has " +
-                                std::to_string(model.num_parameters()) + " parameters");
-  if (p < 1) throw std::invalid_argument(prefix + "the model has no parameters");
-  if (m <= p)
-    throw std::invalid_argument(prefix + "X must have more rows than columns, got " +
-                                std::to_string(m) + " x " + std::to_string(p));
-  if (y.size() != m)
-    throw std::invalid_argument(prefix + "y must have as many entries as X has rows (" +
-                                std::to_string(m) + "), got " + std::to_string(y.size()));
-  if (!X.allFinite()) throw std::invalid_argument(prefix + "X must be finite");
-  if (!y.allFinite()) throw std::invalid_argument(prefix + "y must be finite");
-  detail::check_grid_size(who, c);
-  if (!(options.margin >= 0.0) || !std::isfinite(options.margin))
-    throw std::invalid_argument(prefix + "options.margin must be finite and >= 0");
-  if (!(options.tolerance > 0.0) || !std::isfinite(options.tolerance))
-    throw std::invalid_argument(prefix + "options.tolerance must be finite and > 0");
-  if (options.max_iterations < 1)
-    throw std::invalid_argument(prefix + "options.max_iterations must be >= 1");
+  detail::check_nearest_physical_input(who, prefix, model, X, y, c, options);
+  const detail::WhitenedLeastSquares ls = detail::whiten_least_squares(prefix, X, y);
 
-  // Whitening: unit-norm columns, then X_s = Q R; Q' y gives phi_hat and the residual sum RSS.
-  Eigen::VectorXd scale = X.colwise().norm().transpose();
-  for (Eigen::Index j = 0; j < p; ++j)
-    if (scale(j) == 0.0) scale(j) = 1.0;  // a zero column: caught as rank deficiency below
-  Eigen::MatrixXd xs = X * scale.cwiseInverse().asDiagonal();
-  const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(xs);
-  const Eigen::VectorXd qty = qr.householderQ().adjoint() * y;
-  const Eigen::MatrixXd r = qr.matrixQR().topLeftCorner(p, p).triangularView<Eigen::Upper>();
-  {
-    const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(r);
-    const Eigen::VectorXd& sv = svd.singularValues();
-    if (!(sv(p - 1) > static_cast<double>(m) * std::numeric_limits<double>::epsilon() * sv(0)))
-      throw std::invalid_argument(prefix +
-                                  "X is rank deficient (after scaling its columns to unit norm): "
-                                  "the constrained fit needs every parameter identifiable");
-  }
-  const Eigen::VectorXd phi_hat = r.triangularView<Eigen::Upper>().solve(qty.head(p));
-  const double rss = qty.tail(m - p).squaredNorm();
-
-  const Eigen::MatrixXd basis = detail::mass_matrix_basis(model, c.grid_size);  // theta units
-  const Eigen::MatrixXd basis_phi = basis * scale.cwiseInverse().asDiagonal();  // phi units
+  const Eigen::MatrixXd basis = detail::mass_matrix_basis(model, c.grid_size);     // theta units
+  const Eigen::MatrixXd basis_phi = basis * ls.scale.cwiseInverse().asDiagonal();  // phi units
   const std::vector<Eigen::Index> bounded = detail::bounded_indices(model, c);
   const std::vector<std::string> names = model.parameter_names();
 
   ConsistentEstimate result;
-  result.theta_unconstrained = phi_hat.cwiseQuotient(scale);
+  result.theta_unconstrained = ls.phi_hat.cwiseQuotient(ls.scale);
   const Eigen::VectorXd d_hat = basis * result.theta_unconstrained;
-  double s_d = 0.0;
-  for (Eigen::Index g = 0; g < c.grid_size; ++g)
-    s_d = std::max(
-        s_d, detail::max_abs_eigenvalue_2x2(d_hat(3 * g), d_hat(3 * g + 1), d_hat(3 * g + 2)));
+  const double s_d = detail::max_abs_eigenvalue_on_grid(d_hat, c.grid_size);
   const double eps = options.margin * s_d;
   result.margin_absolute = eps;
 
-  const auto finish = [&](const Eigen::VectorXd& theta) {
-    result.theta = theta;
-    const detail::GridMinimum worst = detail::grid_min_eigenvalue(basis * theta);
-    result.min_eigenvalue = worst.value;
-    result.min_eigenvalue_q2 = detail::physical_grid_q2(worst.index, c.grid_size);
-  };
-
-  const detail::GridMinimum worst_hat = detail::grid_min_eigenvalue(d_hat);
-  bool bounds_hold = true;
-  for (const Eigen::Index k : bounded) bounds_hold = bounds_hold && phi_hat(k) >= 0.0;
-  if (worst_hat.value > 0.0 && worst_hat.value >= eps && bounds_hold) {
-    finish(result.theta_unconstrained);
+  if (detail::meets_constraints(d_hat, ls.phi_hat, bounded, eps)) {
+    detail::record_estimate(result, result.theta_unconstrained, basis, c.grid_size);
     result.converged = true;
     return result;
   }
 
-  // Phase 1, then a strictly feasible start on the ray from phi_hat toward the interior point:
-  // lambda_min(D(phi_hat + c phi_f)) >= lambda_min(D(phi_hat)) + c lambda_min(D(phi_f)) (Weyl).
+  // Phase 1, then a strictly feasible start on the ray from phi_hat toward the interior point.
   int iterations = 0;
   const Eigen::VectorXd phi_f =
       detail::physical_interior_point(basis_phi, bounded, iterations, options.max_iterations);
-  const Eigen::VectorXd d_f = basis_phi * phi_f;
-  double c_needed = 0.0;
-  for (Eigen::Index g = 0; g < c.grid_size; ++g) {
-    const double lam_hat =
-        detail::min_eigenvalue_2x2(d_hat(3 * g), d_hat(3 * g + 1), d_hat(3 * g + 2));
-    const double lam_f = detail::min_eigenvalue_2x2(d_f(3 * g), d_f(3 * g + 1), d_f(3 * g + 2));
-    c_needed = std::max(c_needed, (eps - lam_hat) / lam_f);
-  }
-  for (const Eigen::Index k : bounded) c_needed = std::max(c_needed, -phi_hat(k) / phi_f(k));
+  const double c_needed =
+      detail::weyl_step_to_feasible(d_hat, basis_phi, ls.phi_hat, phi_f, bounded, eps, c.grid_size);
 
-  detail::BarrierProblem fit;
-  fit.lmi = basis_phi;
-  fit.lmi_offset = Eigen::VectorXd::Zero(3 * c.grid_size);
-  for (Eigen::Index g = 0; g < c.grid_size; ++g) {
-    fit.lmi_offset(3 * g) = -eps;
-    fit.lmi_offset(3 * g + 2) = -eps;
-  }
-  const Eigen::Index nb = static_cast<Eigen::Index>(bounded.size());
-  fit.lin = Eigen::MatrixXd::Zero(nb, p);
-  for (Eigen::Index i = 0; i < nb; ++i) fit.lin(i, bounded[static_cast<std::size_t>(i)]) = 1.0;
-  fit.lin_offset = Eigen::VectorXd::Zero(nb);
-  fit.w = r;
-  fit.z0 = phi_hat;
-  fit.c = Eigen::VectorXd::Zero(p);
+  const detail::BarrierProblem fit =
+      detail::margin_fit_problem(basis_phi, bounded, eps, ls, c.grid_size);
   detail::BarrierSolver solver(fit);
+  Eigen::VectorXd phi =
+      detail::strictly_feasible_start(solver, ls.phi_hat, phi_f, c_needed, prefix);
+  const detail::CentralPathEnd end =
+      detail::follow_central_path(solver, phi, fit.nu(), ls.rss, options, iterations);
+  if (end.converged) result.converged = true;
 
-  double step = c_needed > 0.0 ? 2.0 * c_needed : 1e-3;
-  Eigen::VectorXd phi = phi_hat + step * phi_f;
-  for (int doubling = 0; !solver.strictly_feasible(phi); ++doubling) {
-    if (doubling == 60)
-      throw std::runtime_error(prefix + "could not place a strictly feasible start");
-    step *= 2.0;
-    phi = phi_hat + step * phi_f;
-  }
-
-  const double nu = fit.nu();
-  double t = nu / std::max(solver.cost(phi), std::numeric_limits<double>::min());
-  const auto never = [](const Eigen::VectorXd&) { return false; };
-  for (int stage = 0;; ++stage, t *= 10.0) {
-    solver.centre(phi, t, iterations, options.max_iterations, never);
-    if (nu / t <= options.tolerance * (rss + solver.cost(phi))) {
-      result.converged = true;
-      break;
-    }
-    if (iterations >= options.max_iterations || stage == detail::kMaxBarrierStages) break;
-  }
-
-  // Active bounds: on the central path phi_k * lambda_k = 1 / t (lambda_k the bound's
-  // multiplier, same units as phi_k), so phi_k < 1 / sqrt(t) means lambda_k > phi_k: the
-  // strict-complementarity split between "held at zero" and "free".
-  const double zero_below = 1.0 / std::sqrt(t);
-  std::vector<Eigen::Index> active;
-  for (const Eigen::Index k : bounded)
-    if (phi(k) < zero_below) active.push_back(k);
-  Eigen::VectorXd snapped = phi;
-  for (const Eigen::Index k : active)
-    if (basis.col(k).isZero(0.0)) snapped(k) = 0.0;  // no effect on D
-  Eigen::VectorXd all_snapped = snapped;
-  for (const Eigen::Index k : active) all_snapped(k) = 0.0;
-  const double snapped_min = detail::grid_min_eigenvalue(basis_phi * all_snapped).value;
-  if (snapped_min > 0.0 && snapped_min >= eps) snapped = all_snapped;
-  phi = snapped;
-
+  const std::vector<Eigen::Index> active =
+      detail::snap_active_bounds(phi, bounded, basis, basis_phi, end.t, eps);
   for (const Eigen::Index k : active)
     result.active_bounds.push_back(names[static_cast<std::size_t>(k)]);
-  finish(phi.cwiseQuotient(scale));
+  detail::record_estimate(result, phi.cwiseQuotient(ls.scale), basis, c.grid_size);
   result.changed = true;
   result.cost_increase = solver.cost(phi);
   result.mass_matrix_active = result.min_eigenvalue <= eps + 1e-6 * s_d;

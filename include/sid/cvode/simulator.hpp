@@ -141,7 +141,7 @@ namespace detail {
 static_assert(std::is_same_v<sunrealtype, double>,
               "sid::simulate requires SUNDIALS built with double precision (sunrealtype)");
 
-// RAII owners for the SUNDIALS handles. Members of cvode_simulate are declared in creation
+// RAII owners for the SUNDIALS handles. Members of CvodeObjects are declared in creation
 // order, so the CVODE memory is freed before the solvers, vectors and context it refers to.
 struct SunContextDeleter {
   void operator()(SUNContext ctx) const noexcept { SUNContext_Free(&ctx); }
@@ -329,6 +329,132 @@ inline void validate_simulation_input(const Eigen::Ref<const Eigen::VectorXd>& x
 
 namespace detail {
 
+/// Newton iteration with a dense linear solver, unless the method is fixed-point iteration.
+inline bool uses_newton(const SimulatorOptions& options) {
+  return options.method != IntegrationMethod::AdamsFixedPoint;
+}
+
+/// The SUNDIALS objects of one run (see the deleters above for why this order).
+struct CvodeObjects {
+  SunContextPtr ctx;
+  NVectorPtr y;
+  SunMatrixPtr jacobian;
+  SunLinearSolverPtr linear_solver;
+  SunNonlinearSolverPtr fixed_point;
+  CvodeMemPtr mem;
+};
+
+/// Creates the context, the state vector holding x0, the solver options.method needs and the
+/// CVODE memory, in the order of CvodeObjects' members.
+inline void create_cvode_objects(CvodeObjects& cvode, const Eigen::Ref<const Eigen::VectorXd>& x0,
+                                 const SimulatorOptions& options) {
+  const Eigen::Index n = x0.size();
+  SUNContext raw_ctx = nullptr;
+  check_setup(SUNContext_Create(nullptr, &raw_ctx), "SUNContext_Create");
+  cvode.ctx.reset(raw_ctx);
+
+  cvode.y.reset(N_VNew_Serial(static_cast<sunindextype>(n), cvode.ctx.get()));
+  if (!cvode.y) throw std::bad_alloc();
+  Eigen::Map<Eigen::VectorXd>(N_VGetArrayPointer(cvode.y.get()), n) = x0;
+  // Fused vector operations: one call per linear combination instead of one per term. The
+  // arm's state has 4 entries, so CVODE's time goes into calls, not arithmetic.
+  check_setup(N_VEnableFusedOps_Serial(cvode.y.get(), SUNTRUE), "N_VEnableFusedOps_Serial");
+
+  if (uses_newton(options)) {
+    cvode.jacobian.reset(SUNDenseMatrix(static_cast<sunindextype>(n), static_cast<sunindextype>(n),
+                                        cvode.ctx.get()));
+    if (!cvode.jacobian) throw std::bad_alloc();
+    cvode.linear_solver.reset(
+        SUNLinSol_Dense(cvode.y.get(), cvode.jacobian.get(), cvode.ctx.get()));
+    if (!cvode.linear_solver) throw std::bad_alloc();
+  } else {
+    cvode.fixed_point.reset(SUNNonlinSol_FixedPoint(cvode.y.get(), 0, cvode.ctx.get()));
+    if (!cvode.fixed_point) throw std::bad_alloc();
+  }
+
+  cvode.mem.reset(
+      CVodeCreate(options.method == IntegrationMethod::Bdf ? CV_BDF : CV_ADAMS, cvode.ctx.get()));
+  if (!cvode.mem) throw std::bad_alloc();
+}
+
+/// Connects the CVODE memory to the RHS, the error handler, the tolerances and step limits of
+/// options, the stop time t.back() and the solver create_cvode_objects made.
+template <typename Rhs>
+void configure_cvode(const CvodeObjects& cvode, RhsContext<Rhs>& context,
+                     const Eigen::Ref<const Eigen::VectorXd>& t, const SimulatorOptions& options) {
+  void* cv = cvode.mem.get();
+  check_setup(CVodeSetErrHandlerFn(cv, &cvode_error_handler<Rhs>, &context),
+              "CVodeSetErrHandlerFn");
+  check_setup(CVodeInit(cv, &cvode_rhs<Rhs>, t[0], cvode.y.get()), "CVodeInit");
+  check_setup(CVodeSetUserData(cv, &context), "CVodeSetUserData");
+  check_setup(CVodeSStolerances(cv, options.rtol, options.atol), "CVodeSStolerances");
+  check_setup(CVodeSetMaxNumSteps(cv, options.max_steps), "CVodeSetMaxNumSteps");
+  if (options.max_step > 0.0) check_setup(CVodeSetMaxStep(cv, options.max_step), "CVodeSetMaxStep");
+  if (options.initial_step > 0.0)
+    check_setup(CVodeSetInitStep(cv, options.initial_step), "CVodeSetInitStep");
+  check_setup(CVodeSetStopTime(cv, t[t.size() - 1]), "CVodeSetStopTime");
+  if (uses_newton(options)) {
+    check_setup(CVodeSetLinearSolver(cv, cvode.linear_solver.get(), cvode.jacobian.get()),
+                "CVodeSetLinearSolver");
+  } else {
+    check_setup(CVodeSetNonlinearSolver(cv, cvode.fixed_point.get()), "CVodeSetNonlinearSolver");
+  }
+}
+
+/// Advances from output time to output time, storing each state in result, until the grid ends
+/// or CVODE fails or the state turns non-finite; returns the flag of the last CVode call.
+template <typename Rhs, typename Extension>
+int integrate_over_grid(void* cv, N_Vector y, const Eigen::Ref<const Eigen::VectorXd>& t,
+                        RhsContext<Rhs>& context, Extension& extension, SimulationResult& result) {
+  int flag = CV_SUCCESS;
+  const Eigen::Map<const Eigen::VectorXd> y_view(N_VGetArrayPointer(y), context.n);
+  for (Eigen::Index k = 1; k < t.size(); ++k) {
+    sunrealtype t_returned = t[k - 1];
+    flag = CVode(cv, t[k], y, &t_returned, CV_NORMAL);
+    result.t_reached = t_returned;
+    if (flag < 0) {
+      result.status =
+          status_from_flag(flag, !context.rhs_error.empty(), !context.nonfinite.empty());
+      break;
+    }
+    if (!y_view.allFinite()) {
+      result.status = SimulationStatus::NonFinite;
+      context.nonfinite = "non-finite state at t = " + format_time(t_returned);
+      break;
+    }
+    result.states.row(k) = y_view.transpose();
+    extension.record(cv, k);
+    result.completed = k + 1;
+  }
+  return flag;
+}
+
+/// The message of a failed run: the RHS's own failure, then CVODE's error message.
+template <typename Rhs>
+void set_failure_message(const RhsContext<Rhs>& context, SimulationResult& result) {
+  if (!context.rhs_error.empty())
+    result.message = "rhs threw: " + context.rhs_error;
+  else if (result.status == SimulationStatus::NonFinite)
+    result.message = context.nonfinite;
+  if (!context.cvode_error.empty())
+    result.message += (result.message.empty() ? "" : "; ") + context.cvode_error;
+}
+
+/// CVODE's counters; a counter CVODE cannot report keeps its value in stats.
+inline void read_cvode_statistics(void* cv, bool newton, SimulationStatistics& stats) {
+  long count = 0;
+  if (CVodeGetNumSteps(cv, &count) == CV_SUCCESS) stats.steps = count;
+  if (CVodeGetNumRhsEvals(cv, &count) == CV_SUCCESS) stats.rhs_evaluations = count;
+  if (CVodeGetNumErrTestFails(cv, &count) == CV_SUCCESS) stats.error_test_failures = count;
+  if (CVodeGetNumNonlinSolvIters(cv, &count) == CV_SUCCESS) stats.nonlinear_iterations = count;
+  if (CVodeGetNumNonlinSolvConvFails(cv, &count) == CV_SUCCESS)
+    stats.nonlinear_convergence_failures = count;
+  if (newton) {
+    if (CVodeGetNumJacEvals(cv, &count) == CV_SUCCESS) stats.jacobian_evaluations = count;
+    if (CVodeGetNumLinRhsEvals(cv, &count) == CV_SUCCESS) stats.rhs_evaluations += count;
+  }
+}
+
 /// simulate(), with `extension` attached after the solver's setup (attach returns what must
 /// live as long as the solver) and told of each output time reached (record).
 template <typename Rhs, typename Extension>
@@ -349,98 +475,17 @@ SimulationResult run_cvode(const Rhs& rhs, const Eigen::Ref<const Eigen::VectorX
   if (n_times == 1) return result;
 
   detail::RhsContext<Rhs> context{&rhs, n, {}, {}, {}, nullptr};
+  detail::CvodeObjects cvode;
+  detail::create_cvode_objects(cvode, x0, options);
+  detail::configure_cvode(cvode, context, t, options);
+  void* cv = cvode.mem.get();
+  [[maybe_unused]] const auto attachment =
+      extension.attach(cv, cvode.y.get(), cvode.ctx.get(), context);
 
-  SUNContext raw_ctx = nullptr;
-  detail::check_setup(SUNContext_Create(nullptr, &raw_ctx), "SUNContext_Create");
-  const detail::SunContextPtr ctx(raw_ctx);
-
-  const detail::NVectorPtr y(N_VNew_Serial(static_cast<sunindextype>(n), ctx.get()));
-  if (!y) throw std::bad_alloc();
-  Eigen::Map<Eigen::VectorXd>(N_VGetArrayPointer(y.get()), n) = x0;
-  // Fused vector operations: one call per linear combination instead of one per term. The
-  // arm's state has 4 entries, so CVODE's time goes into calls, not arithmetic.
-  detail::check_setup(N_VEnableFusedOps_Serial(y.get(), SUNTRUE), "N_VEnableFusedOps_Serial");
-
-  const bool newton = options.method != IntegrationMethod::AdamsFixedPoint;
-  detail::SunMatrixPtr jacobian;
-  detail::SunLinearSolverPtr linear_solver;
-  detail::SunNonlinearSolverPtr fixed_point;
-  if (newton) {
-    jacobian.reset(
-        SUNDenseMatrix(static_cast<sunindextype>(n), static_cast<sunindextype>(n), ctx.get()));
-    if (!jacobian) throw std::bad_alloc();
-    linear_solver.reset(SUNLinSol_Dense(y.get(), jacobian.get(), ctx.get()));
-    if (!linear_solver) throw std::bad_alloc();
-  } else {
-    fixed_point.reset(SUNNonlinSol_FixedPoint(y.get(), 0, ctx.get()));
-    if (!fixed_point) throw std::bad_alloc();
-  }
-
-  const detail::CvodeMemPtr mem(
-      CVodeCreate(options.method == IntegrationMethod::Bdf ? CV_BDF : CV_ADAMS, ctx.get()));
-  if (!mem) throw std::bad_alloc();
-  void* cv = mem.get();
-  detail::check_setup(CVodeSetErrHandlerFn(cv, &detail::cvode_error_handler<Rhs>, &context),
-                      "CVodeSetErrHandlerFn");
-  detail::check_setup(CVodeInit(cv, &detail::cvode_rhs<Rhs>, t[0], y.get()), "CVodeInit");
-  detail::check_setup(CVodeSetUserData(cv, &context), "CVodeSetUserData");
-  detail::check_setup(CVodeSStolerances(cv, options.rtol, options.atol), "CVodeSStolerances");
-  detail::check_setup(CVodeSetMaxNumSteps(cv, options.max_steps), "CVodeSetMaxNumSteps");
-  if (options.max_step > 0.0)
-    detail::check_setup(CVodeSetMaxStep(cv, options.max_step), "CVodeSetMaxStep");
-  if (options.initial_step > 0.0)
-    detail::check_setup(CVodeSetInitStep(cv, options.initial_step), "CVodeSetInitStep");
-  detail::check_setup(CVodeSetStopTime(cv, t[n_times - 1]), "CVodeSetStopTime");
-  if (newton) {
-    detail::check_setup(CVodeSetLinearSolver(cv, linear_solver.get(), jacobian.get()),
-                        "CVodeSetLinearSolver");
-  } else {
-    detail::check_setup(CVodeSetNonlinearSolver(cv, fixed_point.get()), "CVodeSetNonlinearSolver");
-  }
-  [[maybe_unused]] const auto attachment = extension.attach(cv, y.get(), ctx.get(), context);
-
-  int flag = CV_SUCCESS;
-  const Eigen::Map<const Eigen::VectorXd> y_view(N_VGetArrayPointer(y.get()), n);
-  for (Eigen::Index k = 1; k < n_times; ++k) {
-    sunrealtype t_returned = t[k - 1];
-    flag = CVode(cv, t[k], y.get(), &t_returned, CV_NORMAL);
-    result.t_reached = t_returned;
-    if (flag < 0) {
-      result.status =
-          detail::status_from_flag(flag, !context.rhs_error.empty(), !context.nonfinite.empty());
-      break;
-    }
-    if (!y_view.allFinite()) {
-      result.status = SimulationStatus::NonFinite;
-      context.nonfinite = "non-finite state at t = " + detail::format_time(t_returned);
-      break;
-    }
-    result.states.row(k) = y_view.transpose();
-    extension.record(cv, k);
-    result.completed = k + 1;
-  }
+  const int flag = detail::integrate_over_grid(cv, cvode.y.get(), t, context, extension, result);
   result.flag_name = detail::cvode_flag_name(flag);
-  if (!result.ok()) {
-    if (!context.rhs_error.empty())
-      result.message = "rhs threw: " + context.rhs_error;
-    else if (result.status == SimulationStatus::NonFinite)
-      result.message = context.nonfinite;
-    if (!context.cvode_error.empty())
-      result.message += (result.message.empty() ? "" : "; ") + context.cvode_error;
-  }
-
-  SimulationStatistics& stats = result.statistics;
-  long count = 0;
-  if (CVodeGetNumSteps(cv, &count) == CV_SUCCESS) stats.steps = count;
-  if (CVodeGetNumRhsEvals(cv, &count) == CV_SUCCESS) stats.rhs_evaluations = count;
-  if (CVodeGetNumErrTestFails(cv, &count) == CV_SUCCESS) stats.error_test_failures = count;
-  if (CVodeGetNumNonlinSolvIters(cv, &count) == CV_SUCCESS) stats.nonlinear_iterations = count;
-  if (CVodeGetNumNonlinSolvConvFails(cv, &count) == CV_SUCCESS)
-    stats.nonlinear_convergence_failures = count;
-  if (newton) {
-    if (CVodeGetNumJacEvals(cv, &count) == CV_SUCCESS) stats.jacobian_evaluations = count;
-    if (CVodeGetNumLinRhsEvals(cv, &count) == CV_SUCCESS) stats.rhs_evaluations += count;
-  }
+  if (!result.ok()) detail::set_failure_message(context, result);
+  detail::read_cvode_statistics(cv, detail::uses_newton(options), result.statistics);
   return result;
 }
 

@@ -128,10 +128,8 @@ SID_INLINE void summarize(MethodSummary& s, const TwoLinkParameters<double>& the
   s.worst_abs_bias_pct = s.bias_pct.cwiseAbs().maxCoeff();
 }
 
-}  // namespace detail
-
-SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth,
-                                            const MonteCarloOptions& options) {
+SID_INLINE void check_monte_carlo_input(const Kinematics<double>& truth,
+                                        const MonteCarloOptions& options) {
   const char* who = "sid::run_monte_carlo";
   if (options.runs < 2)
     throw std::invalid_argument(std::string(who) + ": runs must be >= 2 (a variance needs two)");
@@ -155,8 +153,10 @@ SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth,
   const Eigen::Index n = truth.size();
   if (truth.q.rows() != n || truth.qd.rows() != n || truth.qdd.rows() != n || truth.tau.rows() != n)
     throw std::invalid_argument(std::string(who) + ": truth has columns of different lengths");
+}
 
-  const auto start = std::chrono::steady_clock::now();
+/// The result before any run: one summary per level and method, every estimate NaN.
+SID_INLINE MonteCarloResult empty_monte_carlo_result(const MonteCarloOptions& options) {
   MonteCarloResult result;
   result.theta = options.theta;
   result.runs = options.runs;
@@ -172,38 +172,64 @@ SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth,
       result.levels[l].methods[m].estimates = Eigen::MatrixXd::Constant(options.runs, 7, nan);
     }
   }
+  return result;
+}
 
-  const int total = static_cast<int>(levels) * options.runs;
+/// Job `job` of the study (level job / runs, run job % runs): one noisy data set, every method
+/// fitted to it, each estimate stored in its row of result. Jobs write disjoint rows; `mutex`
+/// guards the failure messages, which all jobs of a summary share.
+SID_INLINE void run_monte_carlo_job(const Kinematics<double>& truth,
+                                    const MonteCarloOptions& options, int job,
+                                    MonteCarloResult& result, std::mutex& mutex) {
+  const std::size_t l = static_cast<std::size_t>(job / options.runs);
+  const int run = job % options.runs;
+  const double sigma_q2 = options.sigma_q2_levels[l];
+  std::mt19937_64 rng = run_generator(options.seed, l, run);
+  const Trajectory<double> measured =
+      add_measurement_noise(truth, MeasurementNoise<double>{sigma_q2, options.sigma_tau2}, rng);
+  for (std::size_t m = 0; m < options.methods.size(); ++m) {
+    MethodSummary& summary = result.levels[l].methods[m];
+    std::string failure;
+    try {
+      const auto fit = fit_study_method(options.methods[m], truth, measured, sigma_q2,
+                                        options.identify, options.refine);
+      if (fit.ok())
+        summary.estimates.row(run) = fit.theta.transpose();
+      else
+        failure = fit.message;
+    } catch (const std::exception& e) {
+      failure = e.what();
+    }
+    if (!failure.empty()) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (summary.failures.size() < 5)
+        summary.failures.push_back("run " + std::to_string(run) + ": " + failure);
+    }
+  }
+}
+
+/// options.threads (0: all cores), at least 1 and at most one per job.
+SID_INLINE int monte_carlo_threads(int requested, int total) {
+  int threads = requested > 0 ? requested : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::max(1, std::min(threads, total));
+  return threads;
+}
+
+}  // namespace detail
+
+SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth,
+                                            const MonteCarloOptions& options) {
+  detail::check_monte_carlo_input(truth, options);
+  const auto start = std::chrono::steady_clock::now();
+  MonteCarloResult result = detail::empty_monte_carlo_result(options);
+
+  const int total = static_cast<int>(options.sigma_q2_levels.size()) * options.runs;
   std::atomic<int> next{0}, done{0};
   std::mutex mutex;  // guards failure messages, the progress callback and `error`
   std::exception_ptr error;
   auto work_body = [&] {
     for (int job = next++; job < total; job = next++) {
-      const std::size_t l = static_cast<std::size_t>(job / options.runs);
-      const int run = job % options.runs;
-      const double sigma_q2 = options.sigma_q2_levels[l];
-      std::mt19937_64 rng = run_generator(options.seed, l, run);
-      const Trajectory<double> measured =
-          add_measurement_noise(truth, MeasurementNoise<double>{sigma_q2, options.sigma_tau2}, rng);
-      for (std::size_t m = 0; m < methods; ++m) {
-        MethodSummary& summary = result.levels[l].methods[m];
-        std::string failure;
-        try {
-          const auto fit = fit_study_method(options.methods[m], truth, measured, sigma_q2,
-                                            options.identify, options.refine);
-          if (fit.ok())
-            summary.estimates.row(run) = fit.theta.transpose();
-          else
-            failure = fit.message;
-        } catch (const std::exception& e) {
-          failure = e.what();
-        }
-        if (!failure.empty()) {
-          std::lock_guard<std::mutex> lock(mutex);
-          if (summary.failures.size() < 5)
-            summary.failures.push_back("run " + std::to_string(run) + ": " + failure);
-        }
-      }
+      detail::run_monte_carlo_job(truth, options, job, result, mutex);
       const int finished = ++done;
       if (options.progress) {
         std::lock_guard<std::mutex> lock(mutex);
@@ -220,9 +246,7 @@ SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth,
       next = total;
     }
   };
-  int threads =
-      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::max(1, std::min(threads, total));
+  const int threads = detail::monte_carlo_threads(options.threads, total);
   result.threads_used = threads;
   if (threads == 1) {
     worker();
