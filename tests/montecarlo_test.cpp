@@ -7,6 +7,7 @@
 #include "paper_truth.hpp"
 
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 namespace {
@@ -139,4 +140,27 @@ TEST(MonteCarlo, RejectsImpossibleOptions) {
   EXPECT_THROW(sid::run_monte_carlo(truth(), options), std::invalid_argument);
   EXPECT_THROW(sid::parse_study_method("spline"), std::invalid_argument);
   EXPECT_EQ(sid::parse_study_method("oracle"), sid::StudyMethod::Oracle);
+}
+
+TEST(MonteCarlo, FailuresAreListedInRunOrderForAnyThreadCount) {
+  sid::MonteCarloOptions options;
+  options.runs = 12;
+  options.sigma_q2_levels = {1e-6};
+  options.methods = {sid::StudyMethod::Css, sid::StudyMethod::CssIv};
+  options.refine = [](const sid::Kinematics<double>&,
+                      const sid::LeastSquaresResult<double>&) -> sid::LeastSquaresResult<double> {
+    throw std::runtime_error("refinement refused");
+  };
+  for (int threads : {1, 2}) {
+    options.threads = threads;
+    const auto r = sid::run_monte_carlo(truth(), options);
+    EXPECT_EQ(summary(r, 0, sid::StudyMethod::Css).failed_runs, 0);
+    const auto& iv = summary(r, 0, sid::StudyMethod::CssIv);
+    EXPECT_EQ(iv.failed_runs, 12);
+    ASSERT_EQ(iv.failures.size(), 5u) << threads << " threads";
+    for (int run = 0; run < 5; ++run)
+      EXPECT_EQ(iv.failures[static_cast<std::size_t>(run)],
+                "run " + std::to_string(run) + ": refinement refused")
+          << threads << " threads";
+  }
 }

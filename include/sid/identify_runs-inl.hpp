@@ -142,8 +142,7 @@ SID_INLINE std::vector<double> cutoff_cross_validation(const std::vector<Traject
                                                        const std::vector<double>& grid_hz,
                                                        const RunsIdentifyOptions& options) {
   std::vector<double> score(grid_hz.size());
-  const int threads =
-      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  const int threads = detail::thread_count(options.threads);
   detail::for_each_index(
       static_cast<Eigen::Index>(grid_hz.size()), threads, [&](Eigen::Index g, int) {
         std::vector<detail::FoldMoments> folds;

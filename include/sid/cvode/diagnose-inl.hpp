@@ -74,6 +74,8 @@ namespace detail {
 SID_INLINE void check_simulation_check_options(const SimulationCheckOptions& check) {
   const std::string who = "sid::diagnose_with_simulation: ";
   if (check.noise_runs < 1) throw std::invalid_argument(who + "check.noise_runs must be >= 1");
+  if (check.threads < 0)
+    throw std::invalid_argument(who + "check.threads must be >= 0 (0: every core)");
   if (!(check.threshold > 0.0) || !std::isfinite(check.threshold))
     throw std::invalid_argument(who + "check.threshold must be finite and > 0");
   if (!(check.min_error >= 0.0) || !std::isfinite(check.min_error))
@@ -156,7 +158,7 @@ SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& da
     runs.emplace_back(
         [&, r] { perturbed[r] = free_simulation(calibrated, calibrated_theta, noisy[r], loose); });
   detail::for_each_index(static_cast<Eigen::Index>(runs.size()),
-                         static_cast<int>(std::max(1u, std::thread::hardware_concurrency())),
+                         detail::thread_count(check.threads),
                          [&](Eigen::Index task, int) { runs[static_cast<std::size_t>(task)](); });
   std::vector<MatrixX2<double>> noise_errors;
   for (const auto& p : perturbed) noise_errors.push_back(p.q - base.q);

@@ -59,6 +59,8 @@ struct SimulationCheckOptions {
   /// the smoothing of q leaves errors of this order.
   double min_error = 1e-4;
   std::uint64_t seed = 20261122;
+  /// Threads for the free simulations (0: every core); the result does not depend on it.
+  int threads = 0;
   /// CVODE's rtol = atol for the noise-alone simulations (the plain one they are compared
   /// with included): they only set a statistical scale. 1e-5 leaves errors of at most 8e-5 rad
   /// (against the checked simulation, Stribeck and Coulomb test sets), against a noise effect

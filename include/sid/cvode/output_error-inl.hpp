@@ -109,9 +109,7 @@ SID_INLINE Eigen::VectorXd normalised_residual(const OutputErrorProblem& problem
 }
 
 SID_INLINE int output_error_threads(const OutputErrorOptions& options, Eigen::Index windows) {
-  return static_cast<int>(std::min<Eigen::Index>(
-      windows,
-      options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency())));
+  return static_cast<int>(std::min<Eigen::Index>(windows, thread_count(options.threads)));
 }
 
 SID_INLINE void check_output_error_problem(const OutputErrorProblem& problem,

@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <atomic>
 #include <exception>
 #include <mutex>
@@ -13,8 +14,15 @@
 namespace sid {
 namespace detail {
 
-/// Calls f(i, thread) for i in [0, count) on up to `threads` threads (thread 0 is the caller's).
-/// An exception in f is rethrown after all threads finished.
+/// The threads a `threads` option asks for: the number if positive, otherwise every core.
+inline int thread_count(int requested) {
+  return requested > 0 ? requested
+                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+/// Calls f(i, thread) for i in [0, count), in increasing order of i, on up to `threads` threads
+/// (thread 0 is the caller's). After an exception in f no further task starts; it is rethrown
+/// once the running tasks finished.
 template <typename F>
 void for_each_index(Eigen::Index count, int threads, const F& f) {
   if (threads <= 1 || count <= 1) {
@@ -31,6 +39,7 @@ void for_each_index(Eigen::Index count, int threads, const F& f) {
       } catch (...) {
         const std::lock_guard<std::mutex> lock(error_mutex);
         if (!error) error = std::current_exception();
+        next = count;
       }
     }
   };

@@ -175,12 +175,21 @@ SID_INLINE MonteCarloResult empty_monte_carlo_result(const MonteCarloOptions& op
   return result;
 }
 
+/// A fit that failed, kept with its place in the study: the summaries list failures in run
+/// order, whichever thread met them first.
+struct StudyFailure {
+  std::size_t level = 0, method = 0;
+  int run = 0;
+  std::string message;
+};
+
 /// Job `job` of the study (level job / runs, run job % runs): one noisy data set, every method
 /// fitted to it, each estimate stored in its row of result. Jobs write disjoint rows; `mutex`
-/// guards the failure messages, which all jobs of a summary share.
+/// guards `failures`, which all jobs share.
 SID_INLINE void run_monte_carlo_job(const Kinematics<double>& truth,
                                     const MonteCarloOptions& options, int job,
-                                    MonteCarloResult& result, std::mutex& mutex) {
+                                    MonteCarloResult& result, std::vector<StudyFailure>& failures,
+                                    std::mutex& mutex) {
   const std::size_t l = static_cast<std::size_t>(job / options.runs);
   const int run = job % options.runs;
   const double sigma_q2 = options.sigma_q2_levels[l];
@@ -202,17 +211,27 @@ SID_INLINE void run_monte_carlo_job(const Kinematics<double>& truth,
     }
     if (!failure.empty()) {
       std::lock_guard<std::mutex> lock(mutex);
-      if (summary.failures.size() < 5)
-        summary.failures.push_back("run " + std::to_string(run) + ": " + failure);
+      failures.push_back({l, m, run, std::move(failure)});
     }
+  }
+}
+
+/// The first few failures of each summary, in run order.
+SID_INLINE void record_failures(std::vector<StudyFailure> failures, MonteCarloResult& result) {
+  constexpr std::size_t kKeptPerSummary = 5;
+  std::sort(failures.begin(), failures.end(), [](const StudyFailure& a, const StudyFailure& b) {
+    return std::tie(a.level, a.method, a.run) < std::tie(b.level, b.method, b.run);
+  });
+  for (auto& f : failures) {
+    auto& kept = result.levels[f.level].methods[f.method].failures;
+    if (kept.size() < kKeptPerSummary)
+      kept.push_back("run " + std::to_string(f.run) + ": " + std::move(f.message));
   }
 }
 
 /// options.threads (0: all cores), at least 1 and at most one per job.
 SID_INLINE int monte_carlo_threads(int requested, int total) {
-  int threads = requested > 0 ? requested : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::max(1, std::min(threads, total));
-  return threads;
+  return std::max(1, std::min(thread_count(requested), total));
 }
 
 }  // namespace detail
@@ -224,38 +243,20 @@ SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth,
   MonteCarloResult result = detail::empty_monte_carlo_result(options);
 
   const int total = static_cast<int>(options.sigma_q2_levels.size()) * options.runs;
-  std::atomic<int> next{0}, done{0};
-  std::mutex mutex;  // guards failure messages, the progress callback and `error`
-  std::exception_ptr error;
-  auto work_body = [&] {
-    for (int job = next++; job < total; job = next++) {
-      detail::run_monte_carlo_job(truth, options, job, result, mutex);
-      const int finished = ++done;
-      if (options.progress) {
-        std::lock_guard<std::mutex> lock(mutex);
-        options.progress(finished, total);
-      }
-    }
-  };
-  auto worker = [&] {
-    try {
-      work_body();
-    } catch (...) {  // an exception must not leave a std::thread: hand it to the caller
-      std::lock_guard<std::mutex> lock(mutex);
-      if (!error) error = std::current_exception();
-      next = total;
-    }
-  };
   const int threads = detail::monte_carlo_threads(options.threads, total);
   result.threads_used = threads;
-  if (threads == 1) {
-    worker();
-  } else {
-    std::vector<std::thread> pool;
-    for (int i = 0; i < threads; ++i) pool.emplace_back(worker);
-    for (auto& thread : pool) thread.join();
-  }
-  if (error) std::rethrow_exception(error);
+  std::vector<detail::StudyFailure> failures;
+  std::mutex mutex;  // guards `failures` and the progress callback
+  std::atomic<int> done{0};
+  detail::for_each_index(total, threads, [&](Eigen::Index job, int) {
+    detail::run_monte_carlo_job(truth, options, static_cast<int>(job), result, failures, mutex);
+    const int finished = ++done;
+    if (options.progress) {
+      std::lock_guard<std::mutex> lock(mutex);
+      options.progress(finished, total);
+    }
+  });
+  detail::record_failures(std::move(failures), result);
   for (auto& level : result.levels)
     for (auto& summary : level.methods) detail::summarize(summary, options.theta);
   result.wall_seconds =

@@ -9,6 +9,7 @@
 /// the numbers are the same for any thread count, and runs can be split across machines.
 
 #include <sid/config.hpp>
+#include <sid/detail/parallel.hpp>
 #include <sid/identify.hpp>
 #include <sid/identify_runs.hpp>
 #include <sid/measurement_noise.hpp>
@@ -30,6 +31,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 namespace sid {
