@@ -679,19 +679,18 @@ SID_INLINE std::vector<CandidateTest> test_round(const DiagnosisEquations& eq,
   return tests;
 }
 
-/// Holm's step-down adjustment over one round's candidates.
-SID_INLINE void holm_adjust(std::vector<CandidateTest>& tests) {
-  std::vector<std::size_t> order(tests.size());
+SID_INLINE std::vector<double> holm_adjusted(const std::vector<double>& p) {
+  std::vector<std::size_t> order(p.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(),
-            [&](std::size_t a, std::size_t b) { return tests[a].p_raw < tests[b].p_raw; });
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return p[a] < p[b]; });
+  std::vector<double> adjusted(p.size());
   double running = 0.0;
-  const double count = static_cast<double>(tests.size());
+  const double count = static_cast<double>(p.size());
   for (std::size_t r = 0; r < order.size(); ++r) {
-    running =
-        std::max(running, std::min(1.0, (count - static_cast<double>(r)) * tests[order[r]].p_raw));
-    tests[order[r]].p_adjusted = running;
+    running = std::max(running, std::min(1.0, (count - static_cast<double>(r)) * p[order[r]]));
+    adjusted[order[r]] = running;
   }
+  return adjusted;
 }
 
 /// Fills a tested candidate's detection limit and, if its tests pass, its admissibility, from a
@@ -763,7 +762,10 @@ SID_INLINE Selection forward_selection(const DiagnosisEquations& eq,
     const RoundModel model(eq, s.selected, options.cv_blocks);
     std::vector<CandidateTest> tests = test_round(eq, model, grid, s, options);
     if (tests.empty()) break;
-    holm_adjust(tests);
+    std::vector<double> p_raw;
+    for (const auto& t : tests) p_raw.push_back(t.p_raw);
+    const std::vector<double> p_adjusted = holm_adjusted(p_raw);
+    for (std::size_t i = 0; i < tests.size(); ++i) tests[i].p_adjusted = p_adjusted[i];
     const double critical_alpha = options.family_alpha / static_cast<double>(tests.size());
     int best = -1;
     for (std::size_t i = 0; i < tests.size(); ++i) {

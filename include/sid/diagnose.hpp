@@ -211,6 +211,10 @@ SID_INLINE std::vector<FlaggedWindow> flag_windows(
     const Eigen::Ref<const Eigen::VectorXd>& t, const Eigen::Ref<const Eigen::VectorXd>& residual,
     const Vector2<double>& floor, double length, double alpha);
 
+/// Holm's step-down adjustment of a family's p-values: the r-th smallest is multiplied by the
+/// number of hypotheses not yet rejected and kept monotone, capped at 1.
+SID_INLINE std::vector<double> holm_adjusted(const std::vector<double>& p);
+
 SID_INLINE void check_diagnose_options(const DiagnoseOptions& o);
 
 /// A named term of the growing model.

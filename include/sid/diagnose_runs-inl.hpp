@@ -178,20 +178,6 @@ SID_INLINE void check_runs_diagnose_options(const RunsDiagnoseOptions& o) {
   check_effect_settings(o.effects, "sid::diagnose_runs");
 }
 
-SID_INLINE void holm_adjust(std::vector<RunsEffectTest>& tests) {
-  std::vector<std::size_t> order(tests.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(),
-            [&](std::size_t a, std::size_t b) { return tests[a].p_value < tests[b].p_value; });
-  double running = 0.0;
-  const double count = static_cast<double>(tests.size());
-  for (std::size_t r = 0; r < order.size(); ++r) {
-    running = std::max(running,
-                       std::min(1.0, (count - static_cast<double>(r)) * tests[order[r]].p_value));
-    tests[order[r]].p_value = running;
-  }
-}
-
 SID_INLINE std::string mean_square_change(const Vector2<double>& gain) {
   char text[64];
   std::snprintf(text, sizeof text, "%+.2f %% / %+.2f %%", -100.0 * gain[0], -100.0 * gain[1]);
@@ -221,7 +207,10 @@ SID_INLINE std::vector<RunsEffectTest> selection_round(
       settings.stribeck_velocity = best_stribeck_width(id, named, kinematics, options);
     tests.push_back(test_candidate(id, settings, named, kinematics, base_ms, options));
   }
-  holm_adjust(tests);
+  std::vector<double> p;
+  for (const auto& t : tests) p.push_back(t.p_value);
+  const std::vector<double> adjusted = holm_adjusted(p);
+  for (std::size_t i = 0; i < tests.size(); ++i) tests[i].p_value = adjusted[i];
   for (auto& t : tests) t.reason = rejection(t, options);
   return tests;
 }

@@ -169,9 +169,6 @@ SID_INLINE Vector2<double> torque_above_cutoff(const Trajectory<double>& run, do
 
 SID_INLINE void check_runs_diagnose_options(const RunsDiagnoseOptions& o);
 
-/// Holm's step-down adjustment of the p-values in place.
-SID_INLINE void holm_adjust(std::vector<RunsEffectTest>& tests);
-
 /// "+1.19 % / -0.17 %": the change of the held-out mean square per joint.
 SID_INLINE std::string mean_square_change(const Vector2<double>& gain);
 
