@@ -176,19 +176,6 @@ std::string short_number(double v) {
   return buffer;
 }
 
-std::vector<std::string> parse_candidates(const std::string& text) {
-  const std::vector<std::string> ids =
-      sid::app::parse_name_list(text, "--candidates", "effect id", "effect ids");
-  for (const auto& id : ids)
-    if (!sid::is_effect_id(id)) {
-      std::string valid;
-      for (const auto& v : sid::effect_ids()) valid += (valid.empty() ? "" : ", ") + v;
-      throw sid::app::InputError("--candidates: unknown effect '" + id + "' (expected " + valid +
-                                 ")");
-    }
-  return ids;
-}
-
 // Runs check and prefixes the option's name to its InputError ("--json: refusing to ...").
 template <typename Check>
 void for_option(const std::string& option, const Check& check) {
@@ -212,7 +199,8 @@ int diagnose_measured_runs(const Options& o) {
           "single log, "
           "not of measured runs");
   sid::app::RunsDiagnoseReportInput in;
-  if (!o.candidates.empty()) in.options.candidates = parse_candidates(o.candidates);
+  if (!o.candidates.empty())
+    in.options.candidates = sid::app::parse_effect_list(o.candidates, "--candidates");
   if (o.coulomb_epsilon) {
     require(std::isfinite(*o.coulomb_epsilon) && *o.coulomb_epsilon > 0.0,
             "--coulomb-epsilon must be a finite number > 0 [rad/s], got " +
@@ -289,7 +277,8 @@ int diagnose(const Options& o) {
     const std::vector<double> v = sid::app::parse_doubles(o.reference, "--reference-theta", 7);
     options.reference_theta = Eigen::Map<const Eigen::VectorXd>(v.data(), 7);
   }
-  if (!o.candidates.empty()) options.candidates = parse_candidates(o.candidates);
+  if (!o.candidates.empty())
+    options.candidates = sid::app::parse_effect_list(o.candidates, "--candidates");
   if (o.coulomb_epsilon) {
     require(std::isfinite(*o.coulomb_epsilon) && *o.coulomb_epsilon > 0.0,
             "--coulomb-epsilon must be a finite number > 0 [rad/s], got " +

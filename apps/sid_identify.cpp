@@ -417,8 +417,8 @@ Report make_report(const sid::IdentifyOptions& options, const sid::app::CsvTable
                           : options.skip;
   Eigen::VectorXd error_pct;
   if (truth) {
-    error_pct.resize(7);
-    for (int k = 0; k < 7; ++k)
+    error_pct.resize(static_cast<Eigen::Index>(names.size()));
+    for (Eigen::Index k = 0; k < error_pct.size(); ++k)
       error_pct[k] = (*truth)[k] != 0.0
                          ? 100.0 * (fit.theta[k] - (*truth)[k]) / std::abs((*truth)[k])
                          : std::nan("");
@@ -560,12 +560,8 @@ bool uses_torque_cv(const Options& o) {
 sid::Model<double> runs_model(const Options& o) {
   sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
   if (o.effects.empty()) return model;
-  for (const std::string& id : sid::app::parse_name_list(
-           o.effects, "--effects", "effect id", "effects", sid::detail::effect_id_list())) {
-    sid::app::require(sid::is_effect_id(id), "--effects: unknown effect '" + id + "' (expected " +
-                                                 sid::detail::effect_id_list() + ")");
-    model.add(sid::effect_term(id));
-  }
+  for (const sid::Effect effect : sid::app::parse_effect_list(o.effects, "--effects"))
+    model.add(sid::effect_term(effect));
   return model;
 }
 
@@ -613,7 +609,7 @@ int identify_from_runs(const Options& o) {
             "--gear-ratio needs 1 value or 2 (gr1,gr2), got " + std::to_string(g.size()));
     for (double v : g) require(v > 0.0, "--gear-ratio must be > 0, got " + short_number(v));
     require(
-        in.model.has_term("armature_j2"),
+        in.model.has_term(sid::app::kRotorCoupling.id()),
         "--gear-ratio needs armature_j2 in --effects: the rotor of drive 2 enters the fit as an "
         "armature on joint 2");
     in.gear_ratio = g.back();
@@ -714,7 +710,7 @@ int identify(const Options& o) {
   if (o.estimator == "iv") {
     const sid::InstrumentalVariableResult refined =
         sid::refine_instrumental_variables(id.kinematics, id.fit);
-    if (refined.failed)
+    if (!refined.ok())
       throw sid::app::InputError(table.source +
                                  ": the instrumental-variable step failed: " + refined.message);
     id.fit = refined.fit;

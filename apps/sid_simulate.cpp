@@ -117,15 +117,15 @@ side of the equation above, or a fault of a sensor:
   spring_jX         k q_j, joint stiffness k > 0 [N m/rad]
 X is 1 or 2. Every id with its values:
 )";
-  for (const auto& id : sid::effect_ids()) {
-    const auto names = sid::effect_value_names(id);
-    const auto units = sid::effect_value_units(id);
+  for (const sid::Effect effect : sid::all_effects()) {
+    const auto names = sid::effect_value_names(effect);
+    const auto units = sid::effect_value_units(effect);
     std::string values;
     for (std::size_t i = 0; i < names.size(); ++i)
       values += (i ? "," : "") + names[i] + " [" + units[i] + "]";
-    std::string line = "  " + id + ":" + values;
+    std::string line = "  " + effect.id() + ":" + values;
     line.resize(std::max<std::size_t>(line.size() + 2, 44), ' ');
-    const std::string name = sid::effect_name(id);
+    const std::string name = sid::effect_name(effect);
     text += line.size() + name.size() <= 100 ? line + name + "\n" : line + "\n      " + name + "\n";
   }
   text += "--truth writes the true angles and the applied torques, without the sensor offsets.\n";
@@ -268,24 +268,24 @@ std::vector<sid::EffectSpec> parse_effects(const std::vector<std::string>& texts
       throw sid::app::InputError("--effect '" + text + "': " + message);
     }
     for (std::size_t k = 0; k + 1 < specs.size(); ++k)
-      sid::app::require(specs[k].id != specs.back().id,
-                        "--effect " + specs.back().id + " is given more than once");
+      sid::app::require(specs[k].effect != specs.back().effect,
+                        "--effect " + specs.back().effect.id() + " is given more than once");
   }
   return specs;
 }
 
 // "coulomb_j2:0.1", exact enough to be read back by --effect.
 std::string spec_text(const sid::EffectSpec& spec) {
-  std::string text = spec.id + ":";
+  std::string text = spec.effect.id() + ":";
   for (std::size_t i = 0; i < spec.values.size(); ++i)
     text += (i ? "," : "") + shortest(spec.values[i]);
   return text;
 }
 
 std::string spec_description(const sid::EffectSpec& spec) {
-  const auto names = sid::effect_value_names(spec.id);
-  const auto units = sid::effect_value_units(spec.id);
-  std::string text = "effect " + spec.id + ": " + sid::effect_name(spec.id);
+  const auto names = sid::effect_value_names(spec.effect);
+  const auto units = sid::effect_value_units(spec.effect);
+  std::string text = "effect " + spec.effect.id() + ": " + sid::effect_name(spec.effect);
   for (std::size_t i = 0; i < names.size(); ++i)
     text += (i ? ", " : "; ") + names[i] + " = " + shortest(spec.values[i]) + " " + units[i];
   return text;
@@ -298,9 +298,7 @@ int simulate(const Options& o) {
   const std::vector<sid::EffectSpec> effects = parse_effects(o.effects);
   const sid::TwoLinkParameters<double> theta = choose_theta(o);
   const std::string source = !o.physical.empty() ? "--physical" : "--theta";
-  // D(q) is positive definite for every q iff theta2 > 0 and det = theta1 theta2 -
-  // theta3^2 cos^2 q2 > 0 for every q2, i.e. theta1 theta2 > theta3^2.
-  require(theta[1] > 0.0 && theta[0] * theta[1] > theta[2] * theta[2],
+  require(sid::two_link_mass_matrix_positive_definite(theta),
           source +
               ": the mass matrix D(q) is not positive definite for every q (needs theta2 > 0 "
               "and theta1 theta2 > theta3^2; theta = " +

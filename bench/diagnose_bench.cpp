@@ -159,7 +159,7 @@ const std::vector<std::pair<std::string, std::string>>& hidden_effects() {
 // counts of each named id per hidden effect, how often exactly the hidden effect was named, and
 // the mean and worst relative error of its levels (all values; Fc and Fs for Stribeck) when it was.
 void BM_ConfusionMatrix(benchmark::State& state) {
-  const std::vector<std::string>& ids = sid::effect_ids();
+  const std::vector<sid::Effect>& ids = sid::all_effects();
   int correct = 0, total = 0;
   double seconds = 0.0, worst = 0.0;
   std::string table;
@@ -175,7 +175,9 @@ void BM_ConfusionMatrix(benchmark::State& state) {
     }
     table += "  exact  err% mean/worst  not_separable\n";
     for (const auto& [row, spec] : hidden_effects()) {
-      std::map<std::string, int> counts;
+      std::map<std::string, int> counts;  // by effect id
+      const bool none = row == "none";
+      const sid::Effect hidden_effect = none ? sid::Effect{} : sid::Effect(row);
       int exact = 0;
       double error_sum = 0.0, error_max = 0.0;
       int error_count = 0;
@@ -187,23 +189,29 @@ void BM_ConfusionMatrix(benchmark::State& state) {
           const sid::Trajectory<double> data = data_set(spec, multisine, seed);
           const auto start = std::chrono::steady_clock::now();
           sid::DiagnosisResult r = sid::diagnose(data);
-          sid::refine_named_friction(r, data, sid::DiagnoseOptions());
+          r = sid::refine_named_friction(std::move(r), data, sid::DiagnoseOptions());
           r.seconds =
               std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
           seconds += r.seconds;
           worst = std::max(worst, r.seconds);
           ++total;
-          for (const auto& e : r.effects) ++counts[e.id];
-          for (const auto& s : r.not_separable) not_separable += s.id == row ? 1 : 0;
+          for (const auto& e : r.effects) ++counts[e.effect.id()];
+          for (const auto& s : r.not_separable)
+            not_separable += !none && s.effect == hidden_effect ? 1 : 0;
           const bool is_exact =
-              row == "none" ? r.effects.empty() : (r.effects.size() == 1 && r.effects[0].id == row);
-          if (row == "armature_j1" && r.effects.empty()) ++exact;  // nothing can be named
+              none ? r.effects.empty()
+                   : (r.effects.size() == 1 && r.effects[0].effect == hidden_effect);
+          // Nothing can be named for the rotor inertia of joint 1: it is theta1's own column.
+          if (!none && hidden_effect == sid::Effect{sid::EffectKind::Armature, 0} &&
+              r.effects.empty())
+            ++exact;
           if (is_exact) {
             ++exact;
-            if (row != "none") {
+            if (!none) {
               // The worst value (Fc and Fs for Stribeck; its vs is a width, not a level).
               const sid::EffectSpec hidden = sid::parse_effect(spec);
-              const std::size_t levels = row.rfind("stribeck", 0) == 0 ? 2 : hidden.values.size();
+              const std::size_t levels =
+                  hidden.effect.kind == sid::EffectKind::Stribeck ? 2 : hidden.values.size();
               double worst_error = 0.0;
               for (std::size_t v = 0; v < levels; ++v)
                 worst_error = std::max(
@@ -219,7 +227,8 @@ void BM_ConfusionMatrix(benchmark::State& state) {
       correct += exact;
       std::snprintf(line, sizeof line, "%-17s", row.c_str());
       table += line;
-      for (const auto& id : ids) {
+      for (const sid::Effect effect : ids) {
+        const std::string id = effect.id();
         std::snprintf(line, sizeof line, " %4d", counts.count(id) ? counts[id] : 0);
         table += line;
       }
@@ -233,7 +242,7 @@ void BM_ConfusionMatrix(benchmark::State& state) {
   }
   std::string legend = "columns:";
   for (std::size_t c = 0; c < ids.size(); ++c)
-    legend += " e" + std::to_string(c + 1) + "=" + ids[c];
+    legend += " e" + std::to_string(c + 1) + "=" + ids[c].id();
   std::printf(
       "\nConfusion matrix (sigma_q2 = 1e-6, sigma_tau2 = 1e-2; seeds 1, 2; paper and multisine "
       "excitation; armature_j1 counts as right when nothing is named)\n%s%s\n"

@@ -43,7 +43,7 @@ void BM_InstrumentalVariableStep(benchmark::State& state) {
   int iterations = 0;
   for (auto _ : state) {
     const auto iv = sid::refine_instrumental_variables(c.kept, c.first);
-    if (iv.failed) state.SkipWithError(iv.message.c_str());
+    if (!iv.ok()) state.SkipWithError(iv.message.c_str());
     iterations = iv.iterations;
     benchmark::DoNotOptimize(iv.fit.theta.data());
   }

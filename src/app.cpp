@@ -183,6 +183,19 @@ std::vector<std::string> parse_name_list(const std::string& text, const std::str
   return names;
 }
 
+std::vector<sid::Effect> parse_effect_list(const std::string& text, const std::string& option) {
+  std::vector<sid::Effect> effects;
+  for (const std::string& id :
+       parse_name_list(text, option, "effect id", "effects", sid::effect_id_list())) {
+    try {
+      effects.push_back(sid::Effect::parse(id, option.c_str()));
+    } catch (const std::invalid_argument& e) {
+      throw InputError(e.what());
+    }
+  }
+  return effects;
+}
+
 std::vector<double> parse_doubles(const std::string& text, const std::string& what,
                                   std::size_t count) {
   std::vector<double> values = parse_doubles(text, what);

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <sid/model/effect.hpp>
 #include <string>
 #include <vector>
 
@@ -83,6 +84,11 @@ std::vector<double> parse_doubles(const std::string& text, const std::string& wh
 std::vector<std::string> parse_name_list(const std::string& text, const std::string& option,
                                          const std::string& item, const std::string& items,
                                          const std::string& expected = "");
+
+/// @brief A comma-separated list of effect ids, e.g. "coulomb_j1, armature_j2".
+/// @throws InputError "--effects: unknown effect 'x' (expected coulomb_j1, ...)" and the errors
+///         of parse_name_list.
+std::vector<sid::Effect> parse_effect_list(const std::string& text, const std::string& option);
 
 /// @brief An Eigen vector as a JSON array (numbers keep every bit: nlohmann prints the shortest
 /// text that reads back the same double; NaN/Inf become null).

@@ -81,17 +81,13 @@ std::string window_list(const std::vector<sid::FlaggedWindow>& windows, int join
   return text.empty() ? "none" : text;
 }
 
-std::string unit_of(const std::string& id, std::size_t k) {
-  try {
-    const auto units = sid::effect_value_units(id);
-    return k < units.size() ? units[k] : "";
-  } catch (const std::exception&) {
-    return "";
-  }
+std::string unit_of(sid::Effect effect, std::size_t k) {
+  const auto units = sid::effect_value_units(effect);
+  return k < units.size() ? units[k] : "";
 }
 
 // The unit of an effect's main physical parameter (the one detection limits are given in).
-std::string main_unit(const std::string& id) { return unit_of(id, 0); }
+std::string main_unit(sid::Effect effect) { return unit_of(effect, 0); }
 
 void disagreement(std::ostringstream& out, const sid::ModelReport& m,
                   const sid::DiagnosisResult& r) {
@@ -174,7 +170,7 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
   }
   out << "\nwhere the nominal model and the data disagree:\n";
   disagreement(out, r.nominal, r);
-  if (!sim.nominal.ok)
+  if (!sim.nominal.ok())
     out << "  note: the free simulation of the nominal model: " << simulation_summary(sim.nominal)
         << "\n";
 
@@ -182,13 +178,13 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
          "CV):\n";
   if (r.effects.empty()) out << "  none: no candidate explains the residual beyond the noise\n";
   for (const auto& e : r.effects) {
-    out << "  " << e.id << ": " << e.name << "\n   ";
+    out << "  " << e.effect << ": " << e.name << "\n   ";
     for (Eigen::Index v = 0; v < e.estimate.size(); ++v) {
       const auto vk = static_cast<std::size_t>(v);
       const std::string vname = vk < e.value_names.size() ? e.value_names[vk] : "value";
       out << " " << vname << " = " << format("%.5g", e.estimate[v]) << " +- "
           << (v < e.std.size() && std::isfinite(e.std[v]) ? g(e.std[v]) : "n/a");
-      const std::string unit = unit_of(e.id, vk);
+      const std::string unit = unit_of(e.effect, vk);
       if (!unit.empty()) out << " " << unit;
       out << (v + 1 < e.estimate.size() ? ";" : "");
     }
@@ -220,15 +216,15 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
   if (!r.not_separable.empty()) {
     out << "\nnot separable (the data cannot tell these from the nominal model):\n";
     for (const auto& s : r.not_separable)
-      out << "  " << s.id << ": " << s.name << ": " << s.explanation << "\n";
+      out << "  " << s.effect << ": " << s.name << ": " << s.explanation << "\n";
   }
   if (!r.not_named.empty()) {
     out << "\ncandidates not named (detection limit: the smallest value the test would have "
            "found):\n";
     for (const auto& u : r.not_named) {
-      out << "  " << pad(u.id, 18) << pad(u.reason, 28);
+      out << "  " << pad(u.effect.id(), 18) << pad(u.reason, 28);
       if (std::isfinite(u.detection_limit))
-        out << " limit " << g(u.detection_limit) << " " << main_unit(u.id);
+        out << " limit " << g(u.detection_limit) << " " << main_unit(u.effect);
       out << "\n";
     }
   }
@@ -253,7 +249,7 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
                       .c_str());
     out << line;
   }
-  if (!r.effects.empty() && !sim.final.ok)
+  if (!r.effects.empty() && !sim.final.ok())
     out << "  note: the free simulation of the final model: " << simulation_summary(sim.final)
         << "\n";
 
@@ -289,8 +285,8 @@ nlohmann::json diagnose_json(const sid::DiagnosisResult& r, const sid::Simulatio
   nlohmann::json effects = nlohmann::json::array();
   for (const auto& e : r.effects) {
     nlohmann::json units = nlohmann::json::array();
-    for (std::size_t v = 0; v < e.value_names.size(); ++v) units.push_back(unit_of(e.id, v));
-    effects.push_back({{"id", e.id},
+    for (std::size_t v = 0; v < e.value_names.size(); ++v) units.push_back(unit_of(e.effect, v));
+    effects.push_back({{"id", e.effect.id()},
                        {"name", e.name},
                        {"value_names", e.value_names},
                        {"units", units},
@@ -306,8 +302,8 @@ nlohmann::json diagnose_json(const sid::DiagnosisResult& r, const sid::Simulatio
   nlohmann::json friction = nlohmann::json::array();
   for (const auto& c : r.friction_checks)
     friction.push_back({{"joint", c.joint},
-                        {"named", c.named},
-                        {"chosen", c.chosen},
+                        {"named", c.named.id()},
+                        {"chosen", c.chosen.id()},
                         {"score", number(c.score)},
                         {"score_velocity", number(c.score_velocity)},
                         {"stribeck_fitted", c.stribeck_fitted},
@@ -320,15 +316,16 @@ nlohmann::json diagnose_json(const sid::DiagnosisResult& r, const sid::Simulatio
   j["friction_checks"] = friction;
   nlohmann::json not_separable = nlohmann::json::array();
   for (const auto& s : r.not_separable)
-    not_separable.push_back({{"id", s.id}, {"name", s.name}, {"explanation", s.explanation}});
+    not_separable.push_back(
+        {{"id", s.effect.id()}, {"name", s.name}, {"explanation", s.explanation}});
   j["not_separable"] = not_separable;
   nlohmann::json not_named = nlohmann::json::array();
   for (const auto& u : r.not_named)
-    not_named.push_back({{"id", u.id},
+    not_named.push_back({{"id", u.effect.id()},
                          {"name", u.name},
                          {"reason", u.reason},
                          {"detection_limit", number(u.detection_limit)},
-                         {"unit", main_unit(u.id)}});
+                         {"unit", main_unit(u.effect)}});
   j["not_named"] = not_named;
   j["nominal"] = model_json(r.nominal);
   j["final"] = model_json(r.final);
@@ -351,8 +348,8 @@ nlohmann::json diagnose_json(const sid::DiagnosisResult& r, const sid::Simulatio
       {"noise_runs", context.noise_runs},
       {"threshold", context.threshold},
       {"noise_error_rms", pair_json(sim.noise_error_rms)},
-      {"nominal_ok", sim.nominal.ok},
-      {"final_ok", sim.final.ok},
+      {"nominal_ok", sim.nominal.ok()},
+      {"final_ok", sim.final.ok()},
       {"message", sim.nominal.message +
                       (sim.final.message.empty() || sim.final.message == sim.nominal.message
                            ? ""
@@ -491,7 +488,7 @@ std::vector<PlotResult> write_diagnose_plots(const std::string& dir, const sid::
 std::string simulation_summary(const sid::FreeSimulation& s) {
   const std::size_t segments = s.segment_starts.size();
   std::string text = format("%.4g", s.error_rms[0]) + " / " + format("%.4g", s.error_rms[1]);
-  if (s.ok) return text + " (" + std::to_string(segments) + " segments)";
+  if (s.ok()) return text + " (" + std::to_string(segments) + " segments)";
   // The first failure says where and why; the others repeat it at later segments.
   return "UNSTABLE: " + std::to_string(s.failed_segments) + " of " + std::to_string(segments) +
          " segments failed; first: " + s.message.substr(0, s.message.find("; ")) +

@@ -12,8 +12,8 @@ namespace sid::app {
 namespace {
 
 std::string values_text(const sid::RunsEffectTest& t) {
-  const auto names = sid::effect_value_names(t.id);
-  const auto units = sid::effect_value_units(t.id);
+  const auto names = sid::effect_value_names(t.effect);
+  const auto units = sid::effect_value_units(t.effect);
   std::string text;
   for (std::size_t k = 0; k < names.size(); ++k) {
     const auto i = static_cast<Eigen::Index>(k);
@@ -25,9 +25,9 @@ std::string values_text(const sid::RunsEffectTest& t) {
 }
 
 nlohmann::json effect_json(const sid::RunsEffectTest& t) {
-  return {{"id", t.id},
-          {"name", sid::effect_name(t.id)},
-          {"value_names", sid::effect_value_names(t.id)},
+  return {{"id", t.effect.id()},
+          {"name", sid::effect_name(t.effect)},
+          {"value_names", sid::effect_value_names(t.effect)},
           {"estimate", to_json_array(t.estimate.value)},
           {"std", to_json_array(t.estimate.std)},
           {"wald", t.wald},
@@ -89,7 +89,7 @@ void friction_shape_lines(const RunsDiagnoseReportInput& in, std::ostringstream&
   nlohmann::json rows = nlohmann::json::array();
   for (const auto& s : in.diagnosis.friction_shapes) {
     const bool atan = s.shape == sid::CoulombShape::Atan;
-    out << "  friction shape of " << s.id << ": " << (atan ? "atan" : "tanh") << ", "
+    out << "  friction shape of " << s.coulomb << ": " << (atan ? "atan" : "tanh") << ", "
         << (s.asymmetric ? "asymmetric" : "symmetric") << " (atan instead of tanh: held-out "
         << sid::detail::mean_square_change(s.atan_gain)
         << "; asymmetric: " << sid::detail::mean_square_change(s.asymmetric_gain)
@@ -97,7 +97,7 @@ void friction_shape_lines(const RunsDiagnoseReportInput& in, std::ostringstream&
         << format_number("%.4g", s.forward) << " +- " << format_number("%.2g", s.forward_std)
         << ", backward " << format_number("%.4g", s.backward) << " +- "
         << format_number("%.2g", s.backward_std) << " N m)\n";
-    rows.push_back({{"id", s.id},
+    rows.push_back({{"id", s.coulomb.id()},
                     {"shape", atan ? "atan" : "tanh"},
                     {"asymmetric", s.asymmetric},
                     {"atan_gain", to_json_array(s.atan_gain)},
@@ -118,7 +118,7 @@ void effect_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nl
   if (d.named.empty()) out << "  none\n";
   nlohmann::json named = nlohmann::json::array(), rejected = nlohmann::json::array();
   for (const auto& t : d.named) {
-    out << "  " << t.id << ": " << sid::effect_name(t.id) << "\n    " << values_text(t)
+    out << "  " << t.effect << ": " << sid::effect_name(t.effect) << "\n    " << values_text(t)
         << "; held-out torque mean square " << sid::detail::mean_square_change(t.prediction_gain)
         << " (joint 1 / 2) when added\n";
     named.push_back(effect_json(t));
@@ -126,7 +126,7 @@ void effect_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nl
   friction_shape_lines(in, out, j);
   out << "not named:\n";
   for (const auto& t : d.not_named) {
-    out << "  " << t.id << " (" << values_text(t) << "): " << t.reason << "\n";
+    out << "  " << t.effect << " (" << values_text(t) << "): " << t.reason << "\n";
     rejected.push_back(effect_json(t));
   }
   j["effects"] = named;
@@ -138,7 +138,7 @@ void effect_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nl
 void rotor_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out, nlohmann::json& j) {
   const sid::RunsDiagnosis& d = in.diagnosis;
   const auto named = std::find_if(d.named.begin(), d.named.end(),
-                                  [](const auto& t) { return t.id == "armature_j2"; });
+                                  [](const auto& t) { return t.effect == kRotorCoupling; });
   const sid::RunsEffectTest* t = named != d.named.end() ? &*named
                                  : d.rotor_coupling     ? &*d.rotor_coupling
                                                         : nullptr;
@@ -209,7 +209,7 @@ void simulation_lines(const RunsDiagnoseReportInput& in, std::ostringstream& out
     std::snprintf(head, sizeof head, "  %-*s ", w, in.runs[r].file.c_str());
     out << head << simulation_summary(s) << "\n";
     rows.push_back({{"file", in.runs[r].file},
-                    {"ok", s.ok},
+                    {"ok", s.ok()},
                     {"error_rms", to_json_array(s.error_rms)},
                     {"segments", s.segment_starts.size()},
                     {"failed_segments", s.failed_segments},

@@ -18,8 +18,8 @@ bool ends_with(const std::string& text, const std::string& tail) {
 // The rotor of drive 2 rides on link 1. With θ1 and θ2 free its inertia Ir enters the
 // regression only as an armature on joint 2, Ia = (gr² + gr) Ir (see docs/real-data.md).
 void rotor_line(const RunsReportInput& in, std::ostringstream& out, nlohmann::json& j) {
-  if (!in.gear_ratio || !in.model.has_term("armature_j2")) return;
-  const auto k = in.model.parameter_offset("armature_j2");
+  if (!in.gear_ratio || !in.model.has_term(kRotorCoupling.id())) return;
+  const auto k = in.model.parameter_offset(kRotorCoupling.id());
   const double gr = *in.gear_ratio, factor = gr * gr + gr;
   const double ir = in.id.fit.theta[k] / factor, ir_std = in.id.fit.std_dev[k] / factor;
   out << "rotor of drive 2 on link 1 (gear ratio " << format_number("%g", gr)

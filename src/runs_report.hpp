@@ -7,6 +7,7 @@
 #include <optional>
 #include <sstream>
 #include <sid/identify_runs.hpp>
+#include <sid/model/effect.hpp>
 #include <sid/model/model.hpp>
 #include <sid/physical_consistency.hpp>
 #include <string>
@@ -15,6 +16,10 @@
 #include "csv.hpp"
 
 namespace sid::app {
+
+/// The rotor of drive 2 rides on link 1; with θ1 and θ2 free it enters the regression only as
+/// an armature on joint 2.
+inline constexpr sid::Effect kRotorCoupling{sid::EffectKind::Armature, 1};
 
 /// One measured run as read: its file name (as the user gave it) and its samples.
 struct RunFile {

@@ -143,7 +143,7 @@ TEST_F(SidIdentifyRuns, BadInputIsRefusedWithAMessageNamingIt) {
   expect_input_error("--columns t=time,t=x " + run("01"), "'t' is given twice");
   expect_input_error("--columns time " + run("01"), "is not KEY=NAME");
   expect_input_error(c + "--validate missing.csv " + run("01"), "missing.csv");
-  expect_input_error(c + "--effects friction " + run("01"), "unknown effect 'friction'");
+  expect_input_error(c + "--effects friction " + run("01"), "unknown effect id 'friction'");
   expect_input_error(c + "--gear-ratio 6 " + run("01"), "--gear-ratio needs armature_j2");
   expect_input_error(c + "--cutoff -1 " + run("01"), "--cutoff must be a finite number > 0");
   expect_input_error(c + "--smoothing torque-cv --sigma-q 1e-3 " + run("01"),

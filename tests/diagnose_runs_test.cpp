@@ -21,7 +21,7 @@ std::vector<sid::Trajectory<double>> runs_with(const std::string& effect,
                                                const Eigen::VectorXd& values, double sigma_tau,
                                                const sid::EffectSettings& settings = {}) {
   sid::Model<double> model = sid::two_link_arm_model<double>(sid::kPaperGravity);
-  model.add(sid::effect_term(effect, settings));
+  model.add(sid::effect_term(sid::Effect(effect), settings));
   Eigen::VectorXd theta(7 + values.size());
   theta << sid::paper_arm_parameters(), values;
   std::mt19937_64 rng(7);
@@ -42,7 +42,7 @@ std::vector<sid::Trajectory<double>> runs_with(const std::string& effect, double
 
 std::vector<std::string> named_ids(const sid::RunsDiagnosis& d) {
   std::vector<std::string> ids;
-  for (const auto& e : d.named) ids.push_back(e.id);
+  for (const auto& e : d.named) ids.push_back(e.effect.id());
   return ids;
 }
 
@@ -55,7 +55,7 @@ TEST(DiagnoseRuns, NamesTheCoulombFrictionThatIsThereAndNothingElse) {
   EXPECT_TRUE(d.final_model.has_term("coulomb_j2"));
   EXPECT_EQ(d.final.fit.theta.size(), 8);
   // Every candidate not named carries its reason.
-  for (const auto& t : d.not_named) EXPECT_FALSE(t.reason.empty()) << t.id;
+  for (const auto& t : d.not_named) EXPECT_FALSE(t.reason.empty()) << t.effect.id();
 }
 
 TEST(DiagnoseRuns, KeepsTanhForTanhFrictionAndFindsAtanFriction) {
@@ -108,7 +108,7 @@ TEST(DiagnoseRuns, NamesARealSpring) {
 
 TEST(DiagnoseRuns, NamesNothingOnTheNominalModel) {
   const sid::RunsDiagnosis d = sid::diagnose_runs(runs_with("coulomb_j1", 0.0, 0.01));
-  EXPECT_TRUE(d.named.empty()) << d.named.front().id;
+  EXPECT_TRUE(d.named.empty()) << d.named.front().effect.id();
   ASSERT_TRUE(d.rotor_coupling.has_value());
   EXPECT_FALSE(d.rotor_coupling->reason.empty());
   // The floor is the torque above the cutoff: about the white noise's share above it.
@@ -130,8 +130,8 @@ TEST(DiagnoseRuns, RejectsBadOptions) {
     }
   };
   sid::RunsDiagnoseOptions o;
-  o.candidates = {"coulomb_j3"};
-  expect_error(o, "unknown effect 'coulomb_j3'");
+  o.candidates = {sid::Effect{sid::EffectKind::Coulomb, 2}};
+  expect_error(o, "effect joint 2 is outside 0..1");
   o = {};
   o.family_alpha = 0.0;
   expect_error(o, "family_alpha");
@@ -162,16 +162,16 @@ TEST_F(RealRunsDiagnosis, NamesCoulombFrictionOnBothJointsAndNoSpringOrAngleOffs
   const sid::RunsDiagnosis& d = diagnosis_;
   for (const char* joint : {"coulomb_j1", "coulomb_j2"}) {
     const auto it = std::find_if(d.named.begin(), d.named.end(), [&](const auto& e) {
-      return e.id == joint || e.id == "stribeck_j" + std::string(1, joint[9]);
+      return e.effect.id() == joint || e.effect.id() == "stribeck_j" + std::string(1, joint[9]);
     });
     ASSERT_NE(it, d.named.end()) << joint << " not named";
     EXPECT_GT(it->estimate.value[0], 0.03) << joint;
     EXPECT_LT(it->estimate.value[0], 0.3) << joint;
   }
   for (const auto& e : d.named) {
-    EXPECT_EQ(e.id.rfind("spring", 0), std::string::npos) << e.id;
-    if (e.id.rfind("angle_offset", 0) == 0) {
-      EXPECT_LT(std::abs(e.estimate.value[0]), 0.02) << e.id;
+    EXPECT_EQ(e.effect.id().rfind("spring", 0), std::string::npos) << e.effect.id();
+    if (e.effect.id().rfind("angle_offset", 0) == 0) {
+      EXPECT_LT(std::abs(e.estimate.value[0]), 0.02) << e.effect.id();
     }
   }
   // Each named Coulomb friction had its shape tested.
@@ -179,7 +179,7 @@ TEST_F(RealRunsDiagnosis, NamesCoulombFrictionOnBothJointsAndNoSpringOrAngleOffs
   // The spring on joint 1 is significant but predicts the held-out runs worse: the case the
   // held-out criterion exists for.
   const auto spring = std::find_if(d.not_named.begin(), d.not_named.end(),
-                                   [](const auto& e) { return e.id == "spring_j1"; });
+                                   [](const auto& e) { return e.effect.id() == "spring_j1"; });
   ASSERT_NE(spring, d.not_named.end());
   EXPECT_LT(spring->gain, 0.0);
 }
@@ -187,7 +187,7 @@ TEST_F(RealRunsDiagnosis, NamesCoulombFrictionOnBothJointsAndNoSpringOrAngleOffs
 TEST_F(RealRunsDiagnosis, SaysWhetherTheRotorCouplingIsSupported) {
   const sid::RunsDiagnosis& d = diagnosis_;
   const bool named = std::any_of(d.named.begin(), d.named.end(),
-                                 [](const auto& e) { return e.id == "armature_j2"; });
+                                 [](const auto& e) { return e.effect.id() == "armature_j2"; });
   ASSERT_TRUE(named || d.rotor_coupling.has_value());
   if (!named) {
     EXPECT_FALSE(d.rotor_coupling->reason.empty());

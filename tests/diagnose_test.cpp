@@ -35,7 +35,7 @@ constexpr double kExcessShrink = 0.5;        // the affected joint's excess must
 
 std::vector<std::string> named_ids(const sid::DiagnosisResult& r) {
   std::vector<std::string> ids;
-  for (const auto& e : r.effects) ids.push_back(e.id);
+  for (const auto& e : r.effects) ids.push_back(e.effect.id());
   std::sort(ids.begin(), ids.end());
   return ids;
 }
@@ -106,7 +106,7 @@ Outcome run_case(const EffectCase& c, Excitation excitation, unsigned seed) {
   o.result = sid::diagnose(simulate({spec}, excitation, seed));
   o.truth = spec.values[0];
   for (const auto& e : o.result.effects)
-    if (e.id == spec.id) o.estimate = e.estimate[0];
+    if (e.effect == spec.effect) o.estimate = e.estimate[0];
   o.relative_error = (o.estimate - o.truth) / o.truth;
   o.excess_before = o.result.nominal.excess_rms[c.joint - 1];
   o.excess_after = o.result.final.excess_rms[c.joint - 1];
@@ -140,7 +140,7 @@ class DiagnoseVisibleEffect : public ::testing::TestWithParam<EffectCase> {};
 
 TEST_P(DiagnoseVisibleEffect, NamesExactlyItEstimatesItAndHalvesTheExcess) {
   const EffectCase& c = GetParam();
-  const std::string id = sid::parse_effect(c.spec).id;
+  const std::string id = sid::parse_effect(c.spec).effect.id();
   for (const auto& [excitation, seed] : case_data_sets(11u, 12u)) {
     SCOPED_TRACE(c.spec + " " + excitation_name(excitation) + " seed " + std::to_string(seed));
     const Outcome o = run_case(c, excitation, seed);
@@ -177,7 +177,7 @@ class DiagnoseSmallEffect : public ::testing::TestWithParam<EffectCase> {};
 
 TEST_P(DiagnoseSmallEffect, NamesExactlyItEstimatesItAndHalvesTheExcess) {
   const EffectCase& c = GetParam();
-  const std::string id = sid::parse_effect(c.spec).id;
+  const std::string id = sid::parse_effect(c.spec).effect.id();
   for (const auto& [excitation, seed] : case_data_sets(13u, 14u)) {
     SCOPED_TRACE(c.spec + " " + excitation_name(excitation) + " seed " + std::to_string(seed));
     const Outcome o = run_case(c, excitation, seed);
@@ -226,10 +226,10 @@ TEST(Diagnose, NamesNothingInEffectFreeData) {
       EXPECT_NEAR(r.noise_floor[j], std::sqrt(kTauVariance), 0.1 * std::sqrt(kTauVariance));
     // Every candidate but armature_j1 was tested and got a finite detection limit.
     ASSERT_EQ(r.not_separable.size(), 1u);
-    EXPECT_EQ(r.not_separable[0].id, "armature_j1");
-    EXPECT_EQ(r.not_named.size(), sid::effect_ids().size() - 1);
+    EXPECT_EQ(r.not_separable[0].effect.id(), "armature_j1");
+    EXPECT_EQ(r.not_named.size(), sid::all_effects().size() - 1);
     for (const auto& u : r.not_named)
-      EXPECT_TRUE(std::isfinite(u.detection_limit) && u.detection_limit > 0) << u.id;
+      EXPECT_TRUE(std::isfinite(u.detection_limit) && u.detection_limit > 0) << u.effect.id();
   }
 }
 
@@ -247,8 +247,8 @@ TEST(Diagnose, NamesTwoHiddenEffects) {
     EXPECT_EQ(named_ids(r), (std::vector<std::string>{"coulomb_j2", "torque_offset_j1"}));
     for (const auto& e : r.effects) {
       constexpr double kTruth = 0.1;  // both effects' main value
-      EXPECT_NEAR(e.estimate[0], kTruth, kEstimateTolerance * kTruth) << e.id;
-      if (e.id == "torque_offset_j1") {
+      EXPECT_NEAR(e.estimate[0], kTruth, kEstimateTolerance * kTruth) << e.effect.id();
+      if (e.effect.id() == "torque_offset_j1") {
         EXPECT_NE(e.note.find("constant load"), std::string::npos) << e.note;
       }
     }
@@ -270,7 +270,7 @@ TEST(Diagnose, ReportsJointOneArmatureAsNotSeparableAndAsThetaOneDrift) {
   summary().add("armature_j1", r, "armature_j1:0.2 theta1 | multisine 41 | " + join(named_ids(r)));
   EXPECT_TRUE(r.effects.empty()) << join(named_ids(r));
   const auto ns = std::find_if(r.not_separable.begin(), r.not_separable.end(),
-                               [](const auto& x) { return x.id == "armature_j1"; });
+                               [](const auto& x) { return x.effect.id() == "armature_j1"; });
   ASSERT_NE(ns, r.not_separable.end());
   EXPECT_NE(ns->explanation.find("theta1"), std::string::npos) << ns->explanation;
   ASSERT_EQ(r.drift.size(), 7u);
@@ -377,7 +377,7 @@ TEST(Diagnose, DoesNotTryAStribeckBumpTheSamplesDoNotResolve) {
       options);
   EXPECT_EQ(named_ids(r), std::vector<std::string>{"coulomb_j2"});
   const auto s = std::find_if(r.not_named.begin(), r.not_named.end(),
-                              [](const auto& u) { return u.id == "stribeck_j2"; });
+                              [](const auto& u) { return u.effect.id() == "stribeck_j2"; });
   ASSERT_NE(s, r.not_named.end());
   EXPECT_NE(s->reason.find("no Stribeck width is resolved"), std::string::npos) << s->reason;
 }
@@ -389,7 +389,7 @@ TEST(Diagnose, FinalModelMatchesItsReport) {
       sid::diagnose(simulate({sid::parse_effect("coulomb_j2:0.3")}, Excitation::Paper, 61u));
   ASSERT_EQ(r.effects.size(), 1u);
   const auto& e = r.effects[0];
-  EXPECT_EQ(e.value_names, sid::effect_value_names(e.id));
+  EXPECT_EQ(e.value_names, sid::effect_value_names(e.effect));
   EXPECT_EQ(e.estimate.size(), static_cast<Eigen::Index>(e.value_names.size()));
   EXPECT_EQ(e.std.size(), e.estimate.size());
   EXPECT_GT(e.wald, 0.0);
@@ -439,7 +439,8 @@ TEST(Diagnose, RestrictsTheSearchToTheGivenCandidates) {
   const sid::DiagnosisResult r = sid::diagnose(
       simulate({sid::parse_effect("coulomb_j2:0.3")}, Excitation::Paper, 62u), options);
   for (const auto& e : r.effects)
-    EXPECT_TRUE(e.id == "torque_offset_j1" || e.id == "spring_j2") << e.id;
+    EXPECT_TRUE(e.effect.id() == "torque_offset_j1" || e.effect.id() == "spring_j2")
+        << e.effect.id();
   EXPECT_EQ(r.effects.size() + r.not_named.size() + r.not_separable.size(), 2u);
 }
 
@@ -454,9 +455,9 @@ TEST(Diagnose, ThrowsOnBadInput) {
   nan_data.tau(100, 1) = std::nan("");
   sid_test::expect_invalid_argument([&] { (void)sid::diagnose(nan_data); }, "sid::diagnose", "tau");
   sid::DiagnoseOptions unknown;
-  unknown.candidates = {"coulomb_j3"};
+  unknown.candidates = {sid::Effect{sid::EffectKind::Coulomb, 2}};
   sid_test::expect_invalid_argument([&] { (void)sid::diagnose(good, unknown); }, "sid::diagnose",
-                                    "coulomb_j3");
+                                    "effect joint 2 is outside 0..1");
   sid::DiagnoseOptions alpha;
   alpha.family_alpha = 1.5;
   sid_test::expect_invalid_argument([&] { (void)sid::diagnose(good, alpha); }, "sid::diagnose",

@@ -21,6 +21,7 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -95,6 +96,9 @@ Eigen::MatrixXd expected_columns(const std::string& id, const State& s, double e
   return z;
 }
 
+// Tests address effects by their documented text ids; the library takes them parsed.
+sid::Effect parsed(const std::string& id) { return sid::Effect(id); }
+
 const std::vector<std::string>& all_ids() {
   static const std::vector<std::string> ids{
       "coulomb_j1",       "coulomb_j2",       "stribeck_j1",     "stribeck_j2",
@@ -105,21 +109,37 @@ const std::vector<std::string>& all_ids() {
 
 // A spec with values of a plausible size for each id.
 sid::EffectSpec example_spec(const std::string& id) {
-  if (id.rfind("coulomb", 0) == 0) return {id, {0.15}};
-  if (id.rfind("stribeck", 0) == 0) return {id, {0.1, 0.35, 0.2}};
-  if (id.rfind("torque_offset", 0) == 0) return {id, {-0.07}};
-  if (id.rfind("angle_offset", 0) == 0) return {id, {0.05}};
-  if (id.rfind("armature", 0) == 0) return {id, {0.008}};
-  return {id, {0.3}};  // spring
+  if (id.rfind("coulomb", 0) == 0) return {parsed(id), {0.15}};
+  if (id.rfind("stribeck", 0) == 0) return {parsed(id), {0.1, 0.35, 0.2}};
+  if (id.rfind("torque_offset", 0) == 0) return {parsed(id), {-0.07}};
+  if (id.rfind("angle_offset", 0) == 0) return {parsed(id), {0.05}};
+  if (id.rfind("armature", 0) == 0) return {parsed(id), {0.008}};
+  return {parsed(id), {0.3}};  // spring
 }
 
 }  // namespace
 
 TEST(Effects, IdsAreInTheDocumentedOrder) {
-  EXPECT_EQ(sid::effect_ids(), all_ids());
-  for (const auto& id : all_ids()) EXPECT_TRUE(sid::is_effect_id(id)) << id;
-  for (const char* id : {"", "coulomb", "coulomb_j3", "angle_offset_j1", "Coulomb_j1"})
-    EXPECT_FALSE(sid::is_effect_id(id)) << id;
+  std::vector<std::string> ids;
+  for (const sid::Effect e : sid::all_effects()) ids.push_back(e.id());
+  EXPECT_EQ(ids, all_ids());
+  for (const auto& id : all_ids()) EXPECT_EQ(parsed(id).id(), id);
+  for (const char* id : {"", "coulomb", "coulomb_j3", "coulomb_j0", "angle_offset_j1", "Coulomb_j1",
+                         "coulomb_j1 ", "spring_j12"})
+    sid_test::expect_invalid_argument([&] { (void)sid::Effect(std::string(id)); }, "sid::Effect",
+                                      "unknown effect id '" + std::string(id) + "'");
+}
+
+TEST(Effects, EffectsAreValuesOfKindAndJoint) {
+  const sid::Effect coulomb2{sid::EffectKind::Coulomb, 1};
+  EXPECT_EQ(coulomb2, sid::Effect("coulomb_j2"));
+  EXPECT_NE(coulomb2, sid::Effect("coulomb_j1"));
+  EXPECT_NE(coulomb2, sid::Effect("stribeck_j2"));
+  EXPECT_EQ(sid::Effect("angle_offset_q1"), (sid::Effect{sid::EffectKind::AngleOffset, 0}));
+  EXPECT_EQ(sid::contained_effect("stribeck_j2"), std::optional<sid::Effect>(coulomb2));
+  EXPECT_FALSE(sid::contained_effect("coulomb_j2").has_value());
+  EXPECT_TRUE(sid::is_dynamic_effect("spring_j1"));
+  EXPECT_FALSE(sid::is_dynamic_effect("torque_offset_j2"));
 }
 
 TEST(Effects, TermColumnsMatchTheClosedFormsAtRandomStates) {
@@ -130,7 +150,7 @@ TEST(Effects, TermColumnsMatchTheClosedFormsAtRandomStates) {
       settings.coulomb_epsilon = eps;
       settings.stribeck_velocity = vs;
       for (const auto& id : all_ids()) {
-        const sid::Term<double> term = sid::effect_term(id, settings);
+        const sid::Term<double> term = sid::effect_term(parsed(id), settings);
         EXPECT_EQ(term.name, id);
         for (int trial = 0; trial < 50; ++trial) {
           const State s = random_state(rng);
@@ -174,26 +194,33 @@ TEST(Effects, ParameterAndValueNames) {
       {"spring_j1", {{"spring_j1.k"}, {"k"}}},
   };
   for (const auto& [id, names] : cases) {
-    EXPECT_EQ(sid::effect_term(id).parameter_names, names.first) << id;
-    EXPECT_EQ(sid::effect_value_names(id), names.second) << id;
-    EXPECT_EQ(sid::effect_value_units(id).size(), names.second.size()) << id;
+    EXPECT_EQ(sid::effect_term(parsed(id)).parameter_names, names.first) << id;
+    EXPECT_EQ(sid::effect_value_names(parsed(id)), names.second) << id;
+    EXPECT_EQ(sid::effect_value_units(parsed(id)).size(), names.second.size()) << id;
   }
   EXPECT_EQ(sid::effect_name("coulomb_j2"), "Coulomb friction on joint 2");
   EXPECT_NE(sid::effect_name("torque_offset_j1").find("constant load"), std::string::npos);
   EXPECT_NE(sid::effect_name("angle_offset_q1").find("tilt"), std::string::npos);
   EXPECT_NE(sid::effect_name("armature_j1").find("theta1"), std::string::npos);
-  for (const auto& id : all_ids()) EXPECT_FALSE(sid::effect_name(id).empty()) << id;
+  for (const auto& id : all_ids()) EXPECT_FALSE(sid::effect_name(parsed(id)).empty()) << id;
 }
 
 TEST(Effects, UnknownIdIsRefusedWithTheListOfValidIds) {
   for (const auto& call : std::vector<std::pair<std::string, std::function<void()>>>{
-           {"sid::effect_term", [] { (void)sid::effect_term("coulomb_j3"); }},
-           {"sid::effect_name", [] { (void)sid::effect_name("coulomb_j3"); }},
-           {"sid::effect_value_names", [] { (void)sid::effect_value_names("coulomb_j3"); }},
+           {"sid::Effect", [] { (void)sid::Effect("coulomb_j3"); }},
            {"sid::parse_effect", [] { (void)sid::parse_effect("coulomb_j3:0.1"); }}}) {
     sid_test::expect_invalid_argument(call.second, call.first, "unknown effect id 'coulomb_j3'");
     for (const auto& id : all_ids()) sid_test::expect_invalid_argument(call.second, call.first, id);
   }
+  // An effect built from its parts can still name a joint the library does not serve.
+  const sid::Effect third{sid::EffectKind::Coulomb, 2};
+  sid_test::expect_invalid_argument([&] { (void)sid::effect_term(third); }, "sid::effect_term",
+                                    "effect joint 2 is outside 0..1");
+  sid_test::expect_invalid_argument(
+      [&] {
+        sid::validate_effect({third, {0.1}});
+      },
+      "sid::validate_effect", "effect joint 2 is outside 0..1");
 }
 
 TEST(Effects, BadSettingsAreRefused) {
@@ -221,7 +248,7 @@ TEST(Effects, AngleOffsetColumnsAreExact) {
   for (const int j : {0, 1}) {
     const std::string id = j == 0 ? "angle_offset_q1" : "angle_offset_q2";
     sid::Model<double> model = sid::two_link_arm_model<double>(kG);
-    model.add(sid::effect_term(id));
+    model.add(sid::effect_term(parsed(id)));
     for (int trial = 0; trial < 200; ++trial) {
       const double delta = offset(rng);
       const State s = random_state(rng);
@@ -318,9 +345,9 @@ TEST(Effects, EffectfulArmRefusesDuplicatesAndBadSpecs) {
       "sid::effectful_arm", "needs 1 value");
   sid_test::expect_invalid_argument(
       [&] {
-        (void)sid::effectful_arm(theta, {{"friction", {1.0}}});
+        (void)sid::effectful_arm(theta, {{sid::Effect{sid::EffectKind::Spring, 5}, {1.0}}});
       },
-      "sid::effectful_arm", "unknown effect id");
+      "sid::effectful_arm", "effect joint 5 is outside");
   const sid::EffectfulArm none = sid::effectful_arm(theta, {});
   EXPECT_EQ(none.theta, Eigen::VectorXd(theta));
   EXPECT_EQ(none.model.num_parameters(), 7);
@@ -344,7 +371,7 @@ struct Fit {
 Fit fit_with_effect(const std::string& id, const std::vector<State>& states,
                     const std::vector<V2>& tau, const sid::EffectSettings& settings) {
   sid::Model<double> model = sid::two_link_arm_model<double>(kG);
-  model.add(sid::effect_term(id, settings));
+  model.add(sid::effect_term(parsed(id), settings));
   sid::Kinematics<double> k;
   const auto n = static_cast<Eigen::Index>(states.size());
   k.t = Eigen::VectorXd::LinSpaced(n, 0.0, 1.0);
@@ -385,8 +412,8 @@ TEST(Effects, EstimateRecoversEveryEffectFromExactTorques) {
       const Fit fit = fit_with_effect(id, states, tau, settings);
       ASSERT_TRUE(fit.ls.ok()) << id << ": " << fit.ls.message;
       const sid::EffectEstimate e =
-          sid::effect_estimate(id, fit.ls.theta, fit.ls.covariance, fit.model, settings);
-      EXPECT_EQ(e.id, id);
+          sid::effect_estimate(parsed(id), fit.ls.theta, fit.ls.covariance, fit.model, settings);
+      EXPECT_EQ(e.effect.id(), id);
       ASSERT_EQ(e.value.size(), static_cast<Eigen::Index>(spec.values.size())) << id;
       ASSERT_EQ(e.std.size(), e.value.size()) << id;
       for (std::size_t i = 0; i < spec.values.size(); ++i)
@@ -413,7 +440,7 @@ TEST(Effects, EstimateStandardDeviationsAreFiniteAndConsistentWithNoisyTorques) 
     const Fit fit = fit_with_effect(id, states, tau, settings);
     ASSERT_TRUE(fit.ls.ok()) << id;
     const sid::EffectEstimate e =
-        sid::effect_estimate(id, fit.ls.theta, fit.ls.covariance, fit.model, settings);
+        sid::effect_estimate(parsed(id), fit.ls.theta, fit.ls.covariance, fit.model, settings);
     for (Eigen::Index i = 0; i < e.value.size(); ++i) {
       if (id.rfind("stribeck", 0) == 0 && i == 2) {
         EXPECT_EQ(e.std[i], 0.0) << "vs is fixed, not estimated";
@@ -444,9 +471,9 @@ TEST(Effects, AngleOffsetStandardDeviationMatchesTheSpreadOverNoiseDraws) {
   for (int run = 0; run < kRuns; ++run) {
     std::vector<V2> tau = exact;
     for (auto& t : tau) t += V2(noise(rng), noise(rng));
-    const Fit fit = fit_with_effect(spec.id, states, tau, {});
+    const Fit fit = fit_with_effect(spec.effect.id(), states, tau, {});
     const sid::EffectEstimate e =
-        sid::effect_estimate(spec.id, fit.ls.theta, fit.ls.covariance, fit.model);
+        sid::effect_estimate(spec.effect, fit.ls.theta, fit.ls.covariance, fit.model);
     sum += e.value[0];
     sum2 += e.value[0] * e.value[0];
     reported += e.std[0] / kRuns;
@@ -497,7 +524,7 @@ TEST(Effects, ParseEffectReadsGoodSpecs) {
   };
   for (const auto& [text, want] : cases) {
     const sid::EffectSpec got = sid::parse_effect(text);
-    EXPECT_EQ(got.id, want.id) << text;
+    EXPECT_EQ(got.effect.id(), want.effect.id()) << text;
     EXPECT_EQ(got.values, want.values) << text;
   }
 }

@@ -33,13 +33,13 @@ Refined refine(const std::string& spec, Excitation excitation, unsigned seed) {
   Refined r;
   r.before = sid::diagnose(data);
   r.after = r.before;
-  sid::refine_named_friction(r.after, data, sid::DiagnoseOptions());
+  r.after = sid::refine_named_friction(r.after, data, sid::DiagnoseOptions());
   return r;
 }
 
 std::vector<std::string> ids(const sid::DiagnosisResult& r) {
   std::vector<std::string> out;
-  for (const auto& e : r.effects) out.push_back(e.id);
+  for (const auto& e : r.effects) out.push_back(e.effect.id());
   return out;
 }
 
@@ -55,9 +55,9 @@ TEST(FrictionRefinement, NamesStribeckFrictionAndItsValuesOnBothExcitations) {
         ASSERT_EQ(r.after.friction_checks.size(), 1u);
         const sid::FrictionCheck& c = r.after.friction_checks[0];
         EXPECT_EQ(c.joint, joint);
-        EXPECT_EQ(c.chosen, "stribeck_j" + j);
+        EXPECT_EQ(c.chosen.id(), "stribeck_j" + j);
         EXPECT_TRUE(c.stribeck_fitted) << "the screen must let a real bump through";
-        if (c.named == "coulomb_j" + j)
+        if (c.named.id() == "coulomb_j" + j)
           EXPECT_GE(c.score, sid::FrictionRefinementOptions().screen_level);
         else  // the torque-domain tests saw the bump: it is fitted first, without the screen
           EXPECT_TRUE(std::isnan(c.score)) << c.score;
@@ -90,7 +90,7 @@ TEST(FrictionRefinement, KeepsCoulombFrictionCoulomb) {
         ASSERT_EQ(ids(r.after), std::vector<std::string>{id});
         ASSERT_EQ(r.after.friction_checks.size(), 1u);
         const sid::FrictionCheck& c = r.after.friction_checks[0];
-        EXPECT_EQ(c.chosen, id);
+        EXPECT_EQ(c.chosen.id(), id);
         // Either the screen found no bump worth fitting, or the fit found none significant.
         if (c.stribeck_fitted)
           EXPECT_GT(c.p_value, 0.01) << "score " << c.score;
@@ -112,9 +112,11 @@ TEST(FrictionRefinement, ChoosesCoulombOverANamedBumpWithTheValuesOfAFullCoulomb
   const sid::DiagnosisResult coulomb = sid::diagnose(data);
   ASSERT_EQ(ids(coulomb), std::vector<std::string>{"coulomb_j2"});
   sid::DiagnosisResult bump = coulomb;
-  bump.effects[0].id = "stribeck_j2";
+  bump.effects[0].effect = "stribeck_j2";
   bump.final_settings[0].stribeck_velocity = 0.2;
-  const Eigen::Index fc = 7;  // θ1..θ7, then Fc
+  bump.final_model = sid::two_link_arm_model<double>(sid::kPaperGravity);
+  bump.final_model.add(sid::effect_term(bump.effects[0].effect, bump.final_settings[0]));
+  const Eigen::Index fc = coulomb.final_model.parameter_offset("coulomb_j2");
   auto insert_after_fc = [&](const Eigen::VectorXd& v, double value) {
     Eigen::VectorXd out(v.size() + 1);
     out << v.head(fc + 1), value, v.tail(v.size() - fc - 1);
@@ -125,10 +127,10 @@ TEST(FrictionRefinement, ChoosesCoulombOverANamedBumpWithTheValuesOfAFullCoulomb
 
   const sid::FrictionRefinement as_named_coulomb = sid::refine_friction(coulomb, data, 2);
   const sid::FrictionRefinement as_named_stribeck = sid::refine_friction(bump, data, 2);
-  ASSERT_TRUE(as_named_coulomb.ok && as_named_stribeck.ok) << as_named_stribeck.check.message;
+  ASSERT_TRUE(as_named_coulomb.ok() && as_named_stribeck.ok()) << as_named_stribeck.check.message;
   const sid::FrictionCheck& c = as_named_stribeck.check;
-  EXPECT_EQ(c.named, "stribeck_j2");
-  EXPECT_EQ(c.chosen, "coulomb_j2") << "likelihood ratio " << c.statistic;
+  EXPECT_EQ(c.named.id(), "stribeck_j2");
+  EXPECT_EQ(c.chosen.id(), "coulomb_j2") << "likelihood ratio " << c.statistic;
   EXPECT_TRUE(c.stribeck_fitted);
   EXPECT_TRUE(std::isnan(c.score)) << "no screen when the bump was named";
   EXPECT_TRUE(as_named_stribeck.coulomb.converged) << as_named_stribeck.coulomb.message;
@@ -145,7 +147,7 @@ TEST(FrictionRefinement, LeavesDataWithoutFrictionAlone) {
       simulate({sid::parse_effect("torque_offset_j2:0.1")}, Excitation::Paper, 11u);
   sid::DiagnosisResult r = sid::diagnose(data);
   const auto before = ids(r);
-  sid::refine_named_friction(r, data, sid::DiagnoseOptions());
+  r = sid::refine_named_friction(std::move(r), data, sid::DiagnoseOptions());
   EXPECT_EQ(ids(r), before);
   EXPECT_TRUE(r.friction_checks.empty());
 }

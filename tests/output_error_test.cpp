@@ -80,7 +80,7 @@ TEST(OutputError, RecoversFrictionAndStatesFromExactAngles) {
   sid::OutputErrorOptions exact;
   exact.absolute_tolerance = 1e-9;
   const sid::OutputErrorFit fit = sid::fit_output_error(p, exact);
-  ASSERT_TRUE(fit.ok) << fit.message;
+  ASSERT_TRUE(fit.ok()) << fit.message;
   EXPECT_TRUE(fit.converged) << fit.message;
   EXPECT_LT(fit.cost, 1e-2 * fit.initial_cost);
   EXPECT_LT(fit.cost, 1.0);  // the angles to well within σq = 1e-3 rad
@@ -161,7 +161,7 @@ TEST(OutputError, AbsorbsAConstantTorqueErrorInTheWindowOffsets) {
   p.s0 = kVs;                    // held: only the linear parameters and the windows are fitted
   p.tau.col(1).array() += 0.02;  // the model sees 0.02 N m more than was applied
   const sid::OutputErrorFit fit = sid::fit_output_error(p);
-  ASSERT_TRUE(fit.ok) << fit.message;
+  ASSERT_TRUE(fit.ok()) << fit.message;
   EXPECT_NEAR(fit.theta[7], 0.1, 2e-3);
   EXPECT_NEAR(fit.theta[8], 0.2, 4e-3);
   for (const auto& w : fit.windows) EXPECT_NEAR(w.torque_offset[1], -0.02, 1e-3);
@@ -193,19 +193,19 @@ TEST(OutputError, ScoreTestPredictsTheCostDropOfARefitWithTheAddedParameter) {
   const ExactRun run("stribeck_j2:0.1,0.15,0.2");
   const sid::OutputErrorProblem coulomb = coulomb_problem(run);
   const sid::OutputErrorFit null_fit = sid::fit_output_error(coulomb);
-  ASSERT_TRUE(null_fit.ok && null_fit.converged) << null_fit.message;
+  ASSERT_TRUE(null_fit.ok() && null_fit.converged) << null_fit.message;
   sid::OutputErrorProblem stribeck = exact_problem(run);
   stribeck.s0 = kVs;
   stribeck.theta0.head(8) = null_fit.theta;
   stribeck.theta0[8] = 0.0;
   stribeck.windows = null_fit.windows;
   const sid::OutputErrorFit full_fit = sid::fit_output_error(stribeck);
-  ASSERT_TRUE(full_fit.ok && full_fit.converged) << full_fit.message;
+  ASSERT_TRUE(full_fit.ok() && full_fit.converged) << full_fit.message;
   const double drop = null_fit.cost - full_fit.cost;
   ASSERT_GT(drop, 10.0) << "the bump must matter for the comparison to mean something";
 
   const sid::OutputErrorScore score = bump_score(coulomb, null_fit);
-  ASSERT_TRUE(score.ok);
+  ASSERT_TRUE(score.ok());
   EXPECT_GT(score.direction, 0.0) << "a positive bump lowers the cost";
   EXPECT_NEAR(score.statistic, drop, 0.2 * drop);
 
@@ -213,9 +213,9 @@ TEST(OutputError, ScoreTestPredictsTheCostDropOfARefitWithTheAddedParameter) {
   const ExactRun plain("coulomb_j2:0.1");
   const sid::OutputErrorProblem exact_coulomb = coulomb_problem(plain);
   const sid::OutputErrorFit exact_fit = sid::fit_output_error(exact_coulomb);
-  ASSERT_TRUE(exact_fit.ok) << exact_fit.message;
+  ASSERT_TRUE(exact_fit.ok()) << exact_fit.message;
   const sid::OutputErrorScore none = bump_score(exact_coulomb, exact_fit);
-  ASSERT_TRUE(none.ok);
+  ASSERT_TRUE(none.ok());
   EXPECT_LT(none.statistic, 1e-2 * drop);
 
   Eigen::VectorXd wrong = Eigen::VectorXd::Zero(12);
@@ -233,14 +233,14 @@ TEST(OutputError, ScoreTestDoesNotDependOnWhereTheFitStopped) {
   const ExactRun run("stribeck_j2:0.1,0.15,0.2");
   const sid::OutputErrorProblem coulomb = coulomb_problem(run);
   const sid::OutputErrorFit converged = sid::fit_output_error(coulomb);
-  ASSERT_TRUE(converged.ok && converged.converged) << converged.message;
+  ASSERT_TRUE(converged.ok() && converged.converged) << converged.message;
   sid::OutputErrorOptions loose;
   loose.absolute_tolerance = 10.0;
   const sid::OutputErrorFit early = sid::fit_output_error(coulomb, loose);
-  ASSERT_TRUE(early.ok) << early.message;
+  ASSERT_TRUE(early.ok()) << early.message;
   const sid::OutputErrorScore at_minimum_score = bump_score(coulomb, converged),
                               at_stop_score = bump_score(coulomb, early);
-  ASSERT_TRUE(at_minimum_score.ok && at_stop_score.ok);
+  ASSERT_TRUE(at_minimum_score.ok() && at_stop_score.ok());
   const double at_minimum = at_minimum_score.statistic, at_stop = at_stop_score.statistic;
   ASSERT_GT(early.cost - converged.cost, 0.1 * at_minimum)
       << "the early fit must stop short for the test to mean something";
@@ -256,7 +256,7 @@ TEST(OutputError, NestedStartReadjustsTheOtherUnknownsToTheHeldValues) {
   stribeck.estimate_nonlinear = true;
   stribeck.s0 = kVs;
   const sid::OutputErrorFit full = sid::fit_output_error(stribeck);
-  ASSERT_TRUE(full.ok && full.converged) << full.message;
+  ASSERT_TRUE(full.ok() && full.converged) << full.message;
   const sid::OutputErrorStart start = sid::nested_start(full, {8}, Eigen::VectorXd::Zero(1));
   EXPECT_EQ(start.theta[8], 0.0);
   for (Eigen::Index u = 0; u < 6; ++u)
@@ -292,14 +292,14 @@ TEST(OutputError, NestedStartReadjustsTheOtherUnknownsToTheHeldValues) {
 TEST(OutputError, ComparedFitStopsOnceTheGapIsKnownToItsTolerance) {
   const ExactRun run;  // Fs − Fc = 0.2: the Coulomb curve misfits
   const sid::OutputErrorFit better = sid::fit_output_error(exact_problem(run));
-  ASSERT_TRUE(better.ok && better.converged) << better.message;
+  ASSERT_TRUE(better.ok() && better.converged) << better.message;
   const sid::OutputErrorProblem coulomb = coulomb_problem(run);
   const sid::OutputErrorFit alone = sid::fit_output_error(coulomb);
-  ASSERT_TRUE(alone.ok && alone.converged) << alone.message;
+  ASSERT_TRUE(alone.ok() && alone.converged) << alone.message;
   sid::OutputErrorOptions against;
   against.comparison_cost = better.cost;
   const sid::OutputErrorFit compared = sid::fit_output_error(coulomb, against);
-  ASSERT_TRUE(compared.ok && compared.converged) << compared.message;
+  ASSERT_TRUE(compared.ok() && compared.converged) << compared.message;
   const double gap = alone.cost - better.cost;
   ASSERT_GT(gap, 100.0);
   EXPECT_LT(compared.iterations, alone.iterations);

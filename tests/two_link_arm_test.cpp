@@ -115,6 +115,31 @@ TEST(TwoLinkArm, GravityTorqueAtRestMatchesHandDerivation) {
   EXPECT_EQ(tau0.norm(), 0.0);
 }
 
+// The closed-form test against the smallest eigenvalue of D on a fine q2 grid, for random
+// parameters around the paper's (about half of them not physical).
+TEST(TwoLinkArm, MassMatrixPositiveDefinitenessMatchesItsEigenvaluesOnAGrid) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> scale(-0.5, 2.0);
+  int physical = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    sid::TwoLinkParameters<double> theta = sid::paper_arm_parameters();
+    for (int k = 0; k < 3; ++k) theta[k] *= scale(rng);
+    double min_eigenvalue = std::numeric_limits<double>::infinity();
+    for (int i = 0; i <= 720; ++i) {
+      const sid::Vector2<double> q(0.3, -M_PI + i * M_PI / 360.0);
+      const Eigen::Matrix2d d = sid::two_link_mass_matrix(theta, q);
+      min_eigenvalue =
+          std::min(min_eigenvalue,
+                   Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(d).eigenvalues().minCoeff());
+    }
+    const bool closed_form = sid::two_link_mass_matrix_positive_definite(theta);
+    physical += closed_form ? 1 : 0;
+    EXPECT_EQ(closed_form, min_eigenvalue > 0.0) << theta.transpose();
+  }
+  EXPECT_GT(physical, 20);
+  EXPECT_LT(physical, 180);
+}
+
 TEST(TwoLinkArm, PhysicalParametersGiveCorrectedTheta) {
   const auto physical = sid::paper_arm_physical<double>();
   const auto theta = sid::two_link_parameters(physical);

@@ -16,28 +16,9 @@ SID_INLINE IdentifyOptions diagnose_identify_defaults() {
   return o;
 }
 
-SID_INLINE std::string effect_note(const std::string& id) {
-  if (id == "torque_offset_j1") return "a constant load torque on joint 1 looks the same";
-  if (id == "torque_offset_j2") return "a constant load torque on joint 2 looks the same";
-  if (id == "angle_offset_q1") return "a tilt of the base in the plane of motion looks the same";
-  return "";
-}
-
-SID_INLINE bool starts_with(const std::string& s, const char* prefix) {
-  return s.rfind(prefix, 0) == 0;
-}
-
-SID_INLINE std::string superseded_effect(const std::string& id) {
-  if (starts_with(id, "stribeck_j")) return "coulomb_j" + id.substr(id.size() - 1);
-  return "";
-}
-
-SID_INLINE Eigen::VectorXd effect_signature(const std::string& id,
-                                            const Eigen::Ref<const Eigen::VectorXd>& theta) {
-  if (starts_with(id, "stribeck_j")) return Eigen::Vector2d(0.0, 1.0);
-  if (id == "angle_offset_q1") return Eigen::Vector2d(theta[3], theta[4]);
-  if (id == "angle_offset_q2") return Eigen::Vector2d(theta[2], theta[4]);
-  return Eigen::VectorXd::Ones(1);
+SID_INLINE std::string effect_note(Effect effect) {
+  const std::string look_alike = effect_look_alike(effect);
+  return look_alike.empty() ? "" : look_alike + " looks the same";
 }
 
 SID_INLINE Eigen::MatrixXd stack_term(const Term<double>& term, const Kinematics<double>& k) {
@@ -235,19 +216,19 @@ SID_INLINE Eigen::Index stribeck_support(int joint, double vs, const Kinematics<
   return count;
 }
 
-SID_INLINE double best_stribeck_velocity(const std::string& id, const EffectSettings& base,
+SID_INLINE double best_stribeck_velocity(Effect stribeck, const EffectSettings& base,
                                          const std::vector<double>& grid,
                                          const Kinematics<double>& k, int integration_window,
                                          const Eigen::VectorXd& row_weight, const Projector& proj,
                                          const Eigen::Ref<const Eigen::VectorXd>& r, double r2,
                                          Eigen::Index min_support) {
-  const int joint = id.back() == '1' ? 0 : 1;
+  const int joint = stribeck.joint;
   const auto explained = [&](double vs) {
     if (stribeck_support(joint, vs, k, row_weight) < min_support) return -1.0;
     EffectSettings s = base;
     s.stribeck_velocity = vs;
-    const Eigen::MatrixXd z =
-        integrate_windows(stack_term(effect_term(id, s), k), k.t, integration_window, row_weight);
+    const Eigen::MatrixXd z = integrate_windows(stack_term(effect_term(stribeck, s), k), k.t,
+                                                integration_window, row_weight);
     const Eigen::MatrixXd zr = proj.residualize(z);
     double max_r2 = 0;
     const auto kept = separable_columns(z, zr, r2, &max_r2);
@@ -345,10 +326,8 @@ SID_INLINE void check_diagnose_options(const DiagnoseOptions& o) {
                                 std::to_string(o.integration_window));
   if (!(o.window_length > 0.0) || !std::isfinite(o.window_length))
     throw std::invalid_argument(who + "options.window_length must be finite and > 0 [s]");
-  for (const auto& id : o.candidates)
-    if (!is_effect_id(id))
-      throw std::invalid_argument(who + "unknown candidate effect '" + id +
-                                  "' (valid ids: " + effect_id_list() + ")");
+  for (const Effect& e : o.candidates)
+    detail::check_effect_joint(e, "sid::diagnose: options.candidates");
   for (double v : o.stribeck_velocities)
     if (!(v > 0.0) || !std::isfinite(v))
       throw std::invalid_argument(who +
@@ -378,23 +357,8 @@ SID_INLINE Eigen::MatrixXd assemble_columns(const Eigen::MatrixXd& x0,
 
 SID_INLINE Model<double> assemble_model(double g, const std::vector<SelectedTerm>& terms) {
   Model<double> model = two_link_arm_model<double>(g);
-  for (const auto& t : terms) model.add(effect_term(t.id, t.settings));
+  for (const auto& t : terms) model.add(effect_term(t.effect, t.settings));
   return model;
-}
-
-SID_INLINE std::string inadmissibility(const EffectEstimate& e) {
-  const auto& v = e.value;
-  const auto text = [](double x) { return format_value(x); };
-  if (starts_with(e.id, "coulomb") && !(v[0] > 0.0)) return "Fc = " + text(v[0]) + " <= 0";
-  if (starts_with(e.id, "stribeck")) {
-    if (!(v[0] > 0.0)) return "Fc = " + text(v[0]) + " <= 0";
-    if (!(v[1] > v[0])) return "Fs = " + text(v[1]) + " <= Fc = " + text(v[0]);
-  }
-  if (starts_with(e.id, "armature") && !(v[0] > 0.0)) return "Ia = " + text(v[0]) + " <= 0";
-  if (starts_with(e.id, "spring") && !(v[0] > 0.0)) return "k = " + text(v[0]) + " <= 0";
-  if (starts_with(e.id, "angle_offset") && !(std::fabs(v[0]) < 1.5707963267948966))
-    return "|delta| >= pi/2";
-  return "";
 }
 
 SID_INLINE void fill_report(ModelReport& report, const HacFit& fit,
@@ -433,20 +397,20 @@ SID_INLINE void fit_final_model(DiagnosisResult& result, const std::vector<Selec
   x_final_samples.leftCols(x0_samples.cols()) = x0_samples;
   Eigen::Index c = x0_samples.cols();
   for (const auto& s : selected) {
-    const Eigen::MatrixXd z = stack_term(effect_term(s.id, s.settings), k);
+    const Eigen::MatrixXd z = stack_term(effect_term(s.effect, s.settings), k);
     x_final_samples.middleCols(c, z.cols()) = z;
     c += z.cols();
   }
   fill_report(result.final, final_fit, result.final_model.parameter_names(), k, x_final_samples,
               y_samples, result.kept, floor, options.window_length, options.family_alpha);
   for (auto& e : result.effects) {
-    const auto s =
-        std::find_if(selected.begin(), selected.end(), [&](const auto& t) { return t.id == e.id; });
-    const EffectEstimate est = effect_estimate(e.id, final_fit.theta, final_fit.covariance,
+    const auto s = std::find_if(selected.begin(), selected.end(),
+                                [&](const auto& t) { return t.effect == e.effect; });
+    const EffectEstimate est = effect_estimate(e.effect, final_fit.theta, final_fit.covariance,
                                                result.final_model, s->settings);
     e.estimate = est.value;
     e.std = est.std;
-    if (starts_with(e.id, "stribeck_j")) {
+    if (e.effect.kind == EffectKind::Stribeck) {
       // vs came from a search over widths, not from the linear fit.
       e.std[2] = std::numeric_limits<double>::quiet_NaN();
       e.note += std::string(e.note.empty() ? "" : "; ") +
@@ -508,8 +472,8 @@ struct DiagnosisEquations {
   Eigen::MatrixXd integral_form(const Eigen::Ref<const Eigen::MatrixXd>& rows) const {
     return integrate_windows(rows, k.t, window, kept);
   }
-  Eigen::MatrixXd effect_columns(const std::string& id, const EffectSettings& settings) const {
-    return integral_form(stack_term(effect_term(id, settings), k));
+  Eigen::MatrixXd effect_columns(Effect effect, const EffectSettings& settings) const {
+    return integral_form(stack_term(effect_term(effect, settings), k));
   }
 };
 
@@ -579,48 +543,52 @@ SID_INLINE TorqueFloors torque_floors(const DiagnosisEquations& eq, const Model<
 
 /// The candidates the selection may name, and those the nominal model cannot be told apart from.
 struct CandidateScreen {
-  std::vector<std::string> separable;
+  std::vector<Effect> separable;
   std::vector<NotSeparable> not_separable;
 };
 
 SID_INLINE CandidateScreen screen_candidates(const DiagnosisEquations& eq,
                                              const DiagnoseOptions& options) {
   CandidateScreen screen;
-  const std::vector<std::string>& ids =
-      options.candidates.empty() ? effect_ids() : options.candidates;
+  const std::vector<Effect>& candidates =
+      options.candidates.empty() ? all_effects() : options.candidates;
   const Projector nominal_projector(eq.x0);
-  for (const auto& id : ids) {
-    if (std::find(screen.separable.begin(), screen.separable.end(), id) != screen.separable.end())
+  for (const Effect& effect : candidates) {
+    if (std::find(screen.separable.begin(), screen.separable.end(), effect) !=
+        screen.separable.end())
       continue;
-    const Eigen::MatrixXd z = eq.effect_columns(id, options.effects);
+    const Eigen::MatrixXd z = eq.effect_columns(effect, options.effects);
     double max_r2 = 0;
     const auto kept =
         separable_columns(z, nominal_projector.residualize(z), options.separability_r2, &max_r2);
     if (!kept.empty()) {
-      screen.separable.push_back(id);
+      screen.separable.push_back(effect);
       continue;
     }
     std::string explanation =
-        id == "armature_j1"
+        effect == Effect{EffectKind::Armature, 0}
             ? "its column equals theta1's (the rotor inertia adds to D11 "
               "only): visible only as theta1 drift from a "
               "reference theta"
             : "its columns are explained by the nominal model's (R^2 = " + format_value(max_r2) +
                   ")";
-    screen.not_separable.push_back({id, effect_name(id), explanation});
+    screen.not_separable.push_back({effect, effect_name(effect), explanation});
   }
   return screen;
 }
 
 /// The model a selection round tests candidates against.
 struct RoundModel {
+  Model<double> model;  ///< whose parameters fit.theta holds
   Eigen::MatrixXd x;
   Projector projector;
   HacFit fit;
   double cv_error;
 
-  RoundModel(const DiagnosisEquations& eq, const std::vector<SelectedTerm>& selected, int cv_blocks)
-      : x(assemble_columns(eq.x0, selected)),
+  RoundModel(const DiagnosisEquations& eq, const std::vector<SelectedTerm>& selected, double g,
+             int cv_blocks)
+      : model(assemble_model(g, selected)),
+        x(assemble_columns(eq.x0, selected)),
         projector(x),
         fit(hac_fit(x, eq.y)),
         cv_error(blocked_cv_error(x, eq.y, cv_blocks)) {}
@@ -628,11 +596,11 @@ struct RoundModel {
 
 /// The state of the forward selection between rounds; its final value is the stage's result.
 struct Selection {
-  std::vector<std::string> remaining;
+  std::vector<Effect> remaining;
   std::vector<SelectedTerm> selected;
   std::vector<NamedEffect> named;
-  std::vector<CandidateTest> last_round;                     ///< the tests of the final round
-  std::vector<std::pair<std::string, std::string>> dropped;  ///< id, why it left untested
+  std::vector<CandidateTest> last_round;                ///< the tests of the final round
+  std::vector<std::pair<Effect, std::string>> dropped;  ///< why a candidate left untested
 };
 
 /// Tests every remaining candidate against the round's model; those that cannot be tested (no
@@ -644,28 +612,28 @@ SID_INLINE std::vector<CandidateTest> test_round(const DiagnosisEquations& eq,
   std::vector<CandidateTest> tests;
   for (auto it = s.remaining.begin(); it != s.remaining.end();) {
     CandidateTest t;
-    t.id = *it;
+    t.effect = *it;
     t.settings = options.effects;
-    if (starts_with(t.id, "stribeck_j")) {
+    if (t.effect.kind == EffectKind::Stribeck) {
       t.settings.stribeck_velocity = best_stribeck_velocity(
-          t.id, options.effects, stribeck_grid, eq.k, eq.window, eq.kept, model.projector,
+          t.effect, options.effects, stribeck_grid, eq.k, eq.window, eq.kept, model.projector,
           model.fit.residual, options.separability_r2, options.stribeck_min_support);
       if (std::isnan(t.settings.stribeck_velocity)) {
-        s.dropped.emplace_back(t.id, "no Stribeck width is resolved: fewer than " +
-                                         std::to_string(options.stribeck_min_support) +
-                                         " kept samples lie within the bump's half height "
-                                         "for every vs tried");
+        s.dropped.emplace_back(t.effect, "no Stribeck width is resolved: fewer than " +
+                                             std::to_string(options.stribeck_min_support) +
+                                             " kept samples lie within the bump's half height "
+                                             "for every vs tried");
         it = s.remaining.erase(it);
         continue;
       }
     }
-    t.z = eq.effect_columns(t.id, t.settings);
+    t.z = eq.effect_columns(t.effect, t.settings);
     const Eigen::MatrixXd z_resid = model.projector.residualize(t.z);
     t.kept = separable_columns(t.z, z_resid, options.separability_r2, &t.max_r2);
     if (t.kept.empty()) {
       std::string by;
-      for (const auto& named : s.selected) by += (by.empty() ? "" : ", ") + named.id;
-      s.dropped.emplace_back(t.id, "explained by the named effects (" + by + ")");
+      for (const auto& named : s.selected) by += (by.empty() ? "" : ", ") + named.effect.id();
+      s.dropped.emplace_back(t.effect, "explained by the named effects (" + by + ")");
       it = s.remaining.erase(it);
       continue;
     }
@@ -699,7 +667,8 @@ SID_INLINE void judge_candidate(CandidateTest& t, const DiagnosisEquations& eq,
                                 const RoundModel& model, const Selection& s, double critical_alpha,
                                 const DiagnoseOptions& options) {
   const Eigen::VectorXd a =
-      select_columns(effect_signature(t.id, model.fit.theta).transpose(), t.kept).transpose();
+      select_columns(effect_signature(t.effect, model.fit.theta, model.model).transpose(), t.kept)
+          .transpose();
   const double sensitivity = a.dot(t.covariance.ldlt().solve(a));
   if (sensitivity > 0.0)
     t.detection_limit = std::sqrt(
@@ -707,17 +676,18 @@ SID_INLINE void judge_candidate(CandidateTest& t, const DiagnosisEquations& eq,
   if (!(t.p_adjusted < options.family_alpha && t.bic_drop > 0.0 && t.cv_drop > 0.0)) return;
   std::vector<SelectedTerm> trial;
   for (const auto& named : s.selected)
-    if (named.id != superseded_effect(t.id)) trial.push_back(named);
-  trial.push_back({t.id, t.settings, t.z});
+    if (named.effect != contained_effect(t.effect)) trial.push_back(named);
+  trial.push_back({t.effect, t.settings, t.z});
   const Eigen::MatrixXd xt = assemble_columns(eq.x0, trial);
   const auto ls = least_squares(xt, eq.y, 2);
   if (!ls.ok()) {
     t.inadmissible = "rank deficient with the named effects";
     return;
   }
-  const EffectEstimate e = effect_estimate(
-      t.id, ls.theta, ls.covariance, assemble_model(options.identify.gravity, trial), t.settings);
-  t.inadmissible = inadmissibility(e);
+  const EffectEstimate e =
+      effect_estimate(t.effect, ls.theta, ls.covariance,
+                      assemble_model(options.identify.gravity, trial), t.settings);
+  t.inadmissible = admissibility_violation(t.effect, e.value);
   t.admissible = t.inadmissible.empty();
   t.passed = t.admissible;
 }
@@ -725,41 +695,41 @@ SID_INLINE void judge_candidate(CandidateTest& t, const DiagnosisEquations& eq,
 /// Adds the chosen candidate to the model; a Stribeck term replaces its joint's Coulomb term.
 SID_INLINE void name_candidate(const CandidateTest& chosen, Selection& s) {
   NamedEffect effect;
-  effect.id = chosen.id;
-  effect.name = effect_name(chosen.id);
-  effect.value_names = effect_value_names(chosen.id);
+  effect.effect = chosen.effect;
+  effect.name = effect_name(chosen.effect);
+  effect.value_names = effect_value_names(chosen.effect);
   effect.wald = chosen.wald;
   effect.p_value = chosen.p_adjusted;
   effect.information_drop = chosen.bic_drop;
   effect.cv_drop = chosen.cv_drop;
-  effect.note = effect_note(chosen.id);
-  const std::string superseded = superseded_effect(chosen.id);
+  effect.note = effect_note(chosen.effect);
+  const std::optional<Effect> superseded = contained_effect(chosen.effect);
   for (auto it = s.selected.begin(); it != s.selected.end();)
-    it = it->id == superseded ? s.selected.erase(it) : it + 1;
+    it = it->effect == superseded ? s.selected.erase(it) : it + 1;
   for (auto e = s.named.begin(); e != s.named.end();) {
-    if (e->id == superseded) {
-      effect.note = "contains the Coulomb level Fc; replaces " + superseded + ", named earlier";
+    if (e->effect == superseded) {
+      effect.note =
+          "contains the Coulomb level Fc; replaces " + superseded->id() + ", named earlier";
       e = s.named.erase(e);
     } else {
       ++e;
     }
   }
-  s.selected.push_back({chosen.id, chosen.settings, chosen.z});
+  s.selected.push_back({chosen.effect, chosen.settings, chosen.z});
   s.named.push_back(std::move(effect));
-  s.remaining.erase(std::find(s.remaining.begin(), s.remaining.end(), chosen.id));
+  s.remaining.erase(std::find(s.remaining.begin(), s.remaining.end(), chosen.effect));
 }
 
 /// Forward selection: each round names the passing candidate with the largest BIC drop, until
 /// none passes.
-SID_INLINE Selection forward_selection(const DiagnosisEquations& eq,
-                                       std::vector<std::string> candidates,
+SID_INLINE Selection forward_selection(const DiagnosisEquations& eq, std::vector<Effect> candidates,
                                        const DiagnoseOptions& options) {
   const std::vector<double> grid =
       options.stribeck_velocities.empty() ? default_stribeck_grid() : options.stribeck_velocities;
   Selection s;
   s.remaining = std::move(candidates);
   while (!s.remaining.empty()) {
-    const RoundModel model(eq, s.selected, options.cv_blocks);
+    const RoundModel model(eq, s.selected, options.identify.gravity, options.cv_blocks);
     std::vector<CandidateTest> tests = test_round(eq, model, grid, s, options);
     if (tests.empty()) break;
     std::vector<double> p_raw;
@@ -799,7 +769,7 @@ SID_INLINE std::vector<UnnamedEffect> unnamed_effects(const Selection& s,
       reason = "no blocked-CV gain";
     else
       reason = "not admissible: " + t.inadmissible;
-    out.push_back({t.id, effect_name(t.id), reason, t.detection_limit});
+    out.push_back({t.effect, effect_name(t.effect), reason, t.detection_limit});
   }
   return out;
 }
@@ -839,7 +809,8 @@ SID_INLINE DiagnosisResult diagnose(const Trajectory<double>& data,
   return result;
 }
 
-SID_INLINE void refit_final_model(DiagnosisResult& result, const DiagnoseOptions& options) {
+SID_INLINE DiagnosisResult refit_final_model(DiagnosisResult result,
+                                             const DiagnoseOptions& options) {
   if (result.effects.size() != result.final_settings.size())
     throw std::invalid_argument(
         "sid::refit_final_model: result.effects has " + std::to_string(result.effects.size()) +
@@ -851,15 +822,17 @@ SID_INLINE void refit_final_model(DiagnosisResult& result, const DiagnoseOptions
   const Eigen::VectorXd y = detail::integrate_windows(nominal.y, k.t, iw, result.kept);
   std::vector<detail::SelectedTerm> selected;
   for (std::size_t i = 0; i < result.effects.size(); ++i) {
-    const auto& id = result.effects[i].id;
+    const Effect effect = result.effects[i].effect;
     const auto& settings = result.final_settings[i];
-    selected.push_back({id, settings,
-                        detail::integrate_windows(detail::stack_term(effect_term(id, settings), k),
-                                                  k.t, iw, result.kept)});
+    selected.push_back(
+        {effect, settings,
+         detail::integrate_windows(detail::stack_term(effect_term(effect, settings), k), k.t, iw,
+                                   result.kept)});
   }
   const Vector2<double> floor =
       (result.noise_floor.array().square() + result.kinematic_floor.array().square()).sqrt();
   detail::fit_final_model(result, selected, x0, y, nominal.X, nominal.y, floor, options);
+  return result;
 }
 
 }  // namespace sid

@@ -40,8 +40,8 @@ SID_INLINE IdentifyOptions diagnose_identify_defaults();
 struct DiagnoseOptions {
   /// Defaults: CSS with SmoothingMode::Gcv, skip 0.25 s, skip_end 0.05 s.
   IdentifyOptions identify = detail::diagnose_identify_defaults();
-  EffectSettings effects;               ///< ε, g, default vs
-  std::vector<std::string> candidates;  ///< effect ids to try; empty = all of effect_ids()
+  EffectSettings effects;          ///< ε, g, default vs
+  std::vector<Effect> candidates;  ///< effects to try; empty = all_effects()
   /// vs grid [rad/s] for stribeck; empty = a log grid 0.05..1 refined around its best point.
   std::vector<double> stribeck_velocities;
   /// Family-wise significance level of the HAC Wald tests (Holm over the candidates of a round).
@@ -88,18 +88,7 @@ struct DiagnoseOptions {
 namespace detail {
 
 /// The remark a report must make next to a named effect that has a physical look-alike.
-SID_INLINE std::string effect_note(const std::string& id);
-
-SID_INLINE bool starts_with(const std::string& s, const char* prefix);
-
-/// The named effect an effect's term contains (a Stribeck term holds the Coulomb column).
-SID_INLINE std::string superseded_effect(const std::string& id);
-
-/// How the term's coefficients grow with a unit change of the effect's main physical value
-/// (Fc, Fs − Fc, b, δ for small δ, Ia, k), given the current θ1..θ7: used to turn the Wald test's
-/// covariance into a detection limit in physical units.
-SID_INLINE Eigen::VectorXd effect_signature(const std::string& id,
-                                            const Eigen::Ref<const Eigen::VectorXd>& theta);
+SID_INLINE std::string effect_note(Effect effect);
 
 /// The stacked columns (2n x size) of one term over the kinematics.
 SID_INLINE Eigen::MatrixXd stack_term(const Term<double>& term, const Kinematics<double>& k);
@@ -148,7 +137,7 @@ struct Projector {
 
 /// What the tests say about one candidate in one round of the forward selection.
 struct CandidateTest {
-  std::string id;
+  Effect effect;
   EffectSettings settings;
   Eigen::MatrixXd z;               ///< the term's columns (all of them)
   std::vector<Eigen::Index> kept;  ///< columns not explained by the current model
@@ -197,7 +186,7 @@ SID_INLINE Eigen::Index stribeck_support(int joint, double vs, const Kinematics<
 /// golden-section search in log vs between the best point's neighbours. Only widths whose bump
 /// the kept samples resolve (min_support of them within its half height) are tried; NaN when
 /// there is none.
-SID_INLINE double best_stribeck_velocity(const std::string& id, const EffectSettings& base,
+SID_INLINE double best_stribeck_velocity(Effect stribeck, const EffectSettings& base,
                                          const std::vector<double>& grid,
                                          const Kinematics<double>& k, int integration_window,
                                          const Eigen::VectorXd& row_weight, const Projector& proj,
@@ -219,7 +208,7 @@ SID_INLINE void check_diagnose_options(const DiagnoseOptions& o);
 
 /// A named term of the growing model.
 struct SelectedTerm {
-  std::string id;
+  Effect effect;
   EffectSettings settings;
   Eigen::MatrixXd z;
 };
@@ -228,9 +217,6 @@ SID_INLINE Eigen::MatrixXd assemble_columns(const Eigen::MatrixXd& x0,
                                             const std::vector<SelectedTerm>& terms);
 
 SID_INLINE Model<double> assemble_model(double g, const std::vector<SelectedTerm>& terms);
-
-/// Admissibility of an effect's physical values (Fc > 0, Fs > Fc, Ia > 0, k > 0, |δ| < π/2).
-SID_INLINE std::string inadmissibility(const EffectEstimate& e);
 
 /// The report of a fit; residuals per sample from the per-sample equations (x_samples θ =
 /// y_samples) whatever form the fit used.
@@ -279,14 +265,15 @@ SID_INLINE void fit_final_model(DiagnosisResult& result, const std::vector<Selec
 SID_INLINE DiagnosisResult diagnose(const Trajectory<double>& data,
                                     const DiagnoseOptions& options = {});
 
-/// @brief Refits the final model of a diagnosis with the effects result.effects names, each
+/// @brief The diagnosis with its final model refitted with the effects result.effects names, each
 /// built with the matching entry of result.final_settings, so that the torque-domain report,
-/// the effect estimates and the drift follow a change a later step made (the output-error test
+/// the effect estimates and the drift follow a change a later stage made (the output-error test
 /// of sid/cvode/friction_refinement.hpp choosing Stribeck over Coulomb friction, or the Stribeck
 /// velocity it estimated).
 /// @param options the options the diagnosis ran with.
 /// @throws std::invalid_argument if result.effects and result.final_settings differ in size.
-SID_INLINE void refit_final_model(DiagnosisResult& result, const DiagnoseOptions& options);
+[[nodiscard]] SID_INLINE DiagnosisResult refit_final_model(DiagnosisResult result,
+                                                           const DiagnoseOptions& options);
 
 }  // namespace sid
 

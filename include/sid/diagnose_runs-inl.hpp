@@ -77,59 +77,61 @@ SID_INLINE std::pair<Eigen::VectorXd, Eigen::MatrixXd> fit_with_hac(const RunsEq
   return {unscale * beta, unscale * inverse * long_run * inverse * unscale};
 }
 
-SID_INLINE Model<double> model_with(
-    double g, const std::vector<std::pair<std::string, EffectSettings>>& named) {
+SID_INLINE Model<double> model_with(double g,
+                                    const std::vector<std::pair<Effect, EffectSettings>>& named) {
   Model<double> model = two_link_arm_model<double>(g);
-  for (const auto& [id, settings] : named) model.add(effect_term(id, settings));
+  for (const auto& [effect, settings] : named) model.add(effect_term(effect, settings));
   return model;
 }
 
-SID_INLINE std::vector<std::pair<std::string, EffectSettings>> with_candidate(
-    std::vector<std::pair<std::string, EffectSettings>> named, const std::string& id,
+SID_INLINE std::vector<std::pair<Effect, EffectSettings>> with_candidate(
+    std::vector<std::pair<Effect, EffectSettings>> named, Effect effect,
     const EffectSettings& settings) {
-  const std::string superseded = superseded_effect(id);
+  const std::optional<Effect> superseded = contained_effect(effect);
   named.erase(std::remove_if(named.begin(), named.end(),
                              [&](const auto& e) { return e.first == superseded; }),
               named.end());
-  named.emplace_back(id, settings);
+  named.emplace_back(effect, settings);
   return named;
 }
 
 SID_INLINE RunsEffectTest
-test_candidate(const std::string& id, const EffectSettings& settings,
-               const std::vector<std::pair<std::string, EffectSettings>>& named,
+test_candidate(Effect effect, const EffectSettings& settings,
+               const std::vector<std::pair<Effect, EffectSettings>>& named,
                const std::vector<Kinematics<double>>& kinematics, const Vector2<double>& base_ms,
                const RunsDiagnoseOptions& options) {
   RunsEffectTest t;
-  t.id = id;
+  t.effect = effect;
   t.settings = settings;
-  const Model<double> model = model_with(settings.gravity, with_candidate(named, id, settings));
+  const Model<double> model = model_with(settings.gravity, with_candidate(named, effect, settings));
   const RunsEquations e = runs_equations(model, kinematics, options.identify.folds_per_run);
   const Vector2<double> ms = left_out_mean_square(e);
   t.prediction_gain = (base_ms - ms).cwiseQuotient(base_ms);
   t.gain = t.prediction_gain.mean();
   const auto [theta, covariance] = fit_with_hac(e);
-  const Eigen::Index at = model.parameter_offset(id), size = effect_term(id, settings).size();
+  const Eigen::Index at = model.parameter_offset(effect.id()),
+                     size = effect_term(effect, settings).size();
   t.wald = wald_statistic(theta.segment(at, size), covariance.block(at, at, size, size));
   t.p_value = std::isfinite(t.wald)
                   ? chi_square_tail(std::max(0.0, t.wald), static_cast<double>(size))
                   : 1.0;
-  t.estimate = effect_estimate(id, theta, covariance, model, settings);
+  t.estimate = effect_estimate(effect, theta, covariance, model, settings);
   return t;
 }
 
-SID_INLINE double best_stribeck_width(
-    const std::string& id, const std::vector<std::pair<std::string, EffectSettings>>& named,
-    const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options) {
+SID_INLINE double best_stribeck_width(Effect stribeck,
+                                      const std::vector<std::pair<Effect, EffectSettings>>& named,
+                                      const std::vector<Kinematics<double>>& kinematics,
+                                      const RunsDiagnoseOptions& options) {
   const std::vector<double> grid =
       options.stribeck_velocities.empty() ? default_stribeck_grid() : options.stribeck_velocities;
   double best = grid.front(), best_ms = std::numeric_limits<double>::infinity();
   for (double vs : grid) {
     EffectSettings s = options.effects;
     s.stribeck_velocity = vs;
-    const Vector2<double> ms =
-        left_out_mean_square(runs_equations(model_with(s.gravity, with_candidate(named, id, s)),
-                                            kinematics, options.identify.folds_per_run));
+    const Vector2<double> ms = left_out_mean_square(
+        runs_equations(model_with(s.gravity, with_candidate(named, stribeck, s)), kinematics,
+                       options.identify.folds_per_run));
     if (ms.sum() < best_ms) {
       best_ms = ms.sum();
       best = vs;
@@ -168,10 +170,7 @@ SID_INLINE void check_runs_diagnose_options(const RunsDiagnoseOptions& o) {
     throw std::invalid_argument(who + "family_alpha must be in (0, 1)");
   if (!(o.min_prediction_gain >= 0.0 && o.min_prediction_gain < 1.0))
     throw std::invalid_argument(who + "min_prediction_gain must be in [0, 1)");
-  for (const auto& id : o.candidates)
-    if (!is_effect_id(id))
-      throw std::invalid_argument(who + "unknown effect '" + id + "' (known: " + effect_id_list() +
-                                  ")");
+  for (const Effect& e : o.candidates) check_effect_joint(e, "sid::diagnose_runs: candidates");
   for (double vs : o.stribeck_velocities)
     if (!(vs > 0.0) || !std::isfinite(vs))
       throw std::invalid_argument(who + "stribeck_velocities must be finite and > 0");
@@ -190,22 +189,22 @@ SID_INLINE std::string rejection(const RunsEffectTest& t, const RunsDiagnoseOpti
   if (!(t.gain > o.min_prediction_gain))
     return "does not predict held-out torques better (their mean square " +
            mean_square_change(t.prediction_gain) + " on joint 1 / 2)";
-  const std::string inadmissible = inadmissibility(t.estimate);
+  const std::string inadmissible = admissibility_violation(t.effect, t.estimate.value);
   return inadmissible.empty() ? "" : "not admissible: " + inadmissible;
 }
 
 SID_INLINE std::vector<RunsEffectTest> selection_round(
-    const std::vector<std::string>& remaining,
-    const std::vector<std::pair<std::string, EffectSettings>>& named,
+    const std::vector<Effect>& remaining,
+    const std::vector<std::pair<Effect, EffectSettings>>& named,
     const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options) {
   const Vector2<double> base_ms = left_out_mean_square(runs_equations(
       model_with(options.effects.gravity, named), kinematics, options.identify.folds_per_run));
   std::vector<RunsEffectTest> tests;
-  for (const auto& id : remaining) {
+  for (const Effect effect : remaining) {
     EffectSettings settings = options.effects;
-    if (starts_with(id, "stribeck_j"))
-      settings.stribeck_velocity = best_stribeck_width(id, named, kinematics, options);
-    tests.push_back(test_candidate(id, settings, named, kinematics, base_ms, options));
+    if (effect.kind == EffectKind::Stribeck)
+      settings.stribeck_velocity = best_stribeck_width(effect, named, kinematics, options);
+    tests.push_back(test_candidate(effect, settings, named, kinematics, base_ms, options));
   }
   std::vector<double> p;
   for (const auto& t : tests) p.push_back(t.p_value);
@@ -221,9 +220,9 @@ SID_INLINE const RunsEffectTest* best_candidate(const std::vector<RunsEffectTest
   for (const auto& t : tests)
     if (t.reason.empty() && (!best || t.gain > best->gain)) best = &t;
   if (!best) return best;
-  const std::string contained = superseded_effect(best->id);
+  const std::optional<Effect> contained = contained_effect(best->effect);
   for (const auto& t : tests)
-    if (t.reason.empty() && t.id == contained && t.gain >= best->gain - min_gain) return &t;
+    if (t.reason.empty() && t.effect == contained && t.gain >= best->gain - min_gain) return &t;
   return best;
 }
 
@@ -239,17 +238,17 @@ SID_INLINE void directional_levels(FrictionShapeTest& s, const Eigen::VectorXd& 
 }
 
 SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(
-    std::vector<std::pair<std::string, EffectSettings>>& named, std::vector<RunsEffectTest>& chosen,
+    std::vector<std::pair<Effect, EffectSettings>>& named, std::vector<RunsEffectTest>& chosen,
     const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options) {
   std::vector<FrictionShapeTest> shapes;
-  const auto equations = [&](const std::vector<std::pair<std::string, EffectSettings>>& terms) {
+  const auto equations = [&](const std::vector<std::pair<Effect, EffectSettings>>& terms) {
     return runs_equations(model_with(options.effects.gravity, terms), kinematics,
                           options.identify.folds_per_run);
   };
   for (auto& term : named) {
-    if (!starts_with(term.first, "coulomb_j")) continue;
+    if (term.first.kind != EffectKind::Coulomb) continue;
     FrictionShapeTest s;
-    s.id = term.first;
+    s.coulomb = term.first;
     Vector2<double> base = left_out_mean_square(equations(named));
     const EffectSettings kept = term.second;
     term.second.coulomb_shape = CoulombShape::Atan;
@@ -265,7 +264,8 @@ SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(
     const RunsEquations e = equations(named);
     s.asymmetric_gain = (base - left_out_mean_square(e)).cwiseQuotient(base);
     const auto [theta, covariance] = fit_with_hac(e);
-    const Eigen::Index at = model_with(options.effects.gravity, named).parameter_offset(s.id);
+    const Eigen::Index at =
+        model_with(options.effects.gravity, named).parameter_offset(s.coulomb.id());
     s.asymmetric_p_value = chi_square_tail(
         std::max(0.0, theta[at + 1] * theta[at + 1] / covariance(at + 1, at + 1)), 1.0);
     directional_levels(s, theta, covariance, at);
@@ -274,7 +274,7 @@ SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(
                    s.backward > 0.0;
     term.second.coulomb_asymmetric = s.asymmetric;
     for (auto& c : chosen)
-      if (c.id == s.id) c.settings = term.second;
+      if (c.effect == s.coulomb) c.settings = term.second;
     shapes.push_back(s);
   }
   return shapes;
@@ -286,17 +286,19 @@ namespace detail {
 
 /// The forward selection's result: the effects named, in the model's order, with their tests.
 struct RunsSelection {
-  std::vector<std::pair<std::string, EffectSettings>> named;
+  std::vector<std::pair<Effect, EffectSettings>> named;
   std::vector<RunsEffectTest> chosen;
   std::vector<RunsEffectTest> not_named;  ///< the final round's tests
 };
 
 SID_INLINE RunsSelection select_effects(const std::vector<Kinematics<double>>& k,
                                         const RunsDiagnoseOptions& fixed) {
-  std::vector<std::string> remaining;
-  for (const auto& id : fixed.candidates.empty() ? effect_ids() : fixed.candidates)
-    if (id != "armature_j1" && std::find(remaining.begin(), remaining.end(), id) == remaining.end())
-      remaining.push_back(id);
+  // The rotor inertia of joint 1 is theta1's own column: no data separate it.
+  const Effect not_separable{EffectKind::Armature, 0};
+  std::vector<Effect> remaining;
+  for (const Effect e : fixed.candidates.empty() ? all_effects() : fixed.candidates)
+    if (e != not_separable && std::find(remaining.begin(), remaining.end(), e) == remaining.end())
+      remaining.push_back(e);
   RunsSelection s;
   while (!remaining.empty()) {
     std::vector<RunsEffectTest> tests = selection_round(remaining, s.named, k, fixed);
@@ -305,15 +307,16 @@ SID_INLINE RunsSelection select_effects(const std::vector<Kinematics<double>>& k
       s.not_named = std::move(tests);
       break;
     }
-    s.named = with_candidate(s.named, best->id, best->settings);
-    const std::string superseded = superseded_effect(best->id);
+    s.named = with_candidate(s.named, best->effect, best->settings);
+    const std::optional<Effect> superseded = contained_effect(best->effect);
     s.chosen.erase(std::remove_if(s.chosen.begin(), s.chosen.end(),
-                                  [&](const auto& c) { return c.id == superseded; }),
+                                  [&](const auto& c) { return c.effect == superseded; }),
                    s.chosen.end());
     s.chosen.push_back(*best);
-    remaining.erase(std::find(remaining.begin(), remaining.end(), best->id));
-    if (!superseded.empty())
-      remaining.erase(std::remove(remaining.begin(), remaining.end(), superseded), remaining.end());
+    remaining.erase(std::find(remaining.begin(), remaining.end(), best->effect));
+    if (superseded)
+      remaining.erase(std::remove(remaining.begin(), remaining.end(), *superseded),
+                      remaining.end());
   }
   return s;
 }
@@ -321,16 +324,17 @@ SID_INLINE RunsSelection select_effects(const std::vector<Kinematics<double>>& k
 /// The rotor coupling's test against the final model, unless it was named: from the last round
 /// if it was tested there, otherwise tested now.
 SID_INLINE std::optional<RunsEffectTest> rotor_coupling_test(
-    const std::vector<std::pair<std::string, EffectSettings>>& named,
+    const std::vector<std::pair<Effect, EffectSettings>>& named,
     const std::vector<RunsEffectTest>& not_named, const std::vector<Kinematics<double>>& k,
     const RunsDiagnoseOptions& fixed) {
-  const bool rotor_named = std::any_of(named.begin(), named.end(),
-                                       [](const auto& e) { return e.first == "armature_j2"; });
+  const Effect rotor{EffectKind::Armature, 1};
+  const bool rotor_named =
+      std::any_of(named.begin(), named.end(), [&](const auto& e) { return e.first == rotor; });
   if (rotor_named) return std::nullopt;
   const auto it = std::find_if(not_named.begin(), not_named.end(),
-                               [](const RunsEffectTest& t) { return t.id == "armature_j2"; });
+                               [&](const RunsEffectTest& t) { return t.effect == rotor; });
   if (it != not_named.end()) return *it;
-  return selection_round({"armature_j2"}, named, k, fixed).front();
+  return selection_round({rotor}, named, k, fixed).front();
 }
 
 /// The final model's residual in excess of the floor, fitted and held out, over all runs.
@@ -385,14 +389,14 @@ SID_INLINE RunsDiagnosis diagnose_runs(const std::vector<Trajectory<double>>& ru
   const StackedRegression<double> all = stack_runs(result.final_model, result.final.kinematics);
   result.final_covariance = hac_covariance(all, result.final.kinematics, result.final.fit);
   for (auto& c : selection.chosen) {
-    c.estimate = effect_estimate(c.id, result.final.fit.theta, result.final_covariance,
+    c.estimate = effect_estimate(c.effect, result.final.fit.theta, result.final_covariance,
                                  result.final_model, c.settings);
     result.named.push_back(std::move(c));
   }
   for (auto& shape : result.friction_shapes)
     if (shape.asymmetric)
       detail::directional_levels(shape, result.final.fit.theta, result.final_covariance,
-                                 result.final_model.parameter_offset(shape.id));
+                                 result.final_model.parameter_offset(shape.coulomb.id()));
   result.rotor_coupling = detail::rotor_coupling_test(selection.named, result.not_named, k, fixed);
   detail::excess_over_floor(result);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

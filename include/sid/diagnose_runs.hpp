@@ -38,8 +38,8 @@ struct RunsDiagnoseOptions {
   /// Smoothing (cutoff, chosen by torque cross-validation of the nominal model when empty),
   /// skips, folds per run, threads.
   RunsIdentifyOptions identify;
-  EffectSettings effects;               ///< ε, g; the Stribeck vs is searched on a grid
-  std::vector<std::string> candidates;  ///< effect ids to try; empty: all of effect_ids()
+  EffectSettings effects;          ///< ε, g; the Stribeck vs is searched on a grid
+  std::vector<Effect> candidates;  ///< effects to try; empty: all_effects()
   /// vs grid [rad/s] for stribeck candidates; empty: 0.05..1 rad/s, 9 points.
   std::vector<double> stribeck_velocities;
   /// A candidate is named only if its HAC Wald test (runs independent, prewhitened Newey–West
@@ -55,7 +55,7 @@ struct RunsDiagnoseOptions {
 
 /// @brief One effect tested against the model of a selection round.
 struct RunsEffectTest {
-  std::string id;
+  Effect effect;
   EffectSettings settings;       ///< the settings its term was built with (Stribeck: the vs found)
   EffectEstimate estimate;       ///< physical values with HAC standard deviations
   double wald = 0, p_value = 1;  ///< HAC Wald statistic; p-value after Holm's correction
@@ -69,7 +69,7 @@ struct RunsEffectTest {
 /// @brief The shape of a named Coulomb friction, tested after the selection: the sign stand-in
 /// atan instead of tanh (a slower approach to the level), then a level that differs by direction.
 struct FrictionShapeTest {
-  std::string id;                           ///< coulomb_j1 or coulomb_j2
+  Effect coulomb;                           ///< the Coulomb friction tested
   CoulombShape shape = CoulombShape::Tanh;  ///< the one kept
   bool asymmetric = false;                  ///< kept: Fc + dFc forward, Fc − dFc backward
   /// Relative drops of the held-out torque mean square per joint when the variant replaces the
@@ -143,24 +143,25 @@ SID_INLINE std::pair<Eigen::VectorXd, Eigen::MatrixXd> fit_with_hac(const RunsEq
 
 /// The nominal two-link model plus the terms of `named` (a Stribeck term replaces the Coulomb
 /// term of its joint, which it contains).
-SID_INLINE Model<double> model_with(
-    double g, const std::vector<std::pair<std::string, EffectSettings>>& named);
+SID_INLINE Model<double> model_with(double g,
+                                    const std::vector<std::pair<Effect, EffectSettings>>& named);
 
-SID_INLINE std::vector<std::pair<std::string, EffectSettings>> with_candidate(
-    std::vector<std::pair<std::string, EffectSettings>> named, const std::string& id,
+SID_INLINE std::vector<std::pair<Effect, EffectSettings>> with_candidate(
+    std::vector<std::pair<Effect, EffectSettings>> named, Effect effect,
     const EffectSettings& settings);
 
 /// A candidate's test against the model of `named` (its held-out mean square `base_ms`).
 SID_INLINE RunsEffectTest
-test_candidate(const std::string& id, const EffectSettings& settings,
-               const std::vector<std::pair<std::string, EffectSettings>>& named,
+test_candidate(Effect effect, const EffectSettings& settings,
+               const std::vector<std::pair<Effect, EffectSettings>>& named,
                const std::vector<Kinematics<double>>& kinematics, const Vector2<double>& base_ms,
                const RunsDiagnoseOptions& options);
 
 /// The Stribeck width whose model predicts held-out torques best.
-SID_INLINE double best_stribeck_width(
-    const std::string& id, const std::vector<std::pair<std::string, EffectSettings>>& named,
-    const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options);
+SID_INLINE double best_stribeck_width(Effect stribeck,
+                                      const std::vector<std::pair<Effect, EffectSettings>>& named,
+                                      const std::vector<Kinematics<double>>& kinematics,
+                                      const RunsDiagnoseOptions& options);
 
 /// RMS per joint of a run's torque above cutoff_hz: τ minus its smoothing at the cutoff, at the
 /// samples the fits use.
@@ -178,7 +179,7 @@ SID_INLINE std::string rejection(const RunsEffectTest& t, const RunsDiagnoseOpti
 /// One round of the forward selection: every remaining candidate tested against `named`.
 SID_INLINE std::vector<RunsEffectTest> selection_round(
     const std::vector<std::string>& remaining,
-    const std::vector<std::pair<std::string, EffectSettings>>& named,
+    const std::vector<std::pair<Effect, EffectSettings>>& named,
     const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options);
 
 /// The passing candidate with the largest gain, except that a term containing another passing
@@ -194,7 +195,7 @@ SID_INLINE void directional_levels(FrictionShapeTest& s, const Eigen::VectorXd& 
 /// Tests the shapes of the named Coulomb terms, one joint after the other, and keeps those that
 /// pass (see RunsDiagnosis::friction_shapes); updates `named` and `chosen`'s settings.
 SID_INLINE std::vector<FrictionShapeTest> test_friction_shapes(
-    std::vector<std::pair<std::string, EffectSettings>>& named, std::vector<RunsEffectTest>& chosen,
+    std::vector<std::pair<Effect, EffectSettings>>& named, std::vector<RunsEffectTest>& chosen,
     const std::vector<Kinematics<double>>& kinematics, const RunsDiagnoseOptions& options);
 
 }  // namespace detail

@@ -119,7 +119,7 @@ SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& da
     checked.simulator.rtol = checked.simulator.atol = check.checked_tolerance;
   // The friction test does not change the nominal model, and its fits leave a core idle part
   // of the time (a handful of windows on two threads): the nominal simulation runs beside it.
-  // It works on copies: the friction test rewrites the result.
+  // It works on copies: the friction test replaces the result.
   const bool nominal_beside_friction_test =
       check.refine_friction &&
       (detail::names_friction_of(result, 1) || detail::names_friction_of(result, 2));
@@ -128,7 +128,7 @@ SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& da
         std::async(std::launch::async,
                    [model = result.nominal_model, theta = result.nominal.theta, kinematics = k,
                     &checked] { return free_simulation(model, theta, kinematics, checked); });
-    refine_named_friction(result, data, options, check.friction);
+    result = refine_named_friction(std::move(result), data, options, check.friction);
     check_result.nominal = nominal.get();
   }
 

@@ -146,7 +146,6 @@ SID_INLINE FreeSimulation free_simulation(const Model<double>& model,
     result.statistics.jacobian_evaluations += st.jacobian_evaluations;
     if (!sim.ok()) {
       ++result.failed_segments;
-      result.ok = false;
       if (!result.message.empty()) result.message += "; ";
       result.message += "segment " + std::to_string(s + 1) + " of " + std::to_string(segments) +
                         " (t = " + detail::format_time(k.t[begin]) +

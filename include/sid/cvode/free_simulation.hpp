@@ -70,10 +70,12 @@ struct [[nodiscard]] FreeSimulation {
   std::vector<Eigen::Index> segment_starts;  ///< row index of each restart (first is 0)
   Eigen::Index failed_segments = 0;
   SimulationStatistics statistics;  ///< summed over the segments
-  bool ok = true;
-  std::string message;  ///< empty when ok; otherwise what failed, segment by segment
+  std::string message;              ///< empty when ok; otherwise what failed, segment by segment
   bool torque_filtered =
       false;  ///< the torque was low-passed (FreeSimulationOptions::torque_bandwidth)
+
+  /// Every segment was simulated to its end.
+  bool ok() const noexcept { return failed_segments == 0; }
 };
 
 namespace detail {

@@ -41,17 +41,16 @@ SID_INLINE std::vector<OutputErrorWindow> reversal_windows(const Kinematics<doub
 }
 
 SID_INLINE bool names_friction_of(const DiagnosisResult& result, int joint) {
-  const std::string j = std::to_string(joint);
-  return std::any_of(result.effects.begin(), result.effects.end(), [&](const auto& e) {
-    return e.id == "coulomb_j" + j || e.id == "stribeck_j" + j;
-  });
+  const Effect coulomb{EffectKind::Coulomb, joint - 1}, stribeck{EffectKind::Stribeck, joint - 1};
+  return std::any_of(result.effects.begin(), result.effects.end(),
+                     [&](const auto& e) { return e.effect == coulomb || e.effect == stribeck; });
 }
 
 /// The friction effect of one joint that a diagnosis named.
 struct NamedFriction {
   int joint = 1;
-  std::string j;  ///< the joint as written in effect ids and messages
-  std::string coulomb_id, stribeck_id;
+  std::string j;  ///< the joint as written in messages
+  Effect coulomb, stribeck;
   std::size_t index = 0;  ///< in result.effects and result.final_settings
 };
 
@@ -62,11 +61,11 @@ SID_INLINE NamedFriction find_named_friction(const DiagnosisResult& result, int 
   NamedFriction named;
   named.joint = joint;
   named.j = std::to_string(joint);
-  named.coulomb_id = "coulomb_j" + named.j;
-  named.stribeck_id = "stribeck_j" + named.j;
+  named.coulomb = {EffectKind::Coulomb, joint - 1};
+  named.stribeck = {EffectKind::Stribeck, joint - 1};
   named.index = result.effects.size();
   for (std::size_t i = 0; i < result.effects.size(); ++i)
-    if (result.effects[i].id == named.coulomb_id || result.effects[i].id == named.stribeck_id)
+    if (result.effects[i].effect == named.coulomb || result.effects[i].effect == named.stribeck)
       named.index = i;
   if (named.index == result.effects.size())
     throw std::invalid_argument(who + "the diagnosis names no friction of joint " + named.j);
@@ -112,12 +111,13 @@ SID_INLINE OutputErrorProblem reversal_problem(const Kinematics<double>& k,
 }
 
 /// Where the named friction's coefficients sit in the diagnosis's final θ. Parameter layouts of
-/// the two models: θ1..θ7, then each named effect's coefficients; the friction's are Fc, then
-/// the bump Fs − Fc in the Stribeck model only.
+/// the two models: the nominal model's, then each named effect's coefficients; the friction's
+/// are Fc, then the bump Fs − Fc in the Stribeck model only.
 struct FrictionLayout {
   NamedFriction named;
   bool named_stribeck = false;  ///< the diagnosis named the Stribeck curve
-  Eigen::Index offset = 7;      ///< index of Fc
+  Eigen::Index offset = 0;      ///< index of Fc
+  Eigen::Index viscous = 0;     ///< index of the joint's viscous coefficient
   Eigen::Index tail = 0;        ///< coefficients after the friction's
   double named_velocity = 0;    ///< the diagnosis's Stribeck velocity setting
 };
@@ -125,9 +125,10 @@ struct FrictionLayout {
 SID_INLINE FrictionLayout friction_layout(const DiagnosisResult& result, NamedFriction named) {
   FrictionLayout l;
   l.named = std::move(named);
-  for (std::size_t i = 0; i < l.named.index; ++i)
-    l.offset += effect_term(result.effects[i].id, result.final_settings[i]).size();
-  l.named_stribeck = result.effects[l.named.index].id == l.named.stribeck_id;
+  const Effect named_effect = result.effects[l.named.index].effect;
+  l.offset = result.final_model.parameter_offset(named_effect.id());
+  l.viscous = result.final_model.parameter_offset("viscous_friction") + (l.named.joint - 1);
+  l.named_stribeck = named_effect == l.named.stribeck;
   l.tail = result.final.theta.size() - l.offset - (l.named_stribeck ? 2 : 1);
   l.named_velocity = result.final_settings[l.named.index].stribeck_velocity;
   return l;
@@ -136,13 +137,12 @@ SID_INLINE FrictionLayout friction_layout(const DiagnosisResult& result, NamedFr
 /// The diagnosis's final model with the named friction replaced by `friction_id` at Stribeck
 /// velocity `vs`.
 SID_INLINE Model<double> model_with_friction(const DiagnosisResult& result, const FrictionLayout& l,
-                                             double gravity, const std::string& friction_id,
-                                             double vs) {
+                                             double gravity, Effect friction, double vs) {
   Model<double> model = two_link_arm_model<double>(gravity);
   for (std::size_t i = 0; i < result.effects.size(); ++i) {
     EffectSettings s = result.final_settings[i];
     if (i == l.named.index) s.stribeck_velocity = vs;
-    model.add(effect_term(i == l.named.index ? friction_id : result.effects[i].id, s));
+    model.add(effect_term(i == l.named.index ? friction : result.effects[i].effect, s));
   }
   return model;
 }
@@ -154,7 +154,7 @@ SID_INLINE std::vector<Eigen::Index> fixed_but_friction(const FrictionLayout& l,
                                                         Eigen::Index size) {
   std::vector<Eigen::Index> fixed;
   for (Eigen::Index u = 0; u < size; ++u) {
-    const bool viscous = u == 4 + l.named.joint;  // θ6 (joint 1) or θ7 (joint 2)
+    const bool viscous = u == l.viscous;
     const bool friction_term = u >= l.offset && u < l.offset + free_count;
     if (!viscous && !friction_term) fixed.push_back(u);
   }
@@ -170,7 +170,8 @@ SID_INLINE void set_torque_domain_priors(OutputErrorProblem& pb, const Diagnosis
   pb.prior_mean = pb.theta0;
   pb.prior_std =
       Eigen::VectorXd::Constant(pb.theta0.size(), std::numeric_limits<double>::infinity());
-  pb.prior_std.head(7) = result.final.std.head(7).cwiseMax(1e-12);
+  const Eigen::Index nominal = result.nominal_model.num_parameters();
+  pb.prior_std.head(nominal) = result.final.std.head(nominal).cwiseMax(1e-12);
   if (options.prior_on_coulomb_level)
     pb.prior_std[l.offset] = std::max(result.final.std[l.offset], 1e-12);
 }
@@ -184,7 +185,7 @@ SID_INLINE OutputErrorProblem coulomb_problem(const OutputErrorProblem& problem,
   const Eigen::VectorXd& theta = result.final.theta;
   OutputErrorProblem coulomb = problem;
   coulomb.model_at = [&result, &l, gravity = options.gravity](double) {
-    return model_with_friction(result, l, gravity, l.named.coulomb_id, l.named_velocity);
+    return model_with_friction(result, l, gravity, l.named.coulomb, l.named_velocity);
   };
   coulomb.theta0.resize(theta.size() - (l.named_stribeck ? 1 : 0));
   coulomb.theta0 << theta.head(l.offset + 1), theta.tail(l.tail);
@@ -204,7 +205,7 @@ SID_INLINE OutputErrorProblem stribeck_problem(const OutputErrorProblem& problem
   const double bump = l.named_stribeck ? theta[l.offset + 1] : 0.0;
   OutputErrorProblem stribeck = problem;
   stribeck.model_at = [&result, &l, gravity = options.gravity](double vs) {
-    return model_with_friction(result, l, gravity, l.named.stribeck_id, vs);
+    return model_with_friction(result, l, gravity, l.named.stribeck, vs);
   };
   stribeck.estimate_nonlinear = true;
   stribeck.theta0.resize(theta.size() - (l.named_stribeck ? 1 : 0) + 1);
@@ -232,8 +233,8 @@ SID_INLINE bool fit_stribeck_curve(const OutputErrorProblem& stribeck,
   out.stribeck = fit_output_error(stribeck, fit_options);
   out.check.stribeck_fitted = true;
   out.check.normalized_rms_stribeck = normalized_rms(out.stribeck);
-  if (!out.stribeck.ok) out.check.message = "a simulation failed: " + out.stribeck.message;
-  return out.stribeck.ok;
+  if (!out.stribeck.ok()) out.check.message = "a simulation failed: " + out.stribeck.message;
+  return out.stribeck.ok();
 }
 
 /// Fits the Coulomb curve into out.coulomb; false (with out.check.message) if it failed.
@@ -241,8 +242,8 @@ SID_INLINE bool fit_coulomb_curve(const OutputErrorProblem& coulomb,
                                   const OutputErrorOptions& fit_options, FrictionRefinement& out) {
   out.coulomb = fit_output_error(coulomb, fit_options);
   out.check.normalized_rms_coulomb = normalized_rms(out.coulomb);
-  if (!out.coulomb.ok) out.check.message = "a simulation failed: " + out.coulomb.message;
-  return out.coulomb.ok;
+  if (!out.coulomb.ok()) out.check.message = "a simulation failed: " + out.coulomb.message;
+  return out.coulomb.ok();
 }
 
 /// Fc (at index a of the fits' θ) from the Coulomb fit, as the estimate.
@@ -306,10 +307,9 @@ SID_INLINE bool bump_screened_out(const OutputErrorProblem& coulomb, const Diagn
   check.score = 0.0;
   for (double vs : options.screen_velocities) {
     const OutputErrorScore score = output_error_score_test(
-        coulomb, out.coulomb,
-        model_with_friction(result, l, options.gravity, l.named.stribeck_id, vs), with_bump, a + 1,
-        step, options.fit);
-    if (!score.ok) return false;  // cannot screen: fit
+        coulomb, out.coulomb, model_with_friction(result, l, options.gravity, l.named.stribeck, vs),
+        with_bump, a + 1, step, options.fit);
+    if (!score.ok()) return false;  // cannot screen: fit
     if (score.direction > 0.0 && score.statistic > check.score) {
       check.score = score.statistic;
       check.score_velocity = vs;
@@ -326,9 +326,9 @@ SID_INLINE bool fit_coulomb_then_screened_stribeck(
     const FrictionLayout& l, const FrictionRefinementOptions& options, FrictionRefinement& out) {
   if (!fit_coulomb_curve(coulomb, options.fit, out)) return false;
   if (bump_screened_out(coulomb, result, l, options, out)) {
-    out.check.chosen = l.named.coulomb_id;
+    out.check.chosen = l.named.coulomb;
     out.check.statistic = out.check.p_value = std::numeric_limits<double>::quiet_NaN();
-    out.ok = true;
+    out.completed = true;
     take_coulomb_estimate(out, l.offset);
     return false;
   }
@@ -354,8 +354,7 @@ SID_INLINE void choose_by_likelihood_ratio(const FrictionLayout& l,
   const double vs = out.stribeck.s;
   const bool admissible = fitted_fc > 0.0 && fitted_bump > 0.0 && vs >= options.min_velocity &&
                           vs <= options.max_velocity;
-  check.chosen =
-      check.p_value < options.alpha && admissible ? l.named.stribeck_id : l.named.coulomb_id;
+  check.chosen = check.p_value < options.alpha && admissible ? l.named.stribeck : l.named.coulomb;
 }
 
 }  // namespace detail
@@ -371,7 +370,7 @@ SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
   FrictionRefinement out;
   FrictionCheck& check = out.check;
   check.joint = joint;
-  check.named = result.effects[named.index].id;
+  check.named = result.effects[named.index].effect;
   check.chosen = check.named;
 
   const OutputErrorProblem problem = detail::reversal_problem(k, data, first, joint, options);
@@ -390,23 +389,24 @@ SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
                                                        out);
   if (!both_fitted) return out;
   detail::choose_by_likelihood_ratio(layout, options, out);
-  if (layout.named_stribeck && check.chosen == layout.named.coulomb_id) {
+  if (layout.named_stribeck && check.chosen == layout.named.coulomb) {
     // Its values are now the answer: take the Coulomb fit to its minimum, from where it stopped.
     coulomb.theta0 = out.coulomb.theta;
     coulomb.windows = out.coulomb.windows;
     if (!detail::fit_coulomb_curve(coulomb, options.fit, out)) return out;
   }
-  out.ok = true;
-  if (check.chosen == layout.named.stribeck_id)
+  out.completed = true;
+  if (check.chosen == layout.named.stribeck)
     detail::take_stribeck_estimate(out, layout.offset);
   else
     detail::take_coulomb_estimate(out, layout.offset);
   return out;
 }
 
-SID_INLINE void refine_named_friction(DiagnosisResult& result, const Trajectory<double>& data,
-                                      const DiagnoseOptions& options,
-                                      FrictionRefinementOptions friction) {
+SID_INLINE DiagnosisResult refine_named_friction(DiagnosisResult result,
+                                                 const Trajectory<double>& data,
+                                                 const DiagnoseOptions& options,
+                                                 FrictionRefinementOptions friction) {
   friction.gravity = options.identify.gravity;
   std::vector<FrictionRefinement> refinements;
   for (int joint = 1; joint <= 2; ++joint)
@@ -415,26 +415,26 @@ SID_INLINE void refine_named_friction(DiagnosisResult& result, const Trajectory<
   bool changed = false;
   for (const auto& r : refinements) {
     result.friction_checks.push_back(r.check);
-    if (!r.ok) continue;
+    if (!r.ok()) continue;
     for (std::size_t i = 0; i < result.effects.size(); ++i) {
-      if (result.effects[i].id != r.check.named) continue;
+      if (result.effects[i].effect != r.check.named) continue;
       if (r.check.chosen != r.check.named) {
-        result.effects[i].id = r.check.chosen;
+        result.effects[i].effect = r.check.chosen;
         result.effects[i].name = effect_name(r.check.chosen);
         result.effects[i].value_names = effect_value_names(r.check.chosen);
         changed = true;
       }
-      if (detail::starts_with(r.check.chosen, "stribeck_j")) {
+      if (r.check.chosen.kind == EffectKind::Stribeck) {
         result.final_settings[i].stribeck_velocity = r.estimate[2];
         changed = true;
       }
     }
   }
-  if (changed) refit_final_model(result, options);
+  if (changed) result = refit_final_model(std::move(result), options);
   for (const auto& r : refinements) {
-    if (!r.ok) continue;
+    if (!r.ok()) continue;
     for (auto& e : result.effects) {
-      if (e.id != r.check.chosen) continue;
+      if (e.effect != r.check.chosen) continue;
       const std::string test =
           r.check.stribeck_fitted
               ? "output-error test around the joint's reversals: likelihood ratio " +
@@ -448,7 +448,7 @@ SID_INLINE void refine_named_friction(DiagnosisResult& result, const Trajectory<
                     detail::format_value(friction.screen_velocities.front()) + "-" +
                     detail::format_value(friction.screen_velocities.back()) + " rad/s, below " +
                     detail::format_value(friction.screen_level) + ")";
-      if (detail::starts_with(e.id, "stribeck_j")) {
+      if (e.effect.kind == EffectKind::Stribeck) {
         e.estimate = r.estimate;
         e.std = r.std;
         e.note =
@@ -463,6 +463,7 @@ SID_INLINE void refine_named_friction(DiagnosisResult& result, const Trajectory<
       }
     }
   }
+  return result;
 }
 
 }  // namespace sid

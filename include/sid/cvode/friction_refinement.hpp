@@ -82,13 +82,15 @@ struct FrictionRefinementOptions {
 };
 
 /// @brief What refine_friction() found for one joint.
-struct FrictionRefinement {
+struct [[nodiscard]] FrictionRefinement {
   FrictionCheck check;
   /// The chosen effect's values with standard deviations from the output-error fit: Fc for
   /// Coulomb; Fc, Fs, vs for Stribeck.
   Eigen::VectorXd estimate, std;
   OutputErrorFit coulomb, stribeck;
-  bool ok = false;  ///< false: check.message says why; the diagnosis is to be left as it is
+  bool completed = false;  ///< false: check.message says why; the diagnosis is to be left as it is
+
+  bool ok() const noexcept { return completed; }
 };
 
 namespace detail {
@@ -128,15 +130,16 @@ SID_INLINE FrictionRefinement refine_friction(const DiagnosisResult& result,
                                               const Trajectory<double>& data, int joint,
                                               const FrictionRefinementOptions& options = {});
 
-/// @brief Runs refine_friction() on every joint whose friction the diagnosis named and, where
-/// the test changes the curve or estimates a Stribeck one, puts its choice and values into the
-/// result: the effect's id, values (from the output-error fit) and note, result.friction_checks,
-/// and the torque-domain final fit at the chosen curve (refit_final_model). `options` are the
-/// diagnosis's. A joint whose fits fail keeps what the diagnosis named (its check says why).
+/// @brief The diagnosis after refine_friction() on every joint whose friction it named: where
+/// the test changes the curve or estimates a Stribeck one, its choice and values replace the
+/// diagnosis's (the effect, its values from the output-error fit and its note), every test is
+/// listed in friction_checks, and the torque-domain final fit is redone at the chosen curve
+/// (refit_final_model). `options` are the diagnosis's. A joint whose fits fail keeps what the
+/// diagnosis named (its check says why).
 /// @throws std::invalid_argument as refine_friction() does.
-SID_INLINE void refine_named_friction(DiagnosisResult& result, const Trajectory<double>& data,
-                                      const DiagnoseOptions& options,
-                                      FrictionRefinementOptions friction = {});
+[[nodiscard]] SID_INLINE DiagnosisResult
+refine_named_friction(DiagnosisResult result, const Trajectory<double>& data,
+                      const DiagnoseOptions& options, FrictionRefinementOptions friction = {});
 
 }  // namespace sid
 

@@ -217,7 +217,7 @@ SID_INLINE std::function<LeastSquaresResult<double>(const Kinematics<double>&,
 instrumental_variable_step(const InstrumentalVariableOptions& options) {
   return [options](const Kinematics<double>& k, const LeastSquaresResult<double>& first) {
     InstrumentalVariableResult iv = refine_instrumental_variables(k, first, options);
-    if (iv.failed) throw std::runtime_error(iv.message);
+    if (!iv.ok()) throw std::runtime_error(iv.message);
     return std::move(iv.fit);
   };
 }

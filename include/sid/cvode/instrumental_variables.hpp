@@ -64,6 +64,9 @@ struct [[nodiscard]] InstrumentalVariableResult {
   /// A simulation failed, W^T X was singular or θ became non-finite: fit is the last good one.
   bool failed = false;
   std::string message;  ///< why it stopped before converging, if it did
+
+  /// The iterations ran (they may still have stopped before converging: see converged).
+  bool ok() const noexcept { return !failed; }
 };
 
 namespace detail {

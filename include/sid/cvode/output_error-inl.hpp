@@ -571,7 +571,7 @@ SID_INLINE OutputErrorFit fit_output_error(const OutputErrorProblem& problem,
   state.cost = detail::output_error_cost(ctx, state.x, state.residual, &state.data_cost);
   fit.initial_cost = state.cost;
   if (!std::isfinite(state.cost)) {
-    fit.ok = false;
+    fit.start_failed = true;
     fit.message = "the simulation from the starting values failed";
     fit.theta = problem.theta0;
     return fit;
@@ -706,7 +706,7 @@ SID_INLINE OutputErrorScore output_error_score_test(const OutputErrorProblem& pr
   information -= cross.dot(normal.solve(cross));
   const double dof = std::max<double>(1.0, static_cast<double>(fit.residuals - fit.free_unknowns));
   const double scale = std::max(1.0, fit.data_cost / dof);
-  out.ok = true;
+  out.completed = true;
   out.direction = score;
   out.statistic = information > 0.0 ? score * score / information / scale : 0.0;
   return out;

@@ -110,7 +110,7 @@ struct OutputErrorProblem {
 };
 
 /// @brief The result of fit_output_error().
-struct OutputErrorFit {
+struct [[nodiscard]] OutputErrorFit {
   Eigen::VectorXd theta;                                ///< the model's parameters
   double s = std::numeric_limits<double>::quiet_NaN();  ///< the nonlinear scalar (if estimated)
   /// Covariance of (theta, s) from the Gauss–Newton information, scaled by the fit's mean
@@ -123,7 +123,7 @@ struct OutputErrorFit {
   Eigen::Index free_unknowns = 0;
   int iterations = 0;
   bool converged = false;
-  bool ok = true;                          ///< false if a simulation failed at the start
+  bool start_failed = false;               ///< the simulation from the starting values failed
   std::string message;                     ///< why not ok / not converged
   std::vector<OutputErrorWindow> windows;  ///< with the estimated initial states
   /// What a test of a parameter added at the solution needs (output_error_score_test): per
@@ -137,6 +137,9 @@ struct OutputErrorFit {
   /// The gradient Jᵀr − prior pull the fit stopped at, over all unknowns (zero for the fixed
   /// ones): what is left of it is the part of the cost the fit did not take.
   Eigen::VectorXd gradient;
+
+  /// The fit ran (it may still have stopped before converging: see converged and message).
+  bool ok() const noexcept { return !start_failed; }
 };
 
 namespace detail {
@@ -237,14 +240,16 @@ SID_INLINE OutputErrorStart nested_start(const OutputErrorFit& fit,
 
 /// @brief The score (Lagrange multiplier) test of one parameter added to a fitted model: does
 /// moving it away from its null value lower the cost, once the fit's own unknowns re-adjust?
-struct OutputErrorScore {
+struct [[nodiscard]] OutputErrorScore {
   /// Squared score over its variance, scaled like the likelihood ratio: to first order the drop
   /// of the cost a refit with the parameter would give, in units of the noise (χ²(1) under the
   /// null when the residuals are independent).
   double statistic = 0;
   /// > 0: the cost falls as the parameter grows from its null value (< 0: as it shrinks).
   double direction = 0;
-  bool ok = false;  ///< false if a simulation failed
+  bool completed = false;  ///< false if the fit had failed or a simulation failed
+
+  bool ok() const noexcept { return completed; }
 };
 
 /// @brief Score test at `fit` (a solution of `problem`) of the model `extended`, whose parameters

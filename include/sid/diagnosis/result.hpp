@@ -46,7 +46,8 @@ struct ModelReport {
 
 /// @brief An effect the diagnosis named.
 struct NamedEffect {
-  std::string id, name;
+  Effect effect;
+  std::string name;  ///< effect_name(effect)
   std::vector<std::string> value_names;
   /// Physical values (effect_estimate) from the final fit and their HAC standard deviations
   /// (NaN for a Stribeck vs, which a grid search chose).
@@ -59,7 +60,8 @@ struct NamedEffect {
 
 /// @brief A candidate that was tried and not named.
 struct UnnamedEffect {
-  std::string id, name;
+  Effect effect;
+  std::string name;
   std::string reason;  ///< "not significant", "not admissible: ...", "no CV gain", ...
   /// Smallest |value| of the effect's main physical parameter that the Wald test would have
   /// detected in the final model (Fc, Fs − Fc for stribeck, b, δ, Ia, k) [its unit]; NaN if n/a.
@@ -68,7 +70,8 @@ struct UnnamedEffect {
 
 /// @brief A candidate the data cannot tell apart from the nominal model.
 struct NotSeparable {
-  std::string id, name;
+  Effect effect;
+  std::string name;
   std::string explanation;
 };
 
@@ -83,9 +86,9 @@ struct ParameterDrift {
 /// run by diagnose_with_simulation where friction was named): simulations of the angles around
 /// the joint's velocity reversals decide between Coulomb and Stribeck friction.
 struct FrictionCheck {
-  int joint = 1;       ///< 1 or 2
-  std::string named;   ///< what the torque-domain selection named (coulomb_jX or stribeck_jX)
-  std::string chosen;  ///< what the output-error test chose (the same ids)
+  int joint = 1;  ///< 1 or 2
+  Effect named;   ///< what the torque-domain selection named (Coulomb or Stribeck friction)
+  Effect chosen;  ///< what the output-error test chose (of the same two)
   /// Likelihood ratio of Stribeck against Coulomb friction (χ² with 2 degrees of freedom under
   /// Coulomb) and its p-value; NaN when the screen made the Stribeck fit unnecessary.
   double statistic = 0, p_value = 1;

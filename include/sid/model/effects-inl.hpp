@@ -5,51 +5,13 @@
 
 namespace sid {
 
-SID_INLINE const std::vector<std::string>& effect_ids() {
-  static const std::vector<std::string> ids{
-      "coulomb_j1",       "coulomb_j2",       "stribeck_j1",     "stribeck_j2",
-      "torque_offset_j1", "torque_offset_j2", "angle_offset_q1", "angle_offset_q2",
-      "armature_j1",      "armature_j2",      "spring_j1",       "spring_j2"};
-  return ids;
-}
-
-SID_INLINE bool is_effect_id(const std::string& id) {
-  for (const auto& known : effect_ids())
-    if (known == id) return true;
-  return false;
-}
-
 namespace detail {
 
-SID_INLINE std::string effect_id_list() {
-  std::string list;
-  for (const auto& id : effect_ids()) list += (list.empty() ? "" : ", ") + id;
-  return list;
-}
-
-SID_INLINE EffectInfo effect_info(const std::string& id, const char* who) {
-  const auto ends_with_joint = [&id](const std::string& stem, const char* letter) -> int {
-    if (id == stem + "_" + letter + "1") return 0;
-    if (id == stem + "_" + letter + "2") return 1;
-    return -1;
-  };
-  struct Stem {
-    const char* stem;
-    const char* letter;
-    EffectKind kind;
-  };
-  static const Stem stems[] = {{"coulomb", "j", EffectKind::Coulomb},
-                               {"stribeck", "j", EffectKind::Stribeck},
-                               {"torque_offset", "j", EffectKind::TorqueOffset},
-                               {"angle_offset", "q", EffectKind::AngleOffset},
-                               {"armature", "j", EffectKind::Armature},
-                               {"spring", "j", EffectKind::Spring}};
-  for (const auto& s : stems) {
-    const int joint = ends_with_joint(s.stem, s.letter);
-    if (joint >= 0) return {s.kind, joint};
-  }
-  throw std::invalid_argument(std::string(who) + ": unknown effect id '" + id +
-                              "' (valid ids: " + effect_id_list() + ")");
+SID_INLINE void check_effect_joint(Effect effect, const char* who) {
+  if (effect.joint < 0 || effect.joint >= kEffectJoints)
+    throw std::invalid_argument(std::string(who) + ": effect joint " +
+                                std::to_string(effect.joint) + " is outside 0.." +
+                                std::to_string(kEffectJoints - 1));
 }
 
 SID_INLINE void check_effect_settings(const EffectSettings& settings, const char* who) {
@@ -70,8 +32,6 @@ SID_INLINE double stribeck_bump(double v, double vs) noexcept {
   return std::exp(-x * x);
 }
 
-SID_INLINE std::string joint_text(int joint) { return joint == 0 ? "1" : "2"; }
-
 SID_INLINE std::string format_value(double v) {
   std::ostringstream out;
   out.precision(6);
@@ -79,86 +39,101 @@ SID_INLINE std::string format_value(double v) {
   return out.str();
 }
 
+SID_INLINE std::array<const char*, 2> rotated_parameters(Effect angle_offset) {
+  if (angle_offset.joint == 0) return {"theta4", "theta5"};
+  return {"theta3", "theta5"};
+}
+
 }  // namespace detail
 
-SID_INLINE std::string effect_name(const std::string& id) {
-  const detail::EffectInfo info = detail::effect_info(id, "sid::effect_name");
-  const std::string j = detail::joint_text(info.joint);
-  switch (info.kind) {
-    case detail::EffectKind::Coulomb:
-      return "Coulomb friction on joint " + j;
-    case detail::EffectKind::Stribeck:
-      return "Stribeck friction on joint " + j;
-    case detail::EffectKind::TorqueOffset:
-      return "torque sensor offset on joint " + j +
-             " (or a constant load torque: indistinguishable)";
-    case detail::EffectKind::AngleOffset:
-      return info.joint == 0 ? "angle sensor offset on q1 (or a tilt of the base in the plane of "
-                               "motion: indistinguishable)"
-                             : "angle sensor offset on q2";
-    case detail::EffectKind::Armature:
-      return info.joint == 0 ? "rotor inertia (armature) on joint 1 (theta1's own column: not "
-                               "separable, seen only as theta1 drifting)"
-                             : "rotor inertia (armature) on joint 2";
-    case detail::EffectKind::Spring:
-      return "joint spring (stiffness) on joint " + j;
+SID_INLINE std::string effect_look_alike(Effect effect) {
+  if (effect.kind == EffectKind::TorqueOffset)
+    return "a constant load torque on joint " + std::to_string(effect.joint + 1);
+  if (effect.kind == EffectKind::AngleOffset && effect.joint == 0)
+    return "a tilt of the base in the plane of motion";
+  return "";
+}
+
+SID_INLINE std::string effect_name(Effect effect) {
+  const EffectKindInfo& info = effect_kind_info(effect.kind);
+  std::string name = std::string(info.noun) + " on " + (info.joint_letter == 'q' ? "q" : "joint ") +
+                     std::to_string(effect.joint + 1);
+  const std::string look_alike = effect_look_alike(effect);
+  if (!look_alike.empty()) name += " (or " + look_alike + ": indistinguishable)";
+  if (effect.kind == EffectKind::Armature && effect.joint == 0)
+    name += " (theta1's own column: not separable, seen only as theta1 drifting)";
+  return name;
+}
+
+SID_INLINE std::optional<Effect> contained_effect(Effect effect) {
+  if (effect.kind == EffectKind::Stribeck) return Effect{EffectKind::Coulomb, effect.joint};
+  return std::nullopt;
+}
+
+SID_INLINE std::vector<std::string> effect_value_names(Effect effect) {
+  const EffectKindInfo& info = effect_kind_info(effect.kind);
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < info.value_count; ++i) names.emplace_back(info.values[i].name);
+  return names;
+}
+
+SID_INLINE std::vector<std::string> effect_value_units(Effect effect) {
+  const EffectKindInfo& info = effect_kind_info(effect.kind);
+  std::vector<std::string> units;
+  for (std::size_t i = 0; i < info.value_count; ++i) units.emplace_back(info.values[i].unit);
+  return units;
+}
+
+SID_INLINE std::string admissibility_violation(Effect effect,
+                                               const Eigen::Ref<const Eigen::VectorXd>& v) {
+  const EffectKindInfo& info = effect_kind_info(effect.kind);
+  const auto count = static_cast<Eigen::Index>(info.value_count);
+  if (v.size() != count) {
+    std::string list;
+    for (std::size_t i = 0; i < info.value_count; ++i)
+      list += (list.empty() ? "" : ",") + std::string(info.values[i].name);
+    return "needs " + std::to_string(count) + " value" + (count == 1 ? "" : "s") + " (" + list +
+           "), got " + std::to_string(v.size());
   }
-  return id;  // unreachable: every kind is handled above
-}
-
-SID_INLINE std::vector<std::string> effect_value_names(const std::string& id) {
-  switch (detail::effect_info(id, "sid::effect_value_names").kind) {
-    case detail::EffectKind::Coulomb:
-      return {"Fc"};
-    case detail::EffectKind::Stribeck:
-      return {"Fc", "Fs", "vs"};
-    case detail::EffectKind::TorqueOffset:
-      return {"b"};
-    case detail::EffectKind::AngleOffset:
-      return {"delta"};
-    case detail::EffectKind::Armature:
-      return {"Ia"};
-    case detail::EffectKind::Spring:
-      return {"k"};
+  const auto text = [](double x) { return detail::format_value(x); };
+  for (Eigen::Index i = 0; i < count; ++i) {
+    const EffectValue& value = info.values[static_cast<std::size_t>(i)];
+    const std::string name = value.name;
+    if (!std::isfinite(v[i])) return name + " must be finite, got " + text(v[i]);
+    switch (value.bound) {
+      case ValueBound::Any:
+        break;
+      case ValueBound::Positive:
+        if (!(v[i] > 0.0)) return name + " must be > 0 [" + value.unit + "], got " + text(v[i]);
+        break;
+      case ValueBound::AboveFirst:
+        if (!(v[i] > v[0]))
+          return name + " must be > " + info.values[0].name + " (static friction above Coulomb), " +
+                 "got " + name + " = " + text(v[i]) + ", " + info.values[0].name + " = " +
+                 text(v[0]);
+        break;
+      case ValueBound::BelowHalfPi:
+        if (!(std::fabs(v[i]) < 1.5707963267948966))
+          return "|" + name + "| must be < pi/2 [" + value.unit + "], got " + text(v[i]);
+        break;
+    }
   }
-  return {};
+  return "";
 }
 
-SID_INLINE std::vector<std::string> effect_value_units(const std::string& id) {
-  switch (detail::effect_info(id, "sid::effect_value_units").kind) {
-    case detail::EffectKind::Coulomb:
-      return {"N m"};
-    case detail::EffectKind::Stribeck:
-      return {"N m", "N m", "rad/s"};
-    case detail::EffectKind::TorqueOffset:
-      return {"N m"};
-    case detail::EffectKind::AngleOffset:
-      return {"rad"};
-    case detail::EffectKind::Armature:
-      return {"kg m^2"};
-    case detail::EffectKind::Spring:
-      return {"N m/rad"};
-  }
-  return {};
-}
-
-SID_INLINE bool is_dynamic_effect(const std::string& id) {
-  const detail::EffectKind kind = detail::effect_info(id, "sid::is_dynamic_effect").kind;
-  return kind != detail::EffectKind::TorqueOffset && kind != detail::EffectKind::AngleOffset;
-}
-
-SID_INLINE Term<double> effect_term(const std::string& id, const EffectSettings& settings) {
+SID_INLINE Term<double> effect_term(Effect effect, const EffectSettings& settings) {
   constexpr const char* who = "sid::effect_term";
-  const detail::EffectInfo info = detail::effect_info(id, who);
+  detail::check_effect_joint(effect, who);
   detail::check_effect_settings(settings, who);
-  const Eigen::Index j = info.joint, other = 1 - info.joint;
+  const std::string id = effect.id();
+  const Eigen::Index j = effect.joint, other = 1 - effect.joint;
   const double eps = settings.coulomb_epsilon, vs = settings.stribeck_velocity;
   const CoulombShape shape = settings.coulomb_shape;
   const double g = settings.gravity;
   using V = const Vector2<double>&;
   using Out = RegressorView<double>;
-  switch (info.kind) {
-    case detail::EffectKind::Coulomb:
+  switch (effect.kind) {
+    case EffectKind::Coulomb:
       if (settings.coulomb_asymmetric)
         return {id, {id + ".Fc", id + ".dFc"}, [j, other, eps, shape](V, V qd, V, Out out) {
                   const double sign = detail::smooth_sign(qd[j], eps, shape);
@@ -171,7 +146,7 @@ SID_INLINE Term<double> effect_term(const std::string& id, const EffectSettings&
                 out(j, 0) = detail::smooth_sign(qd[j], eps, shape);
                 out(other, 0) = 0.0;
               }};
-    case detail::EffectKind::Stribeck:
+    case EffectKind::Stribeck:
       return {
           id, {id + ".Fc", id + ".Fs_minus_Fc"}, [j, other, eps, vs, shape](V, V qd, V, Out out) {
             const double sign = detail::smooth_sign(qd[j], eps, shape);
@@ -180,12 +155,12 @@ SID_INLINE Term<double> effect_term(const std::string& id, const EffectSettings&
             out(other, 0) = 0.0;
             out(other, 1) = 0.0;
           }};
-    case detail::EffectKind::TorqueOffset:
+    case EffectKind::TorqueOffset:
       return {id, {id + ".b"}, [j, other](V, V, V, Out out) {
                 out(j, 0) = 1.0;
                 out(other, 0) = 0.0;
               }};
-    case detail::EffectKind::AngleOffset:
+    case EffectKind::AngleOffset:
       if (j == 0)
         return {id, {id + ".theta4_sin", id + ".theta5_sin"}, [g](V q, V, V, Out out) {
                   const double gc12 = g * std::cos(q[0] + q[1]);
@@ -202,28 +177,41 @@ SID_INLINE Term<double> effect_term(const std::string& id, const EffectSettings&
                 out(0, 1) = gc12;
                 out(1, 1) = gc12;
               }};
-    case detail::EffectKind::Armature:
+    case EffectKind::Armature:
       return {id, {id + ".Ia"}, [j, other](V, V, V qdd, Out out) {
                 out(j, 0) = qdd[j];
                 out(other, 0) = 0.0;
               }};
-    case detail::EffectKind::Spring:
+    case EffectKind::Spring:
       return {id, {id + ".k"}, [j, other](V q, V, V, Out out) {
                 out(j, 0) = q[j];
                 out(other, 0) = 0.0;
               }};
   }
-  throw std::invalid_argument(std::string(who) + ": unhandled effect id '" + id + "'");
+  throw std::invalid_argument(std::string(who) + ": unhandled effect '" + id + "'");
 }
 
-SID_INLINE EffectEstimate effect_estimate(const std::string& id,
+SID_INLINE Eigen::VectorXd effect_signature(Effect effect,
+                                            const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                            const Model<double>& model) {
+  if (effect.kind == EffectKind::Stribeck) return Eigen::Vector2d(0.0, 1.0);
+  if (effect.kind == EffectKind::AngleOffset) {
+    const auto rotated = detail::rotated_parameters(effect);
+    return Eigen::Vector2d(theta[model.parameter_index(rotated[0])],
+                           theta[model.parameter_index(rotated[1])]);
+  }
+  return Eigen::VectorXd::Ones(1);
+}
+
+SID_INLINE EffectEstimate effect_estimate(Effect effect,
                                           const Eigen::Ref<const Eigen::VectorXd>& theta_full,
                                           const Eigen::Ref<const Eigen::MatrixXd>& covariance_full,
                                           const Model<double>& model,
                                           const EffectSettings& settings) {
   constexpr const char* who = "sid::effect_estimate";
-  const detail::EffectInfo info = detail::effect_info(id, who);
+  detail::check_effect_joint(effect, who);
   detail::check_effect_settings(settings, who);
+  const std::string id = effect.id();
   const Eigen::Index p = model.num_parameters();
   if (theta_full.size() != p)
     throw std::invalid_argument(std::string(who) + ": theta_full has " +
@@ -238,22 +226,23 @@ SID_INLINE EffectEstimate effect_estimate(const std::string& id,
     throw std::invalid_argument(std::string(who) + ": the model has no term '" + id + "'");
   const Eigen::Index k = model.parameter_offset(id);
   const auto& cov = covariance_full;
-  EffectEstimate e{id, Eigen::VectorXd(), Eigen::VectorXd()};
-  switch (info.kind) {
-    case detail::EffectKind::Stribeck: {
+  EffectEstimate e{effect, Eigen::VectorXd(), Eigen::VectorXd()};
+  switch (effect.kind) {
+    case EffectKind::Stribeck: {
       const double var_fs = cov(k, k) + cov(k + 1, k + 1) + 2.0 * cov(k, k + 1);
       e.value = Eigen::Vector3d(theta_full[k], theta_full[k] + theta_full[k + 1],
                                 settings.stribeck_velocity);
       e.std = Eigen::Vector3d(std::sqrt(cov(k, k)), std::sqrt(var_fs), 0.0);
       return e;
     }
-    case detail::EffectKind::AngleOffset: {
+    case EffectKind::AngleOffset: {
       if (!model.has_term("rigid_body"))
         throw std::invalid_argument(std::string(who) + ": '" + id +
                                     "' needs the model's \"rigid_body\" term (theta1..theta5)");
-      const Eigen::Index rb = model.parameter_offset("rigid_body");
       // Indices of (c_0, c_1) in theta_full; (s_0, s_1) are k, k + 1.
-      const Eigen::Index c_index[2] = {info.joint == 0 ? rb + 3 : rb + 2, rb + 4};
+      const auto rotated = detail::rotated_parameters(effect);
+      const Eigen::Index c_index[2] = {model.parameter_index(rotated[0]),
+                                       model.parameter_index(rotated[1])};
       double num = 0.0, den = 0.0;
       for (int i = 0; i < 2; ++i) {
         num += theta_full[c_index[i]] * theta_full[k + i];
@@ -272,10 +261,10 @@ SID_INLINE EffectEstimate effect_estimate(const std::string& id,
       e.std = Eigen::VectorXd::Constant(1, std::sqrt(gradient.dot(cov * gradient)));
       return e;
     }
-    case detail::EffectKind::Coulomb:
-    case detail::EffectKind::TorqueOffset:
-    case detail::EffectKind::Armature:
-    case detail::EffectKind::Spring:
+    case EffectKind::Coulomb:
+    case EffectKind::TorqueOffset:
+    case EffectKind::Armature:
+    case EffectKind::Spring:
       e.value = Eigen::VectorXd::Constant(1, theta_full[k]);
       e.std = Eigen::VectorXd::Constant(1, std::sqrt(cov(k, k)));
       return e;
@@ -284,54 +273,12 @@ SID_INLINE EffectEstimate effect_estimate(const std::string& id,
 }
 
 SID_INLINE void validate_effect(const EffectSpec& spec, const char* who) {
-  const detail::EffectInfo info = detail::effect_info(spec.id, who);
-  const std::vector<std::string> names = effect_value_names(spec.id);
-  const std::string prefix = std::string(who) + ": " + spec.id + ": ";
-  if (spec.values.size() != names.size()) {
-    std::string list;
-    for (const auto& n : names) list += (list.empty() ? "" : ",") + n;
-    throw std::invalid_argument(prefix + "needs " + std::to_string(names.size()) + " value" +
-                                (names.size() == 1 ? "" : "s") + " (" + list + "), got " +
-                                std::to_string(spec.values.size()));
-  }
-  for (std::size_t i = 0; i < names.size(); ++i)
-    if (!std::isfinite(spec.values[i]))
-      throw std::invalid_argument(prefix + names[i] + " must be finite, got " +
-                                  detail::format_value(spec.values[i]));
-  const auto& v = spec.values;
-  const auto require_positive = [&](std::size_t i, const char* unit) {
-    if (!(v[i] > 0.0))
-      throw std::invalid_argument(prefix + names[i] + " must be > 0 [" + unit + "], got " +
-                                  detail::format_value(v[i]));
-  };
-  switch (info.kind) {
-    case detail::EffectKind::Coulomb:
-      require_positive(0, "N m");
-      return;
-    case detail::EffectKind::Stribeck:
-      require_positive(0, "N m");
-      if (!(v[1] > v[0]))
-        throw std::invalid_argument(prefix +
-                                    "Fs must be > Fc (static friction above Coulomb), "
-                                    "got Fs = " +
-                                    detail::format_value(v[1]) +
-                                    ", Fc = " + detail::format_value(v[0]));
-      require_positive(2, "rad/s");
-      return;
-    case detail::EffectKind::TorqueOffset:
-      return;
-    case detail::EffectKind::AngleOffset:
-      if (!(std::fabs(v[0]) < 1.5707963267948966))
-        throw std::invalid_argument(prefix + "|delta| must be < pi/2 [rad], got " +
-                                    detail::format_value(v[0]));
-      return;
-    case detail::EffectKind::Armature:
-      require_positive(0, "kg m^2");
-      return;
-    case detail::EffectKind::Spring:
-      require_positive(0, "N m/rad");
-      return;
-  }
+  detail::check_effect_joint(spec.effect, who);
+  const std::string violation = admissibility_violation(
+      spec.effect, Eigen::Map<const Eigen::VectorXd>(
+                       spec.values.data(), static_cast<Eigen::Index>(spec.values.size())));
+  if (!violation.empty())
+    throw std::invalid_argument(std::string(who) + ": " + spec.effect.id() + ": " + violation);
 }
 
 SID_INLINE EffectSpec parse_effect(const std::string& text) {
@@ -340,8 +287,7 @@ SID_INLINE EffectSpec parse_effect(const std::string& text) {
   if (colon == std::string::npos)
     throw std::invalid_argument(std::string(who) + ": '" + text +
                                 "' has no ':' (expected ID:VALUES, e.g. coulomb_j2:0.1)");
-  EffectSpec spec{text.substr(0, colon), {}};
-  detail::effect_info(spec.id, who);
+  EffectSpec spec{Effect::parse(text.substr(0, colon), who), {}};
   const std::string list = text.substr(colon + 1);
   std::size_t start = 0;
   for (;;) {
@@ -355,7 +301,7 @@ SID_INLINE EffectSpec parse_effect(const std::string& text) {
     char* end = nullptr;
     const double value = trimmed.empty() ? 0.0 : std::strtod(trimmed.c_str(), &end);
     if (trimmed.empty() || end != trimmed.c_str() + trimmed.size())
-      throw std::invalid_argument(std::string(who) + ": " + spec.id + ": value " +
+      throw std::invalid_argument(std::string(who) + ": " + spec.effect.id() + ": value " +
                                   std::to_string(spec.values.size() + 1) + " '" + trimmed +
                                   "' is not a number (in '" + text + "')");
     spec.values.push_back(value);
@@ -379,10 +325,9 @@ SID_INLINE EffectfulArm effectful_arm(const TwoLinkParameters<double>& theta,
     const EffectSpec& spec = effects[i];
     validate_effect(spec, who);
     for (std::size_t k = 0; k < i; ++k)
-      if (effects[k].id == spec.id)
-        throw std::invalid_argument(std::string(who) + ": effect '" + spec.id +
+      if (effects[k].effect == spec.effect)
+        throw std::invalid_argument(std::string(who) + ": effect '" + spec.effect.id() +
                                     "' is given more than once");
-    const detail::EffectInfo info = detail::effect_info(spec.id, who);
     const auto append = [&arm](const Term<double>& term, std::initializer_list<double> values) {
       arm.model.add(term);
       const Eigen::Index old = arm.theta.size();
@@ -390,23 +335,24 @@ SID_INLINE EffectfulArm effectful_arm(const TwoLinkParameters<double>& theta,
       Eigen::Index r = old;
       for (double v : values) arm.theta[r++] = v;
     };
-    switch (info.kind) {
-      case detail::EffectKind::TorqueOffset:
-        arm.torque_offset[info.joint] = spec.values[0];
+    const int joint = spec.effect.joint;
+    switch (spec.effect.kind) {
+      case EffectKind::TorqueOffset:
+        arm.torque_offset[joint] = spec.values[0];
         break;
-      case detail::EffectKind::AngleOffset:
-        arm.angle_offset[info.joint] = spec.values[0];
+      case EffectKind::AngleOffset:
+        arm.angle_offset[joint] = spec.values[0];
         break;
-      case detail::EffectKind::Stribeck: {
+      case EffectKind::Stribeck: {
         EffectSettings at_vs = settings;
         at_vs.stribeck_velocity = spec.values[2];
-        append(effect_term(spec.id, at_vs), {spec.values[0], spec.values[1] - spec.values[0]});
+        append(effect_term(spec.effect, at_vs), {spec.values[0], spec.values[1] - spec.values[0]});
         break;
       }
-      case detail::EffectKind::Coulomb:
-      case detail::EffectKind::Armature:
-      case detail::EffectKind::Spring:
-        append(effect_term(spec.id, settings), {spec.values[0]});
+      case EffectKind::Coulomb:
+      case EffectKind::Armature:
+      case EffectKind::Spring:
+        append(effect_term(spec.effect, settings), {spec.values[0]});
         break;
     }
   }

@@ -18,6 +18,7 @@
 /// - torque_offset_jX and a constant load torque on joint X add the same constant.
 
 #include <sid/config.hpp>
+#include <sid/model/effect.hpp>
 #include <sid/model/model.hpp>
 #include <sid/model/terms.hpp>
 #include <sid/model/two_link_arm.hpp>
@@ -25,9 +26,11 @@
 
 #include <Eigen/Core>
 
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <initializer_list>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -59,28 +62,12 @@ struct EffectSettings {
   double stribeck_velocity = 0.2;
 };
 
-/// @brief The effect ids in a fixed order. armature_j1 is included so that a diagnosis can report
-/// it as not separable from theta1.
-SID_INLINE const std::vector<std::string>& effect_ids();
-
-/// @brief True if id is one of effect_ids().
-SID_INLINE bool is_effect_id(const std::string& id);
-
 namespace detail {
 
-enum class EffectKind { Coulomb, Stribeck, TorqueOffset, AngleOffset, Armature, Spring };
-
-struct EffectInfo {
-  EffectKind kind;
-  int joint;  ///< 0 = joint 1 / q1, 1 = joint 2 / q2
-};
-
-SID_INLINE std::string effect_id_list();
-
-/// @throws std::invalid_argument (message starts with who) for an unknown id, listing the valid.
-SID_INLINE EffectInfo effect_info(const std::string& id, const char* who);
-
 SID_INLINE void check_effect_settings(const EffectSettings& settings, const char* who);
+
+/// @throws std::invalid_argument (message starts with who) for a joint outside 0..kEffectJoints-1.
+SID_INLINE void check_effect_joint(Effect effect, const char* who);
 
 /// The smooth sign of the friction terms.
 inline double smooth_sign(double v, double epsilon, CoulombShape shape) noexcept {
@@ -92,33 +79,47 @@ inline double smooth_sign(double v, double epsilon, CoulombShape shape) noexcept
 /// infinite velocities give 0 instead of a NaN from inf * 0 later on.
 SID_INLINE double stribeck_bump(double v, double vs) noexcept;
 
-SID_INLINE std::string joint_text(int joint);
-
 SID_INLINE std::string format_value(double v);
+
+/// The names of the rigid-body parameters whose gravity (or centripetal) columns an angle offset
+/// rotates: theta4, theta5 for q1; theta3, theta5 for q2.
+SID_INLINE std::array<const char*, 2> rotated_parameters(Effect angle_offset);
 
 }  // namespace detail
 
 /// @brief Words for reports, e.g. "Coulomb friction on joint 2", "torque sensor offset on joint 1
-/// (or a constant load: indistinguishable)".
-/// @throws std::invalid_argument for an unknown id.
-SID_INLINE std::string effect_name(const std::string& id);
+/// (or a constant load torque on joint 1: indistinguishable)".
+SID_INLINE std::string effect_name(Effect effect);
+
+/// @brief The physical cause that no data can tell apart from the effect, e.g. "a constant load
+/// torque on joint 1" for torque_offset_j1; empty if there is none.
+SID_INLINE std::string effect_look_alike(Effect effect);
+
+/// @brief The effect whose term is part of this effect's term: a Stribeck term holds its joint's
+/// Coulomb column, so naming Stribeck friction replaces Coulomb friction on that joint.
+SID_INLINE std::optional<Effect> contained_effect(Effect effect);
 
 /// @brief Names of the physical values a user gives and a fit reports, in order: {"Fc"} [N m],
 /// {"Fc", "Fs", "vs"} [N m, N m, rad/s], {"b"} [N m], {"delta"} [rad], {"Ia"} [kg m^2],
 /// {"k"} [N m/rad].
-/// @throws std::invalid_argument for an unknown id.
-SID_INLINE std::vector<std::string> effect_value_names(const std::string& id);
+SID_INLINE std::vector<std::string> effect_value_names(Effect effect);
 
-/// @brief Units of effect_value_names(id), e.g. {"N m", "N m", "rad/s"} for a Stribeck effect.
-/// @throws std::invalid_argument for an unknown id.
-SID_INLINE std::vector<std::string> effect_value_units(const std::string& id);
+/// @brief Units of effect_value_names(effect), e.g. {"N m", "N m", "rad/s"} for Stribeck friction.
+SID_INLINE std::vector<std::string> effect_value_units(Effect effect);
 
 /// @brief True for effects that change the motion (coulomb, stribeck, armature, spring), false for
 /// those that change only the recorded signals (torque and angle offsets).
-/// @throws std::invalid_argument for an unknown id.
-SID_INLINE bool is_dynamic_effect(const std::string& id);
+inline bool is_dynamic_effect(Effect effect) noexcept {
+  return effect_kind_info(effect.kind).dynamic;
+}
 
-/// @brief The regression term of an effect, named exactly id, in measured coordinates, linear in
+/// @brief Why an effect's physical values (effect_value_names order) are not admissible, e.g.
+/// "Fc must be > 0 [N m], got -0.1"; empty if they are. Checks count, finiteness and the
+/// descriptor's bounds (Fc > 0, Fs > Fc, vs > 0, Ia > 0, k > 0, |delta| < pi/2, b any).
+SID_INLINE std::string admissibility_violation(Effect effect,
+                                               const Eigen::Ref<const Eigen::VectorXd>& values);
+
+/// @brief The regression term of an effect, named effect.id(), in measured coordinates, linear in
 /// its parameters (row 0 = joint 1, row 1 = joint 2; c = cos, s = sin, g = settings.gravity):
 /// - coulomb_jX: tanh(qd_j / epsilon) on joint j's row; parameter "<id>.Fc". With the settings'
 ///   coulomb_shape Atan, (2/π) atan(qd_j / eps) instead (also for stribeck); with
@@ -136,19 +137,26 @@ SID_INLINE bool is_dynamic_effect(const std::string& id);
 ///   become theta cos(delta) (sin(a + d) = cos d sin a + sin d cos a).
 /// - armature_jX: [qdd1; 0] for j1 (identical to theta1's column), [0; qdd2] for j2; "<id>.Ia".
 /// - spring_jX: q_j on joint j's row; "<id>.k".
-/// @throws std::invalid_argument for an unknown id (the message lists the valid ids) or bad
-///         settings.
-SID_INLINE Term<double> effect_term(const std::string& id, const EffectSettings& settings = {});
+/// @throws std::invalid_argument for a joint the library does not serve or bad settings.
+SID_INLINE Term<double> effect_term(Effect effect, const EffectSettings& settings = {});
+
+/// @brief How the term's coefficients grow with a unit change of the effect's main physical value
+/// (Fc, Fs − Fc, b, δ for small δ, Ia, k), given the parameters theta of a model that contains
+/// the rigid-body term: used to turn a test's covariance into a detection limit in physical
+/// units.
+SID_INLINE Eigen::VectorXd effect_signature(Effect effect,
+                                            const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                            const Model<double>& model);
 
 /// @brief Physical values of a fitted effect and their standard deviations.
 struct EffectEstimate {
-  std::string id;
-  Eigen::VectorXd value;  ///< in effect_value_names(id) order
+  Effect effect;
+  Eigen::VectorXd value;  ///< in effect_value_names(effect) order
   Eigen::VectorXd std;    ///< standard deviations by the delta method, same order
 };
 
 /// @brief Physical values of an effect from a fit of a model that contains the term
-/// effect_term(id), with standard deviations by the delta method from the covariance block.
+/// effect_term(effect), with standard deviations by the delta method from the covariance block.
 ///
 /// - coulomb: Fc; torque_offset: b; armature: Ia; spring: k (the coefficient itself).
 /// - stribeck: Fc = a, Fs = a + b (a, b the term's coefficients); vs = settings.stribeck_velocity,
@@ -160,23 +168,22 @@ struct EffectEstimate {
 ///   pi/2 (cos delta > 0) on the right branch.
 /// A rank-deficient fit (NaN covariance) gives NaN standard deviations.
 /// @param theta_full the fitted parameters of model; covariance_full their covariance (p x p).
-/// @throws std::invalid_argument for an unknown id, a model without the term (or, for angle
-///         offsets, without "rigid_body"), or wrongly sized theta/covariance.
-SID_INLINE EffectEstimate effect_estimate(const std::string& id,
+/// @throws std::invalid_argument for a model without the term (or, for angle offsets, without
+///         "rigid_body"), or wrongly sized theta/covariance.
+SID_INLINE EffectEstimate effect_estimate(Effect effect,
                                           const Eigen::Ref<const Eigen::VectorXd>& theta_full,
                                           const Eigen::Ref<const Eigen::MatrixXd>& covariance_full,
                                           const Model<double>& model,
                                           const EffectSettings& settings = {});
 
-/// @brief A user-given effect with its physical values in effect_value_names(id) order, e.g.
+/// @brief A user-given effect with its physical values in effect_value_names(effect) order, e.g.
 /// {"stribeck_j1", {0.1, 0.3, 0.2}} (Fc, Fs, vs).
 struct EffectSpec {
-  std::string id;
+  Effect effect;
   std::vector<double> values;
 };
 
-/// @brief Checks an effect's values: the right number, finite, and physically admissible
-/// (Fc > 0, Fs > Fc, vs > 0, Ia > 0, k > 0; b any; |delta| < pi/2).
+/// @brief Checks an effect's values as admissibility_violation does.
 /// @throws std::invalid_argument (message starts with who) naming the problem.
 SID_INLINE void validate_effect(const EffectSpec& spec, const char* who = "sid::validate_effect");
 
@@ -189,7 +196,7 @@ SID_INLINE EffectSpec parse_effect(const std::string& text);
 
 /// @brief The true arm of a simulation with hidden effects.
 struct EffectfulArm {
-  /// two_link_arm_model(g) plus one term per dynamic effect (named by its id).
+  /// two_link_arm_model(g) plus one term per dynamic effect (named by its id()).
   Model<double> model;
   /// The parameters of model: theta1..theta7, then each dynamic effect's coefficients (Stribeck:
   /// Fc, Fs - Fc, with its columns built at the spec's vs).
@@ -204,8 +211,8 @@ struct EffectfulArm {
 /// as terms and the measurement effects (torque and angle offsets) returned separately.
 /// @param theta the arm's theta1..theta7; effects each validated as validate_effect does; the
 ///        settings give g and epsilon (vs comes from each Stribeck spec).
-/// @throws std::invalid_argument for an invalid spec, an id given twice, non-finite theta or bad
-///         settings.
+/// @throws std::invalid_argument for an invalid spec, an effect given twice, non-finite theta or
+///         bad settings.
 SID_INLINE EffectfulArm effectful_arm(const TwoLinkParameters<double>& theta,
                                       const std::vector<EffectSpec>& effects,
                                       const EffectSettings& settings = {});

@@ -81,6 +81,18 @@ class Model {
     throw std::invalid_argument("sid::Model::parameter_offset: no term named '" + term_name + "'");
   }
 
+  /// @brief Index in theta of the parameter with this name (e.g. "theta4").
+  /// @throws std::invalid_argument if there is no such parameter.
+  Eigen::Index parameter_index(const std::string& parameter_name) const {
+    for (std::size_t k = 0; k < terms_.size(); ++k) {
+      const auto& names = terms_[k].parameter_names;
+      for (std::size_t i = 0; i < names.size(); ++i)
+        if (names[i] == parameter_name) return offsets_[k] + static_cast<Eigen::Index>(i);
+    }
+    throw std::invalid_argument("sid::Model::parameter_index: no parameter named '" +
+                                parameter_name + "'");
+  }
+
   /// @brief Z(q, qd, qdd) written into out (2 x num_parameters()).
   /// @param q [rad], qd [rad/s], qdd [rad/s^2].
   /// @throws std::invalid_argument if out has the wrong number of columns.

@@ -75,6 +75,13 @@ TwoLinkParameters<Scalar> two_link_parameters(const TwoLinkPhysical<Scalar>& p) 
   return theta;
 }
 
+/// @brief True if the mass matrix D(theta, q) is positive definite at every q: theta2 > 0 and
+/// det D = theta1 theta2 - theta3^2 cos^2 q2 > 0 for every q2, i.e. theta1 theta2 > theta3^2.
+template <typename Scalar>
+bool two_link_mass_matrix_positive_definite(const TwoLinkParameters<Scalar>& theta) noexcept {
+  return theta[1] > Scalar(0) && theta[0] * theta[1] > theta[2] * theta[2];
+}
+
 namespace detail {
 
 /// Writes the five rigid-body columns (theta1..theta5) of the closed-form regressor into
