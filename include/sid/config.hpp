@@ -9,7 +9,9 @@
 /// Compiled (SID_COMPILED_LIB, which linking the CMake target sid::compiled or
 /// sid::cvode_compiled defines): the headers only declare the pipelines' non-template functions
 /// and the library holds them, compiled once. Templates (the smoother, the regressor, the models
-/// over a Scalar type) stay in the headers in both modes.
+/// over a Scalar type) stay in the headers in both modes; the one exception is the least-squares
+/// solver for double, which every fit calls: the library holds its instantiation and the headers
+/// declare it `extern template`.
 ///
 /// Each header X.hpp with such functions has their definitions in X-inl.hpp, marked SID_INLINE:
 /// `inline` in header-only mode, nothing in the compiled library, whose sources include the

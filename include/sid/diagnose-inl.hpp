@@ -65,20 +65,13 @@ SID_INLINE Eigen::MatrixXd time_scores(const Eigen::Ref<const Eigen::MatrixXd>& 
 
 SID_INLINE HacFit hac_fit(const Eigen::Ref<const Eigen::MatrixXd>& x,
                           const Eigen::Ref<const Eigen::VectorXd>& y) {
-  const Eigen::Index n = x.rows() / 2, p = x.cols();
-  const Eigen::VectorXd scale = x.colwise().norm().transpose().cwiseMax(1e-300);
-  const Eigen::MatrixXd xs = x * scale.cwiseInverse().asDiagonal();
-  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(xs);
-  const Eigen::MatrixXd r = qr.matrixQR().topLeftCorner(p, p).triangularView<Eigen::Upper>();
+  const Eigen::Index n = x.rows() / 2;
+  const LeastSquaresResult<double> ls = least_squares(x, y, 2);
   HacFit f;
-  const Eigen::VectorXd qty = (qr.householderQ().transpose() * y).head(p);
-  f.theta = r.triangularView<Eigen::Upper>().solve(qty).cwiseQuotient(scale);
-  f.residual = y - x * f.theta;
+  f.theta = ls.theta;
+  f.residual = ls.residual;
   f.rss = Vector2<double>(f.residual.head(n).squaredNorm(), f.residual.tail(n).squaredNorm());
-  const Eigen::MatrixXd r_inv =
-      r.triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(p, p));
-  const Eigen::MatrixXd bread = scale.cwiseInverse().asDiagonal() * (r_inv * r_inv.transpose()) *
-                                scale.cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd bread = ls.inverse_gram();
   const Eigen::MatrixXd g = time_scores(x, f.residual);
   f.covariance = bread * hac_long_run_sum(g) * bread;
   f.std = f.covariance.diagonal().cwiseMax(0.0).cwiseSqrt();

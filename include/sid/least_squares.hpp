@@ -71,8 +71,21 @@ struct [[nodiscard]] LeastSquaresResult {
   Eigen::Index rank = 0;                        ///< numerical rank of the column-scaled X
   std::vector<Eigen::Index> dependent_columns;  ///< columns in the null space (RankDeficient)
   Vector column_scale;  ///< 2-norm of each column of (weighted) X, the scaling undone on theta
+  /// The triangular factor of the column-scaled (weighted) X: X S⁻¹ = Q r with S =
+  /// diag(column_scale), p x p.
+  Matrix r;
 
   bool ok() const { return status == LeastSquaresStatus::Success; }
+
+  /// (XᵀWX)⁻¹ = S⁻¹ r⁻¹ r⁻ᵀ S⁻¹, so that covariance = sigma2 inverse_gram(): the bread of a
+  /// sandwich covariance. NaN if RankDeficient.
+  Matrix inverse_gram() const {
+    const Eigen::Index p = r.cols();
+    if (!ok()) return Matrix::Constant(p, p, std::numeric_limits<Scalar>::quiet_NaN());
+    const Matrix r_inv = r.template triangularView<Eigen::Upper>().solve(Matrix::Identity(p, p));
+    const Vector inv_scale = column_scale.cwiseInverse();
+    return inv_scale.asDiagonal() * (r_inv * r_inv.transpose()) * inv_scale.asDiagonal();
+  }
 };
 
 namespace detail {
@@ -85,13 +98,21 @@ std::string format_number(Scalar value) {
   return out.str();
 }
 
+// The solver proper takes its operands as Refs: one instantiation per Scalar, whatever
+// expressions the callers pass (an instantiation per expression type cost seconds of compile
+// time each).
+template <typename Scalar>
+using ConstMatrixRef = Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>>;
+template <typename Scalar>
+using ConstVectorRef = Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>;
+
 inline std::string column_label(const std::vector<std::string>& names, Eigen::Index j) {
   return names.empty() ? std::to_string(j) : names[static_cast<std::size_t>(j)];
 }
 
-template <typename DerivedX, typename DerivedY>
-void check_least_squares_input(const char* who, const Eigen::MatrixBase<DerivedX>& x,
-                               const Eigen::MatrixBase<DerivedY>& y, Eigen::Index joints,
+template <typename Scalar>
+void check_least_squares_input(const char* who, const ConstMatrixRef<Scalar>& x,
+                               const ConstVectorRef<Scalar>& y, Eigen::Index joints,
                                const LeastSquaresOptions& options) {
   const std::string prefix = std::string(who) + ": ";
   const Eigen::Index m = x.rows(), p = x.cols();
@@ -116,10 +137,9 @@ void check_least_squares_input(const char* who, const Eigen::MatrixBase<DerivedX
 }
 
 /// (Weighted) x with unit-norm columns; their original norms go into column_scale.
-template <typename Scalar, typename DerivedX>
+template <typename Scalar>
 Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> scaled_regressor(
-    const Eigen::MatrixBase<DerivedX>& x,
-    const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>* root_weights,
+    const ConstMatrixRef<Scalar>& x, const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>* root_weights,
     Eigen::Matrix<Scalar, Eigen::Dynamic, 1>& column_scale) {
   using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
   // Unit-norm columns make the condition number and the rank decision independent of the
@@ -196,9 +216,8 @@ void solve_rank_deficient(const char* who, const Svd& svd, const QtyHead& qty_he
 }
 
 /// residual, sigma2 and the per-joint sigma2 and residual RMS at result.theta.
-template <typename Scalar, typename DerivedX, typename DerivedY>
-void set_residual_statistics(const Eigen::MatrixBase<DerivedX>& x,
-                             const Eigen::MatrixBase<DerivedY>& y,
+template <typename Scalar>
+void set_residual_statistics(const ConstMatrixRef<Scalar>& x, const ConstVectorRef<Scalar>& y,
                              const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>* root_weights,
                              Eigen::Index joints, LeastSquaresResult<Scalar>& result) {
   using std::sqrt;
@@ -221,16 +240,9 @@ void set_residual_statistics(const Eigen::MatrixBase<DerivedX>& x,
 
 /// Full rank: covariance, standard deviations, and the warning when x is ill conditioned.
 template <typename Scalar>
-void set_covariance(const char* who, const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>& r,
-                    const LeastSquaresOptions& options, LeastSquaresResult<Scalar>& result) {
-  using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
-  using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
-  const Eigen::Index p = r.cols();
-  // (Xs^T Xs)^-1 = R^-1 R^-T; X = Xs D, so cov(theta) = D^-1 cov(theta_s) D^-1.
-  const Matrix r_inv = r.template triangularView<Eigen::Upper>().solve(Matrix::Identity(p, p));
-  const Vector inv_scale = result.column_scale.cwiseInverse();
-  result.covariance = result.sigma2 * (inv_scale.asDiagonal() * (r_inv * r_inv.transpose()) *
-                                       inv_scale.asDiagonal());
+void set_covariance(const char* who, const LeastSquaresOptions& options,
+                    LeastSquaresResult<Scalar>& result) {
+  result.covariance = result.sigma2 * result.inverse_gram();
   result.std_dev = result.covariance.diagonal().cwiseSqrt();
   result.relative_std_dev = Scalar(100) * result.std_dev.cwiseQuotient(result.theta.cwiseAbs());
   if (result.condition_number > Scalar(options.condition_warning)) {
@@ -245,9 +257,9 @@ void set_covariance(const char* who, const Eigen::Matrix<Scalar, Eigen::Dynamic,
 /// The fit proper. root_weights: sqrt(w) for the weighted fit, nullptr for the unweighted one.
 /// Allocation matters here (an 8002 x 7 copy costs page faults): the only m x p temporary is the
 /// scaled regressor, which the QR then overwrites in place.
-template <typename Scalar, typename DerivedX, typename DerivedY>
+template <typename Scalar>
 LeastSquaresResult<Scalar> solve_least_squares(
-    const char* who, const Eigen::MatrixBase<DerivedX>& x, const Eigen::MatrixBase<DerivedY>& y,
+    const char* who, const ConstMatrixRef<Scalar>& x, const ConstVectorRef<Scalar>& y,
     const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>* root_weights, Eigen::Index joints,
     const LeastSquaresOptions& options) {
   using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
@@ -262,7 +274,8 @@ LeastSquaresResult<Scalar> solve_least_squares(
   const Eigen::HouseholderQR<Eigen::Ref<Matrix>> qr(xs);
   Vector qty = root_weights ? Vector(root_weights->cwiseProduct(y)) : Vector(y);
   apply_q_transpose(qr, qty);
-  const Matrix r = qr.matrixQR().topLeftCorner(p, p).template triangularView<Eigen::Upper>();
+  result.r = qr.matrixQR().topLeftCorner(p, p).template triangularView<Eigen::Upper>();
+  const Matrix& r = result.r;
   const auto qty_head = qty.head(p);
 
   // R is p x p: its SVD is cheap, and square (Eigen's QR preconditioner, which costs seconds of
@@ -280,7 +293,7 @@ LeastSquaresResult<Scalar> solve_least_squares(
 
   set_residual_statistics(x, y, root_weights, joints, result);
   if (result.ok()) {
-    set_covariance(who, r, options, result);
+    set_covariance(who, options, result);
   } else {
     result.ill_conditioned = true;
     result.covariance = Matrix::Constant(p, p, nan);
@@ -310,8 +323,11 @@ LeastSquaresResult<typename DerivedX::Scalar> least_squares(
   using Scalar = typename DerivedX::Scalar;
   static_assert(std::is_same_v<Scalar, typename DerivedY::Scalar>,
                 "x and y must have the same Scalar");
-  detail::check_least_squares_input("sid::least_squares", x, y, joints, options);
-  return detail::solve_least_squares<Scalar>("sid::least_squares", x, y, nullptr, joints, options);
+  const detail::ConstMatrixRef<Scalar> xr(x);
+  const detail::ConstVectorRef<Scalar> yr(y);
+  detail::check_least_squares_input<Scalar>("sid::least_squares", xr, yr, joints, options);
+  return detail::solve_least_squares<Scalar>("sid::least_squares", xr, yr, nullptr, joints,
+                                             options);
 }
 
 /// @brief Weighted least squares min sum_i w_i (y_i - x_i theta)^2, i.e. least_squares of
@@ -330,7 +346,9 @@ LeastSquaresResult<typename DerivedX::Scalar> weighted_least_squares(
                     std::is_same_v<Scalar, typename DerivedW::Scalar>,
                 "x, y and weights must have the same Scalar");
   const char* who = "sid::weighted_least_squares";
-  detail::check_least_squares_input(who, x, y, joints, options);
+  const detail::ConstMatrixRef<Scalar> xr(x);
+  const detail::ConstVectorRef<Scalar> yr(y);
+  detail::check_least_squares_input<Scalar>(who, xr, yr, joints, options);
   if (weights.size() != x.rows())
     throw std::invalid_argument(
         std::string(who) + ": weights must have as many entries as x has rows (" +
@@ -338,7 +356,17 @@ LeastSquaresResult<typename DerivedX::Scalar> weighted_least_squares(
   if (!weights.allFinite() || !(weights.array() > Scalar(0)).all())
     throw std::invalid_argument(std::string(who) + ": weights must be finite and positive");
   const Eigen::Matrix<Scalar, Eigen::Dynamic, 1> root = weights.cwiseSqrt();
-  return detail::solve_least_squares<Scalar>(who, x, y, &root, joints, options);
+  return detail::solve_least_squares<Scalar>(who, xr, yr, &root, joints, options);
 }
 
 }  // namespace sid
+
+#ifdef SID_COMPILED_LIB
+// The compiled library holds the solver for double, which every fit of the library calls (see
+// sid/config.hpp).
+namespace sid::detail {
+extern template LeastSquaresResult<double> solve_least_squares<double>(
+    const char*, const ConstMatrixRef<double>&, const ConstVectorRef<double>&,
+    const Eigen::Matrix<double, Eigen::Dynamic, 1>*, Eigen::Index, const LeastSquaresOptions&);
+}  // namespace sid::detail
+#endif

@@ -3,6 +3,8 @@
 
 #include <sid/physical_consistency.hpp>
 
+#include <sid/least_squares.hpp>
+
 namespace sid {
 
 SID_INLINE PhysicalConstraints default_physical_constraints(const Model<double>& model) {
@@ -356,26 +358,16 @@ struct WhitenedLeastSquares {
 SID_INLINE WhitenedLeastSquares whiten_least_squares(const std::string& prefix,
                                                      const Eigen::Ref<const Eigen::MatrixXd>& X,
                                                      const Eigen::Ref<const Eigen::VectorXd>& y) {
-  const Eigen::Index m = X.rows(), p = X.cols();
+  const LeastSquaresResult<double> ls = least_squares(X, y);
+  if (!ls.ok())
+    throw std::invalid_argument(prefix +
+                                "X is rank deficient (after scaling its columns to unit norm): "
+                                "the constrained fit needs every parameter identifiable");
   WhitenedLeastSquares w;
-  // Whitening: unit-norm columns, then X_s = Q R; Q' y gives phi_hat and the residual sum RSS.
-  w.scale = X.colwise().norm().transpose();
-  for (Eigen::Index j = 0; j < p; ++j)
-    if (w.scale(j) == 0.0) w.scale(j) = 1.0;  // a zero column: caught as rank deficiency below
-  Eigen::MatrixXd xs = X * w.scale.cwiseInverse().asDiagonal();
-  const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(xs);
-  const Eigen::VectorXd qty = qr.householderQ().adjoint() * y;
-  w.r = qr.matrixQR().topLeftCorner(p, p).triangularView<Eigen::Upper>();
-  {
-    const Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(w.r);
-    const Eigen::VectorXd& sv = svd.singularValues();
-    if (!(sv(p - 1) > static_cast<double>(m) * std::numeric_limits<double>::epsilon() * sv(0)))
-      throw std::invalid_argument(prefix +
-                                  "X is rank deficient (after scaling its columns to unit norm): "
-                                  "the constrained fit needs every parameter identifiable");
-  }
-  w.phi_hat = w.r.triangularView<Eigen::Upper>().solve(qty.head(p));
-  w.rss = qty.tail(m - p).squaredNorm();
+  w.scale = ls.column_scale;
+  w.r = ls.r;
+  w.phi_hat = ls.theta.cwiseProduct(ls.column_scale);
+  w.rss = ls.residual.squaredNorm();
   return w;
 }
 
