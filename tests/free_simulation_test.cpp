@@ -373,7 +373,7 @@ TEST(DiagnoseWithSimulation, JudgesTheWindowsOfAHiddenSpringAgainstTheFinalModel
 }
 
 // Where friction is named, the nominal model's simulation runs beside the friction test, which
-// rewrites the result: it must still be the nominal model's, at the checked tolerance, as if
+// replaces the result: it must still be the nominal model's, at the checked tolerance, as if
 // run on its own.
 TEST(DiagnoseWithSimulation, SimulatesTheNominalModelBesideTheFrictionTestAsOnItsOwn) {
   const sid::Trajectory<double> data =
@@ -398,6 +398,17 @@ TEST(DiagnoseWithSimulation, SimulatesTheNominalModelBesideTheFrictionTestAsOnIt
     EXPECT_EQ(r.nominal.sim_error_rms[j], nominal.error_rms[j]) << "joint " << j + 1;
   // And the final model's simulation is another one: it fits where the nominal one drifts.
   EXPECT_LT(r.final.sim_error_rms[1], 0.5 * r.nominal.sim_error_rms[1]);
+
+  // One thread runs the two tasks one after the other, to the same numbers.
+  sid::SimulationCheckOptions one_thread = check;
+  one_thread.threads = 1;
+  sid::SimulationCheck serial_details;
+  const sid::DiagnosisResult serial =
+      sid::diagnose_with_simulation(data, {}, {}, one_thread, &serial_details);
+  EXPECT_EQ(serial.final.theta, r.final.theta);
+  EXPECT_EQ(serial.friction_checks[0].chosen, r.friction_checks[0].chosen);
+  EXPECT_EQ((serial_details.nominal.q - details.nominal.q).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(serial.final.sim_error_rms, r.final.sim_error_rms);
 }
 
 }  // namespace

@@ -118,18 +118,21 @@ SID_INLINE DiagnosisResult diagnose_with_simulation(const Trajectory<double>& da
   if (check.checked_tolerance > 0.0)
     checked.simulator.rtol = checked.simulator.atol = check.checked_tolerance;
   // The friction test does not change the nominal model, and its fits leave a core idle part
-  // of the time (a handful of windows on two threads): the nominal simulation runs beside it.
-  // It works on copies: the friction test replaces the result.
+  // of the time (a handful of windows on two threads): the nominal simulation runs beside it,
+  // as a second task of the pool. Both only read the result; the refined one replaces it after.
   const bool nominal_beside_friction_test =
       check.refine_friction &&
       (detail::names_friction_of(result, 1) || detail::names_friction_of(result, 2));
   if (nominal_beside_friction_test) {
-    std::future<FreeSimulation> nominal =
-        std::async(std::launch::async,
-                   [model = result.nominal_model, theta = result.nominal.theta, kinematics = k,
-                    &checked] { return free_simulation(model, theta, kinematics, checked); });
-    result = refine_named_friction(std::move(result), data, options, check.friction);
-    check_result.nominal = nominal.get();
+    DiagnosisResult refined;
+    detail::for_each_index(2, detail::thread_count(check.threads), [&](Eigen::Index task, int) {
+      if (task == 0)
+        refined = refine_named_friction(result, data, options, check.friction);
+      else
+        check_result.nominal =
+            free_simulation(result.nominal_model, result.nominal.theta, k, checked);
+    });
+    result = std::move(refined);
   }
 
   // The noise alone: (sim with tau + w) - (sim with tau), w white at the noise floor.

@@ -19,7 +19,6 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
-#include <future>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -59,7 +58,8 @@ struct SimulationCheckOptions {
   /// the smoothing of q leaves errors of this order.
   double min_error = 1e-4;
   std::uint64_t seed = 20261122;
-  /// Threads for the free simulations (0: every core); the result does not depend on it.
+  /// Threads for the free simulations and the friction test beside the nominal one (0: every
+  /// core; 1: one after the other); the result does not depend on it.
   int threads = 0;
   /// CVODE's rtol = atol for the noise-alone simulations (the plain one they are compared
   /// with included): they only set a statistical scale. 1e-5 leaves errors of at most 8e-5 rad
