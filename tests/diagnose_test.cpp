@@ -118,21 +118,6 @@ Outcome run_case(const EffectCase& c, Excitation excitation, unsigned seed) {
   return o;
 }
 
-/// The data sets a parametrized case runs: both excitations with both seeds, or under the
-/// sanitizers (which check memory and undefined behaviour, not the numbers, at about 18 times
-/// the run time) two that still cover both excitations and both seeds.
-std::vector<std::pair<Excitation, unsigned>> case_data_sets(unsigned first_seed,
-                                                            unsigned second_seed) {
-#ifdef SID_SANITIZED_TESTS
-  return {{Excitation::Paper, first_seed}, {Excitation::Multisine, second_seed}};
-#else
-  return {{Excitation::Paper, first_seed},
-          {Excitation::Paper, second_seed},
-          {Excitation::Multisine, first_seed},
-          {Excitation::Multisine, second_seed}};
-#endif
-}
-
 // --- A hidden effect at a clearly visible size: named exactly, estimated within 15 %, and the
 // affected joint's excess residual at least halves. Two seeds, both excitations.
 
@@ -141,7 +126,7 @@ class DiagnoseVisibleEffect : public ::testing::TestWithParam<EffectCase> {};
 TEST_P(DiagnoseVisibleEffect, NamesExactlyItEstimatesItAndHalvesTheExcess) {
   const EffectCase& c = GetParam();
   const std::string id = sid::parse_effect(c.spec).effect.id();
-  for (const auto& [excitation, seed] : case_data_sets(11u, 12u)) {
+  for (const auto& [excitation, seed] : sid::test::case_data_sets(11u, 12u)) {
     SCOPED_TRACE(c.spec + " " + excitation_name(excitation) + " seed " + std::to_string(seed));
     const Outcome o = run_case(c, excitation, seed);
     ASSERT_EQ(named_ids(o.result), std::vector<std::string>{id});
@@ -178,7 +163,7 @@ class DiagnoseSmallEffect : public ::testing::TestWithParam<EffectCase> {};
 TEST_P(DiagnoseSmallEffect, NamesExactlyItEstimatesItAndHalvesTheExcess) {
   const EffectCase& c = GetParam();
   const std::string id = sid::parse_effect(c.spec).effect.id();
-  for (const auto& [excitation, seed] : case_data_sets(13u, 14u)) {
+  for (const auto& [excitation, seed] : sid::test::case_data_sets(13u, 14u)) {
     SCOPED_TRACE(c.spec + " " + excitation_name(excitation) + " seed " + std::to_string(seed));
     const Outcome o = run_case(c, excitation, seed);
     ASSERT_EQ(named_ids(o.result), std::vector<std::string>{id});

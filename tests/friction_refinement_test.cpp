@@ -44,62 +44,60 @@ std::vector<std::string> ids(const sid::DiagnosisResult& r) {
 }
 
 TEST(FrictionRefinement, NamesStribeckFrictionAndItsValuesOnBothExcitations) {
-  for (Excitation excitation : {Excitation::Paper, Excitation::Multisine})
-    for (int joint : {1, 2})
-      for (unsigned seed : {11u, 12u}) {
-        const std::string j = std::to_string(joint);
-        SCOPED_TRACE(sid::test::excitation_name(excitation) + " joint " + j + " seed " +
-                     std::to_string(seed));
-        const Refined r = refine("stribeck_j" + j + ":0.1,0.3,0.2", excitation, seed);
-        ASSERT_EQ(ids(r.after), std::vector<std::string>{"stribeck_j" + j});
-        ASSERT_EQ(r.after.friction_checks.size(), 1u);
-        const sid::FrictionCheck& c = r.after.friction_checks[0];
-        EXPECT_EQ(c.joint, joint);
-        EXPECT_EQ(c.chosen.id(), "stribeck_j" + j);
-        EXPECT_TRUE(c.stribeck_fitted) << "the screen must let a real bump through";
-        if (c.named.id() == "coulomb_j" + j)
-          EXPECT_GE(c.score, sid::FrictionRefinementOptions().screen_level);
-        else  // the torque-domain tests saw the bump: it is fitted first, without the screen
-          EXPECT_TRUE(std::isnan(c.score)) << c.score;
-        EXPECT_LT(c.p_value, 1e-6);
-        EXPECT_TRUE(c.message.empty()) << c.message;
-        // The fit leaves about the angle noise (0.95-1.12 here: what the smoothed torque's
-        // error leaves beyond the windows' offsets and slopes).
-        EXPECT_NEAR(c.normalized_rms_stribeck, 1.0, 0.2);
-        EXPECT_GT(c.normalized_rms_coulomb, c.normalized_rms_stribeck);
-        const sid::NamedEffect& e = r.after.effects[0];
-        EXPECT_NEAR(e.estimate[0], 0.1, kFrictionLevelTolerance * 0.1) << "Fc";
-        EXPECT_NEAR(e.estimate[1], 0.3, kFrictionLevelTolerance * 0.3) << "Fs";
-        EXPECT_NEAR(e.estimate[2], 0.2, kVelocityTolerance * 0.2) << "vs";
-        for (int v = 0; v < 3; ++v) EXPECT_GT(e.std[v], 0.0) << "every value has a std";
-        EXPECT_NE(e.note.find("output-error"), std::string::npos) << e.note;
-        // The torque-domain report follows the chosen curve, and the gap closes.
-        EXPECT_DOUBLE_EQ(r.after.final_settings[0].stribeck_velocity, e.estimate[2]);
-        EXPECT_LE(r.after.final.excess_rms[joint - 1], 0.5 * r.after.nominal.excess_rms[joint - 1]);
-      }
+  for (const auto& [excitation, seed] : sid::test::case_data_sets(11u, 12u))
+    for (int joint : {1, 2}) {
+      const std::string j = std::to_string(joint);
+      SCOPED_TRACE(sid::test::excitation_name(excitation) + " joint " + j + " seed " +
+                   std::to_string(seed));
+      const Refined r = refine("stribeck_j" + j + ":0.1,0.3,0.2", excitation, seed);
+      ASSERT_EQ(ids(r.after), std::vector<std::string>{"stribeck_j" + j});
+      ASSERT_EQ(r.after.friction_checks.size(), 1u);
+      const sid::FrictionCheck& c = r.after.friction_checks[0];
+      EXPECT_EQ(c.joint, joint);
+      EXPECT_EQ(c.chosen.id(), "stribeck_j" + j);
+      EXPECT_TRUE(c.stribeck_fitted) << "the screen must let a real bump through";
+      if (c.named.id() == "coulomb_j" + j)
+        EXPECT_GE(c.score, sid::FrictionRefinementOptions().screen_level);
+      else  // the torque-domain tests saw the bump: it is fitted first, without the screen
+        EXPECT_TRUE(std::isnan(c.score)) << c.score;
+      EXPECT_LT(c.p_value, 1e-6);
+      EXPECT_TRUE(c.message.empty()) << c.message;
+      // The fit leaves about the angle noise (0.95-1.12 here: what the smoothed torque's
+      // error leaves beyond the windows' offsets and slopes).
+      EXPECT_NEAR(c.normalized_rms_stribeck, 1.0, 0.2);
+      EXPECT_GT(c.normalized_rms_coulomb, c.normalized_rms_stribeck);
+      const sid::NamedEffect& e = r.after.effects[0];
+      EXPECT_NEAR(e.estimate[0], 0.1, kFrictionLevelTolerance * 0.1) << "Fc";
+      EXPECT_NEAR(e.estimate[1], 0.3, kFrictionLevelTolerance * 0.3) << "Fs";
+      EXPECT_NEAR(e.estimate[2], 0.2, kVelocityTolerance * 0.2) << "vs";
+      for (int v = 0; v < 3; ++v) EXPECT_GT(e.std[v], 0.0) << "every value has a std";
+      EXPECT_NE(e.note.find("output-error"), std::string::npos) << e.note;
+      // The torque-domain report follows the chosen curve, and the gap closes.
+      EXPECT_DOUBLE_EQ(r.after.final_settings[0].stribeck_velocity, e.estimate[2]);
+      EXPECT_LE(r.after.final.excess_rms[joint - 1], 0.5 * r.after.nominal.excess_rms[joint - 1]);
+    }
 }
 
 TEST(FrictionRefinement, KeepsCoulombFrictionCoulomb) {
-  for (Excitation excitation : {Excitation::Paper, Excitation::Multisine})
-    for (const std::string spec : {"coulomb_j1:0.1", "coulomb_j2:0.2"})
-      for (unsigned seed : {11u, 12u}) {
-        SCOPED_TRACE(sid::test::excitation_name(excitation) + " " + spec + " seed " +
-                     std::to_string(seed));
-        const Refined r = refine(spec, excitation, seed);
-        const std::string id = spec.substr(0, spec.find(':'));
-        ASSERT_EQ(ids(r.after), std::vector<std::string>{id});
-        ASSERT_EQ(r.after.friction_checks.size(), 1u);
-        const sid::FrictionCheck& c = r.after.friction_checks[0];
-        EXPECT_EQ(c.chosen.id(), id);
-        // Either the screen found no bump worth fitting, or the fit found none significant.
-        if (c.stribeck_fitted)
-          EXPECT_GT(c.p_value, 0.01) << "score " << c.score;
-        else
-          EXPECT_LT(c.score, sid::FrictionRefinementOptions().screen_level);
-        // Nothing changed but the note: the torque-domain estimate stands.
-        EXPECT_EQ(r.after.effects[0].estimate, r.before.effects[0].estimate);
-        EXPECT_NE(r.after.effects[0].note.find("Coulomb, not Stribeck"), std::string::npos);
-      }
+  for (const auto& [excitation, seed] : sid::test::case_data_sets(11u, 12u))
+    for (const std::string spec : {"coulomb_j1:0.1", "coulomb_j2:0.2"}) {
+      SCOPED_TRACE(sid::test::excitation_name(excitation) + " " + spec + " seed " +
+                   std::to_string(seed));
+      const Refined r = refine(spec, excitation, seed);
+      const std::string id = spec.substr(0, spec.find(':'));
+      ASSERT_EQ(ids(r.after), std::vector<std::string>{id});
+      ASSERT_EQ(r.after.friction_checks.size(), 1u);
+      const sid::FrictionCheck& c = r.after.friction_checks[0];
+      EXPECT_EQ(c.chosen.id(), id);
+      // Either the screen found no bump worth fitting, or the fit found none significant.
+      if (c.stribeck_fitted)
+        EXPECT_GT(c.p_value, 0.01) << "score " << c.score;
+      else
+        EXPECT_LT(c.score, sid::FrictionRefinementOptions().screen_level);
+      // Nothing changed but the note: the torque-domain estimate stands.
+      EXPECT_EQ(r.after.effects[0].estimate, r.before.effects[0].estimate);
+      EXPECT_NE(r.after.effects[0].note.find("Coulomb, not Stribeck"), std::string::npos);
+    }
 }
 
 // Coulomb data that the torque-domain tests had named Stribeck (here by hand: a bump of 0.05

@@ -8,6 +8,7 @@
 #include <sid/measurement_noise.hpp>
 #include <sid/model/effects.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace sid::test {
@@ -41,6 +42,21 @@ inline Trajectory<double> simulate(const std::vector<EffectSpec>& effects, Excit
   }
   std::mt19937_64 rng(seed);
   return add_measurement_noise(truth, MeasurementNoise<double>{q_variance, kTauVariance}, rng);
+}
+
+/// The data sets a case runs: both excitations with both seeds, or under the sanitizers (which
+/// check memory and undefined behaviour, not the numbers, at about 18 times the run time) two
+/// that still cover both excitations and both seeds.
+inline std::vector<std::pair<Excitation, unsigned>> case_data_sets(unsigned first_seed,
+                                                                   unsigned second_seed) {
+#ifdef SID_SANITIZED_TESTS
+  return {{Excitation::Paper, first_seed}, {Excitation::Multisine, second_seed}};
+#else
+  return {{Excitation::Paper, first_seed},
+          {Excitation::Paper, second_seed},
+          {Excitation::Multisine, first_seed},
+          {Excitation::Multisine, second_seed}};
+#endif
 }
 
 }  // namespace sid::test
