@@ -609,7 +609,7 @@ int identify_from_runs(const Options& o) {
             "--gear-ratio needs 1 value or 2 (gr1,gr2), got " + std::to_string(g.size()));
     for (double v : g) require(v > 0.0, "--gear-ratio must be > 0, got " + short_number(v));
     require(
-        in.model.has_term(sid::app::kRotorCoupling.id()),
+        in.model.has_term(sid::kRotorCoupling.id()),
         "--gear-ratio needs armature_j2 in --effects: the rotor of drive 2 enters the fit as an "
         "armature on joint 2");
     in.gear_ratio = g.back();

@@ -17,10 +17,6 @@
 
 namespace sid::app {
 
-/// The rotor of drive 2 rides on link 1; with θ1 and θ2 free it enters the regression only as
-/// an armature on joint 2.
-inline constexpr sid::Effect kRotorCoupling{sid::EffectKind::Armature, 1};
-
 /// One measured run as read: its file name (as the user gave it) and its samples.
 struct RunFile {
   std::string file;

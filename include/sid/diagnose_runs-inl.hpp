@@ -327,14 +327,13 @@ SID_INLINE std::optional<RunsEffectTest> rotor_coupling_test(
     const std::vector<std::pair<Effect, EffectSettings>>& named,
     const std::vector<RunsEffectTest>& not_named, const std::vector<Kinematics<double>>& k,
     const RunsDiagnoseOptions& fixed) {
-  const Effect rotor{EffectKind::Armature, 1};
-  const bool rotor_named =
-      std::any_of(named.begin(), named.end(), [&](const auto& e) { return e.first == rotor; });
+  const bool rotor_named = std::any_of(named.begin(), named.end(),
+                                       [](const auto& e) { return e.first == kRotorCoupling; });
   if (rotor_named) return std::nullopt;
   const auto it = std::find_if(not_named.begin(), not_named.end(),
-                               [&](const RunsEffectTest& t) { return t.effect == rotor; });
+                               [](const RunsEffectTest& t) { return t.effect == kRotorCoupling; });
   if (it != not_named.end()) return *it;
-  return selection_round({rotor}, named, k, fixed).front();
+  return selection_round({kRotorCoupling}, named, k, fixed).front();
 }
 
 /// The final model's residual in excess of the floor, fitted and held out, over all runs.

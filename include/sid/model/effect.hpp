@@ -137,6 +137,10 @@ struct Effect {
 
 inline std::ostream& operator<<(std::ostream& out, Effect effect) { return out << effect.id(); }
 
+/// @brief The rotor of drive 2, carried by link 1: with theta1 and theta2 free it enters the
+/// regression only as an armature on joint 2, Ia = (gr² + gr) Ir for a gear ratio gr.
+inline constexpr Effect kRotorCoupling{EffectKind::Armature, 1};
+
 /// @brief Every effect of the library, kind by kind and joint by joint (coulomb_j1, coulomb_j2,
 /// stribeck_j1, ...). armature_j1 is included so that a diagnosis can report it as not
 /// separable from theta1.
