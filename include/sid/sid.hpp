@@ -6,6 +6,7 @@
 /// output error, instrumental variables) need SUNDIALS and are included from sid/cvode/.
 
 #include <sid/banded.hpp>
+#include <sid/base_parameters.hpp>
 #include <sid/butterworth.hpp>
 #include <sid/cubic_spline.hpp>
 #include <sid/diagnose.hpp>
@@ -15,10 +16,12 @@
 #include <sid/identify_runs.hpp>
 #include <sid/least_squares.hpp>
 #include <sid/measurement_noise.hpp>
+#include <sid/model/chain_regressor.hpp>
 #include <sid/model/dynamics.hpp>
 #include <sid/model/effects.hpp>
 #include <sid/model/model.hpp>
 #include <sid/model/regressor.hpp>
+#include <sid/model/serial_chain.hpp>
 #include <sid/model/terms.hpp>
 #include <sid/model/two_link_arm.hpp>
 #include <sid/physical_consistency.hpp>

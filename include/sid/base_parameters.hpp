@@ -1,0 +1,150 @@
+#pragma once
+/// @file
+/// @brief Base parameters: the largest set of regressor columns that a regression can tell
+/// apart, and how every other column regroups onto them.
+///
+/// A serial arm's regressor has columns that are zero (a parameter that never moves a joint) or
+/// combinations of others (first moments and inertias that act only together). With
+/// W[:, dependent] = W[:, independent] K, the data determine only
+/// beta = theta[independent] + K theta[dependent], and W theta = W[:, independent] beta.
+
+#include <Eigen/Core>
+#include <Eigen/QR>
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sid {
+
+template <typename Scalar>
+struct BaseParameters {
+  using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
+  using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
+
+  std::vector<Eigen::Index> independent;  ///< columns kept, ascending
+  std::vector<Eigen::Index> dependent;    ///< columns regrouped onto them, ascending
+  Matrix K;                               ///< independent.size() x dependent.size()
+
+  Eigen::Index rank() const noexcept { return static_cast<Eigen::Index>(independent.size()); }
+
+  /// @brief beta = theta[independent] + K theta[dependent].
+  /// @throws std::invalid_argument if theta does not have one entry per column.
+  Vector beta(const Eigen::Ref<const Vector>& theta) const {
+    const auto columns = static_cast<Eigen::Index>(independent.size() + dependent.size());
+    if (theta.size() != columns)
+      throw std::invalid_argument("sid::BaseParameters::beta: theta has " +
+                                  std::to_string(theta.size()) + " entries for " +
+                                  std::to_string(columns) + " columns");
+    return theta(independent) + K * theta(dependent);
+  }
+
+  /// @brief W[:, independent], the regressor of beta.
+  /// @throws std::invalid_argument if w does not have one column per parameter.
+  Matrix base_regressor(const Eigen::Ref<const Matrix>& w) const {
+    const auto columns = static_cast<Eigen::Index>(independent.size() + dependent.size());
+    if (w.cols() != columns)
+      throw std::invalid_argument("sid::BaseParameters::base_regressor: W has " +
+                                  std::to_string(w.cols()) + " columns, expected " +
+                                  std::to_string(columns));
+    return w(Eigen::all, independent);
+  }
+};
+
+namespace detail {
+
+template <typename Scalar>
+void check_base_regressor(
+    const char* who,
+    const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>>& w) {
+  if (w.rows() == 0 || w.cols() == 0)
+    throw std::invalid_argument(std::string(who) + ": W is empty");
+  if (!w.allFinite())
+    throw std::invalid_argument(std::string(who) + ": W holds a value that is not finite");
+}
+
+/// K with W[:, dependent] = W[:, independent] K, from a QR of the independent columns.
+template <typename Scalar>
+BaseParameters<Scalar> regroup(
+    const char* who,
+    const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>>& w,
+    std::vector<Eigen::Index> independent, Scalar relative_tolerance) {
+  std::sort(independent.begin(), independent.end());
+  BaseParameters<Scalar> base;
+  for (Eigen::Index j = 0, at = 0; j < w.cols(); ++j) {
+    if (at < static_cast<Eigen::Index>(independent.size()) &&
+        independent[static_cast<std::size_t>(at)] == j)
+      ++at;
+    else
+      base.dependent.push_back(j);
+  }
+  base.independent = std::move(independent);
+  const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> wi = w(Eigen::all, base.independent);
+  Eigen::ColPivHouseholderQR<Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>> qr(wi);
+  qr.setThreshold(relative_tolerance);
+  if (qr.rank() < wi.cols())
+    throw std::invalid_argument(std::string(who) +
+                                ": the independent columns are themselves "
+                                "dependent (rank " +
+                                std::to_string(qr.rank()) + " of " + std::to_string(wi.cols()) +
+                                ")");
+  base.K = base.dependent.empty()
+               ? Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>(wi.cols(), 0)
+               : Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>(
+                     qr.solve(w(Eigen::all, base.dependent)));
+  return base;
+}
+
+}  // namespace detail
+
+/// @brief The base parameters of a stacked regressor W (rows: equations, columns: parameters),
+/// chosen by a QR with column pivoting: a column is independent while its pivot exceeds
+/// relative_tolerance times the largest.
+/// @param w a regressor that excites the arm richly (many random samples): what these samples
+///        do not move is taken as never identifiable.
+/// @throws std::invalid_argument if W is empty or not finite, the tolerance is not in (0, 1),
+///         or every column is zero.
+template <typename Derived>
+BaseParameters<typename Derived::Scalar> base_parameters(
+    const Eigen::MatrixBase<Derived>& w_in,
+    typename Derived::Scalar relative_tolerance = typename Derived::Scalar(1e-8)) {
+  using Scalar = typename Derived::Scalar;
+  const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>> w(w_in);
+  const char* who = "sid::base_parameters";
+  detail::check_base_regressor<Scalar>(who, w);
+  if (!(relative_tolerance > Scalar(0) && relative_tolerance < Scalar(1)))
+    throw std::invalid_argument(std::string(who) + ": the relative tolerance must be in (0, 1)");
+  Eigen::ColPivHouseholderQR<Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>> qr(w);
+  qr.setThreshold(relative_tolerance);
+  if (qr.rank() == 0) throw std::invalid_argument(std::string(who) + ": every column of W is zero");
+  std::vector<Eigen::Index> independent;
+  for (Eigen::Index k = 0; k < qr.rank(); ++k)
+    independent.push_back(qr.colsPermutation().indices()[k]);
+  return detail::regroup<Scalar>(who, w, std::move(independent), relative_tolerance);
+}
+
+/// @brief The regrouping onto given independent columns (e.g. a published base set).
+/// @throws std::invalid_argument if W is empty or not finite, an index is out of range or
+///         repeated, or the given columns are not independent.
+template <typename Derived>
+BaseParameters<typename Derived::Scalar> base_parameters(
+    const Eigen::MatrixBase<Derived>& w_in, std::vector<Eigen::Index> independent,
+    typename Derived::Scalar relative_tolerance = typename Derived::Scalar(1e-8)) {
+  using Scalar = typename Derived::Scalar;
+  const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>> w(w_in);
+  const char* who = "sid::base_parameters";
+  detail::check_base_regressor<Scalar>(who, w);
+  std::vector<Eigen::Index> sorted = independent;
+  std::sort(sorted.begin(), sorted.end());
+  if (sorted.empty())
+    throw std::invalid_argument(std::string(who) + ": no independent columns given");
+  if (sorted.front() < 0 || sorted.back() >= w.cols())
+    throw std::invalid_argument(std::string(who) + ": an independent column is outside 0.." +
+                                std::to_string(w.cols() - 1));
+  if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
+    throw std::invalid_argument(std::string(who) + ": an independent column is given twice");
+  return detail::regroup<Scalar>(who, w, std::move(sorted), relative_tolerance);
+}
+
+}  // namespace sid

@@ -1,0 +1,267 @@
+// Tests of sid/model/serial_chain.hpp, sid/model/chain_regressor.hpp and sid/base_parameters.hpp
+// on two 6R arms: a PUMA 560 in standard DH and a Staubli TX40 in modified DH. References are
+// Pinocchio's regressor and RNEA (tests/data/ndof/), a pendulum's closed form, and the
+// regressor's own identities.
+
+#include <sid/base_parameters.hpp>
+#include <sid/least_squares.hpp>
+#include <sid/model/chain_regressor.hpp>
+#include <sid/model/serial_chain.hpp>
+
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+// Both sides evaluate the same recursion in double: differences are round-off, ~1e-13.
+constexpr double kRegressorTol = 1e-10;  // absolute, entries of Y
+constexpr double kTorqueTol = 1e-9;      // [N m]; |tau| reaches 77 N m
+constexpr double kBaseRelTol = 1e-10;    // relative to |beta|
+constexpr double kIdentRelTol = 1e-8;    // least squares on exact kinematics, relative to |beta|
+
+struct Arm {
+  std::string name;
+  sid::SerialChain<double> chain;
+};
+
+std::ostream& operator<<(std::ostream& os, const Arm& arm) { return os << arm.name; }
+
+// Corke's mdl_puma560 (d, a, alpha in standard DH).
+Arm puma560() {
+  return {"puma560",
+          sid::SerialChain<double>(sid::DhConvention::Standard, {{0.0, kPi / 2, 0.0, 0.0},
+                                                                 {0.4318, 0.0, 0.0, 0.0},
+                                                                 {0.0203, -kPi / 2, 0.15005, 0.0},
+                                                                 {0.0, kPi / 2, 0.4318, 0.0},
+                                                                 {0.0, -kPi / 2, 0.0, 0.0},
+                                                                 {0.0, 0.0, 0.0, 0.0}})};
+}
+
+// Gautier and Khalil's TX40 table (alpha_j, d_j, r_j in Khalil's modified DH).
+Arm tx40() {
+  return {"tx40",
+          sid::SerialChain<double>(sid::DhConvention::Modified, {{0.0, 0.0, 0.0, 0.0},
+                                                                 {0.0, -kPi / 2, 0.0, 0.0},
+                                                                 {0.225, 0.0, 0.035, 0.0},
+                                                                 {0.0, kPi / 2, 0.225, 0.0},
+                                                                 {0.0, -kPi / 2, 0.0, 0.0},
+                                                                 {0.0, kPi / 2, 0.0, 0.0}})};
+}
+
+Eigen::VectorXd joints_of(const sid_test::Table& table, Eigen::Index row, const std::string& stem) {
+  Eigen::VectorXd v(6);
+  for (int j = 0; j < 6; ++j) v[j] = table.data(row, table.column(stem + std::to_string(j + 1)));
+  return v;
+}
+
+Eigen::MatrixXd samples_of(const sid_test::Table& table, const std::string& stem) {
+  Eigen::MatrixXd m(table.data.rows(), 6);
+  for (int j = 0; j < 6; ++j) m.col(j) = table.col(stem + std::to_string(j + 1));
+  return m;
+}
+
+// The reference's true theta, base columns and beta.
+struct BaseReference {
+  Eigen::VectorXd theta;
+  std::vector<Eigen::Index> independent;
+  Eigen::VectorXd beta;  // in the order of `independent`
+  Eigen::Index n_base = 0;
+};
+
+BaseReference base_reference(const std::string& arm) {
+  const sid_test::Table table = sid_test::read_table("ndof/base_" + arm + ".csv");
+  BaseReference ref;
+  ref.theta = table.col("theta");
+  std::vector<double> beta;
+  for (Eigen::Index j = 0; j < table.data.rows(); ++j)
+    if (table.data(j, table.column("independent")) == 1.0) {
+      ref.independent.push_back(j);
+      beta.push_back(table.data(j, table.column("beta")));
+    }
+  ref.beta = Eigen::Map<Eigen::VectorXd>(beta.data(), static_cast<Eigen::Index>(beta.size()));
+  const std::string& comment = table.comments.at(0);
+  ref.n_base = std::stol(comment.substr(comment.find("n_base=") + 7));
+  return ref;
+}
+
+// W over random states, q ~ U(-pi, pi), qd ~ U(-2, 2), qdd ~ U(-5, 5), as the reference drew.
+Eigen::MatrixXd random_regressor(const sid::SerialChain<double>& chain, int samples,
+                                 unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> angle(-kPi, kPi), rate(-2.0, 2.0), accel(-5.0, 5.0);
+  const Eigen::Index n = chain.joints();
+  Eigen::MatrixXd q(samples, n), qd(samples, n), qdd(samples, n);
+  for (Eigen::Index k = 0; k < samples; ++k)
+    for (Eigen::Index j = 0; j < n; ++j) {
+      q(k, j) = angle(rng);
+      qd(k, j) = rate(rng);
+      qdd(k, j) = accel(rng);
+    }
+  return sid::stack_chain_regression(chain, q, qd, qdd, Eigen::MatrixXd::Zero(samples, n)).X;
+}
+
+class SixJointArm : public ::testing::TestWithParam<Arm> {};
+
+TEST_P(SixJointArm, RegressorMatchesPinocchio) {
+  const Arm& arm = GetParam();
+  const sid_test::Table table = sid_test::read_table("ndof/regressor_" + arm.name + ".csv");
+  const std::vector<std::string> names = sid::chain_parameter_names(6);
+  ASSERT_EQ(static_cast<Eigen::Index>(names.size()), sid::chain_parameter_count(6));
+  Eigen::MatrixXd y(6, sid::chain_parameter_count(6));
+  for (Eigen::Index row = 0; row < table.data.rows(); ++row) {
+    sid::chain_regressor(arm.chain, joints_of(table, row, "q"), joints_of(table, row, "qd"),
+                         joints_of(table, row, "qdd"), y);
+    const auto joint = static_cast<Eigen::Index>(table.data(row, table.column("joint"))) - 1;
+    for (std::size_t c = 0; c < names.size(); ++c)
+      ASSERT_NEAR(y(joint, static_cast<Eigen::Index>(c)), table.data(row, table.column(names[c])),
+                  kRegressorTol)
+          << "sample " << table.data(row, 0) << ", joint " << joint + 1 << ", " << names[c];
+  }
+}
+
+TEST_P(SixJointArm, InverseDynamicsMatchesPinocchioWithFriction) {
+  const Arm& arm = GetParam();
+  const sid_test::Table table = sid_test::read_table("ndof/rnea_" + arm.name + ".csv");
+  const Eigen::VectorXd theta = base_reference(arm.name).theta;
+  for (Eigen::Index row = 0; row < table.data.rows(); ++row) {
+    const Eigen::VectorXd tau =
+        sid::chain_inverse_dynamics(arm.chain, theta, joints_of(table, row, "q"),
+                                    joints_of(table, row, "qd"), joints_of(table, row, "qdd"));
+    EXPECT_LT((tau - joints_of(table, row, "tau")).cwiseAbs().maxCoeff(), kTorqueTol)
+        << "sample " << row;
+  }
+}
+
+TEST_P(SixJointArm, FindsTheReferenceNumberOfBaseParametersAndRegroupsExactly) {
+  const Arm& arm = GetParam();
+  const BaseReference ref = base_reference(arm.name);
+  const Eigen::MatrixXd w = random_regressor(arm.chain, 300, 7);
+  const sid::BaseParameters<double> base = sid::base_parameters(w);
+  EXPECT_EQ(base.rank(), ref.n_base);
+  // Whichever columns the pivoting keeps, they must reproduce every torque.
+  const Eigen::VectorXd tau = w * ref.theta;
+  EXPECT_LT((base.base_regressor(w) * base.beta(ref.theta) - tau).cwiseAbs().maxCoeff(),
+            kBaseRelTol * tau.cwiseAbs().maxCoeff());
+  // On the reference's columns, beta is the reference's.
+  const sid::BaseParameters<double> given = sid::base_parameters(w, ref.independent);
+  ASSERT_EQ(given.rank(), ref.n_base);
+  Eigen::VectorXd expected(ref.n_base);
+  std::vector<Eigen::Index> order = ref.independent;
+  for (Eigen::Index k = 0; k < ref.n_base; ++k) {
+    const auto at = std::find(given.independent.begin(), given.independent.end(),
+                              order[static_cast<std::size_t>(k)]) -
+                    given.independent.begin();
+    expected[at] = ref.beta[k];
+  }
+  EXPECT_LT((given.beta(ref.theta) - expected).norm(), kBaseRelTol * expected.norm());
+}
+
+TEST_P(SixJointArm, LeastSquaresOnExactKinematicsRecoversBeta) {
+  const Arm& arm = GetParam();
+  const BaseReference ref = base_reference(arm.name);
+  const sid_test::Table ident = sid_test::read_table("ndof/ident_" + arm.name + ".csv");
+  const sid::StackedRegression<double> r =
+      sid::stack_chain_regression(arm.chain, samples_of(ident, "q"), samples_of(ident, "qd"),
+                                  samples_of(ident, "qdd"), samples_of(ident, "tau"));
+  const sid::BaseParameters<double> base =
+      sid::base_parameters(random_regressor(arm.chain, 300, 11), ref.independent);
+  const auto fit = sid::least_squares(base.base_regressor(r.X), r.y, 6);
+  ASSERT_TRUE(fit.ok()) << fit.message;
+  const Eigen::VectorXd beta = base.beta(ref.theta);
+  EXPECT_LT((fit.theta - beta).cwiseAbs().maxCoeff(), kIdentRelTol * beta.norm());
+}
+
+INSTANTIATE_TEST_SUITE_P(ChainRegressor, SixJointArm, ::testing::Values(puma560(), tx40()),
+                         [](const auto& info) { return info.param.name; });
+
+TEST(ChainRegressor, PendulumHasItsClosedForm) {
+  // One joint turning about z, gravity along -y: tau = (Izz_c + m l^2) qdd + m g l cos(q)
+  // + Fv qd + Fc sign(qd) for a point-like link with its centre of mass at (l, 0, 0).
+  const double m = 1.3, l = 0.4, izz_c = 0.02, g = 9.81, fv = 0.1, fc = 0.3;
+  for (const auto convention : {sid::DhConvention::Standard, sid::DhConvention::Modified}) {
+    // Standard DH puts frame 1 at the far end (a = l): there the centre of mass is at the origin.
+    const bool standard = convention == sid::DhConvention::Standard;
+    const sid::SerialChain<double> chain(convention, {{standard ? l : 0.0, 0.0, 0.0, 0.0}},
+                                         sid::Vector3<double>(0.0, -g, 0.0));
+    Eigen::VectorXd theta = Eigen::VectorXd::Zero(12);
+    const double cx = standard ? 0.0 : l;
+    theta[0] = m;
+    theta[1] = m * cx;
+    theta[9] = izz_c + m * cx * cx;
+    theta[10] = fv;
+    theta[11] = fc;
+    for (const double q : {-2.0, -0.3, 0.0, 1.1, 2.9})
+      for (const double qd : {-1.5, 0.0, 0.7}) {
+        const double qdd = 0.8 - q;
+        const double expected = (izz_c + m * l * l) * qdd + m * g * l * std::cos(q) + fv * qd +
+                                fc * ((qd > 0) - (qd < 0));
+        const Eigen::VectorXd tau = sid::chain_inverse_dynamics(
+            chain, theta, Eigen::VectorXd::Constant(1, q), Eigen::VectorXd::Constant(1, qd),
+            Eigen::VectorXd::Constant(1, qdd));
+        EXPECT_NEAR(tau[0], expected, 1e-12) << (standard ? "standard" : "modified") << " q " << q;
+      }
+  }
+}
+
+TEST(ChainRegressor, ForwardKinematicsComposesTheTable) {
+  // The PUMA at q = 0, against NumPy's product of the six DH matrices: the arm reaches a2 + a3
+  // along x, d3 along -y and d4 up, with the tool frame parallel to the base.
+  const Arm arm = puma560();
+  const auto poses = arm.chain.forward_kinematics(Eigen::VectorXd::Zero(6));
+  ASSERT_EQ(poses.size(), 6u);
+  EXPECT_NEAR((poses[5].translation - Eigen::Vector3d(0.4521, -0.15005, 0.4318)).norm(), 0.0,
+              1e-12);
+  EXPECT_NEAR((poses[5].rotation - Eigen::Matrix3d::Identity()).norm(), 0.0, 1e-12);
+}
+
+TEST(ChainRegressor, RejectsBadInput) {
+  using Table = std::vector<sid::DhJoint<double>>;
+  EXPECT_THROW(sid::SerialChain<double>(sid::DhConvention::Standard, Table{}),
+               std::invalid_argument);
+  EXPECT_THROW(
+      sid::SerialChain<double>(sid::DhConvention::Standard, Table(sid::kMaxChainJoints + 1)),
+      std::invalid_argument);
+  Table nan_row(2);
+  nan_row[1].d = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(sid::SerialChain<double>(sid::DhConvention::Modified, nan_row),
+               std::invalid_argument);
+  const Arm arm = tx40();
+  const Eigen::VectorXd six = Eigen::VectorXd::Zero(6);
+  Eigen::MatrixXd y(6, 72);
+  EXPECT_THROW(sid::chain_regressor(arm.chain, Eigen::VectorXd::Zero(5), six, six, y),
+               std::invalid_argument);
+  Eigen::MatrixXd narrow(6, 71);
+  EXPECT_THROW(sid::chain_regressor(arm.chain, six, six, six, narrow), std::invalid_argument);
+  EXPECT_THROW(
+      (void)sid::chain_inverse_dynamics(arm.chain, Eigen::VectorXd::Zero(60), six, six, six),
+      std::invalid_argument);
+  Eigen::MatrixXd samples = Eigen::MatrixXd::Zero(4, 6);
+  Eigen::MatrixXd with_nan = samples;
+  with_nan(2, 3) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW((void)sid::stack_chain_regression(arm.chain, samples, samples, with_nan, samples),
+               std::invalid_argument);
+  EXPECT_THROW((void)sid::stack_chain_regression(arm.chain, samples, samples, samples,
+                                                 Eigen::MatrixXd::Zero(4, 5)),
+               std::invalid_argument);
+  const Eigen::MatrixXd w = random_regressor(arm.chain, 20, 3);
+  EXPECT_THROW((void)sid::base_parameters(w, 0.0), std::invalid_argument);
+  EXPECT_THROW((void)sid::base_parameters(Eigen::MatrixXd::Zero(5, 3)), std::invalid_argument);
+  EXPECT_THROW((void)sid::base_parameters(w, std::vector<Eigen::Index>{3, 3}),
+               std::invalid_argument);
+  EXPECT_THROW((void)sid::base_parameters(w, std::vector<Eigen::Index>{72}), std::invalid_argument);
+  // Column 0 (m_1 of the TX40) never moves a joint: it cannot be independent.
+  EXPECT_THROW((void)sid::base_parameters(w, std::vector<Eigen::Index>{0, 9}),
+               std::invalid_argument);
+}
+
+}  // namespace
