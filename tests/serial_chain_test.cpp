@@ -236,6 +236,9 @@ TEST(ChainRegressor, RejectsBadInput) {
   EXPECT_THROW(sid::SerialChain<double>(sid::DhConvention::Modified, nan_row),
                std::invalid_argument);
   const Arm arm = tx40();
+  EXPECT_THROW((void)arm.chain.link_pose(6, 0.0), std::invalid_argument);
+  EXPECT_THROW((void)arm.chain.joint_axis(-1), std::invalid_argument);
+  EXPECT_THROW((void)arm.chain.forward_kinematics(Eigen::VectorXd::Zero(7)), std::invalid_argument);
   const Eigen::VectorXd six = Eigen::VectorXd::Zero(6);
   Eigen::MatrixXd y(6, 72);
   EXPECT_THROW(sid::chain_regressor(arm.chain, Eigen::VectorXd::Zero(5), six, six, y),

@@ -94,8 +94,9 @@ class SerialChain {
 
   /// @brief The pose of link frame i (0-based joint index) in frame i-1 (the base for i = 0) at
   ///        joint angle q [rad].
+  /// @throws std::invalid_argument if i is not a joint index.
   FramePose<Scalar> link_pose(int i, Scalar q) const {
-    const DhJoint<Scalar>& j = table_[static_cast<std::size_t>(i)];
+    const DhJoint<Scalar>& j = row(i, "sid::SerialChain::link_pose");
     using std::cos;
     using std::sin;
     const Scalar theta = q + j.offset;
@@ -114,8 +115,9 @@ class SerialChain {
   }
 
   /// @brief Joint i's axis in link frame i.
+  /// @throws std::invalid_argument if i is not a joint index.
   JointAxis<Scalar> joint_axis(int i) const {
-    const DhJoint<Scalar>& j = table_[static_cast<std::size_t>(i)];
+    const DhJoint<Scalar>& j = row(i, "sid::SerialChain::joint_axis");
     if (convention_ == DhConvention::Modified)
       return {Vector3<Scalar>::UnitZ(), Vector3<Scalar>::Zero()};
     // z(i-1) seen from frame i: Rx(alpha)^T e_z, through the origin of frame i-1.
@@ -145,6 +147,13 @@ class SerialChain {
   }
 
  private:
+  const DhJoint<Scalar>& row(int i, const char* who) const {
+    if (i < 0 || i >= joints())
+      throw std::invalid_argument(std::string(who) + ": joint index " + std::to_string(i) +
+                                  " is outside 0.." + std::to_string(joints() - 1));
+    return table_[static_cast<std::size_t>(i)];
+  }
+
   static bool finite(const Scalar& x) {
     using std::isfinite;
     return isfinite(x);
