@@ -35,14 +35,14 @@ Eigen::MatrixXd random_samples(Eigen::Index rows, double bound, unsigned seed) {
 
 void BM_SixJointRegressor(benchmark::State& state) {
   const auto chain = puma560();
-  const Eigen::MatrixXd q = random_samples(kNumStates, kPi, 1),
-                        qd = random_samples(kNumStates, 2, 2),
-                        qdd = random_samples(kNumStates, 5, 3);
+  // States as columns, so that each is contiguous as a control loop's vectors are.
+  const Eigen::MatrixXd q = random_samples(kNumStates, kPi, 1).transpose(),
+                        qd = random_samples(kNumStates, 2, 2).transpose(),
+                        qdd = random_samples(kNumStates, 5, 3).transpose();
   Eigen::MatrixXd y(6, sid::chain_parameter_count(6));
   Eigen::Index i = 0;
   for (auto _ : state) {
-    sid::chain_regressor(chain, q.row(i).transpose(), qd.row(i).transpose(), qdd.row(i).transpose(),
-                         y);
+    sid::chain_regressor(chain, q.col(i), qd.col(i), qdd.col(i), y);
     benchmark::DoNotOptimize(y.data());
     i = (i + 1) % kNumStates;
   }

@@ -30,11 +30,12 @@ constexpr double kBaseRelTol = 1e-10;    // relative to |beta|
 constexpr double kIdentRelTol = 1e-8;    // least squares on exact kinematics, relative to |beta|
 
 struct Arm {
-  std::string name;
+  std::string name;  // of its reference files
   sid::SerialChain<double> chain;
+  std::string label;
 };
 
-std::ostream& operator<<(std::ostream& os, const Arm& arm) { return os << arm.name; }
+std::ostream& operator<<(std::ostream& os, const Arm& arm) { return os << arm.label; }
 
 // Corke's mdl_puma560 (d, a, alpha in standard DH).
 Arm puma560() {
@@ -44,7 +45,8 @@ Arm puma560() {
                                                                  {0.0203, -kPi / 2, 0.15005, 0.0},
                                                                  {0.0, kPi / 2, 0.4318, 0.0},
                                                                  {0.0, -kPi / 2, 0.0, 0.0},
-                                                                 {0.0, 0.0, 0.0, 0.0}})};
+                                                                 {0.0, 0.0, 0.0, 0.0}}),
+          "puma560"};
 }
 
 // Gautier and Khalil's TX40 table (alpha_j, d_j, r_j in Khalil's modified DH).
@@ -55,7 +57,24 @@ Arm tx40() {
                                                                  {0.225, 0.0, 0.035, 0.0},
                                                                  {0.0, kPi / 2, 0.225, 0.0},
                                                                  {0.0, -kPi / 2, 0.0, 0.0},
-                                                                 {0.0, kPi / 2, 0.0, 0.0}})};
+                                                                 {0.0, kPi / 2, 0.0, 0.0}}),
+          "tx40"};
+}
+
+// The TX40 as URDF writes a chain: each joint frame placed in its parent's frame, the child
+// link's frame on the joint (after = identity). Khalil's Rx(alpha) Tx(d) Rz(q) Tz(r) is
+// [Rx(alpha) Tx(d) Tz(r)] Rz(q), as Rz and Tz commute.
+Arm tx40_as_urdf() {
+  const double table[6][3] = {{0.0, 0.0, 0.0},       {-kPi / 2, 0.0, 0.0}, {0.0, 0.225, 0.035},
+                              {kPi / 2, 0.0, 0.225}, {-kPi / 2, 0.0, 0.0}, {kPi / 2, 0.0, 0.0}};
+  std::vector<sid::JointPlacement<double>> joints(6);
+  for (int j = 0; j < 6; ++j) {
+    const double alpha = table[j][0], d = table[j][1], r = table[j][2];
+    joints[j].before.rotation =
+        Eigen::AngleAxisd(alpha, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    joints[j].before.translation << d, -std::sin(alpha) * r, std::cos(alpha) * r;
+  }
+  return {"tx40", sid::SerialChain<double>(joints), "tx40_urdf"};
 }
 
 Eigen::VectorXd joints_of(const sid_test::Table& table, Eigen::Index row, const std::string& stem) {
@@ -181,8 +200,32 @@ TEST_P(SixJointArm, LeastSquaresOnExactKinematicsRecoversBeta) {
   EXPECT_LT((fit.theta - beta).cwiseAbs().maxCoeff(), kIdentRelTol * beta.norm());
 }
 
-INSTANTIATE_TEST_SUITE_P(ChainRegressor, SixJointArm, ::testing::Values(puma560(), tx40()),
-                         [](const auto& info) { return info.param.name; });
+INSTANTIATE_TEST_SUITE_P(ChainRegressor, SixJointArm,
+                         ::testing::Values(puma560(), tx40(), tx40_as_urdf()),
+                         [](const auto& info) { return info.param.label; });
+
+TEST(ChainRegressor, FlippedAxesMirrorTheMotion) {
+  // Turning about -z by q is turning about z by -q, and the torque about -z is minus the one
+  // about z: Y_flipped(q, qd, qdd) = -Y(-q, -qd, -qdd), friction columns included.
+  const Arm arm = tx40();
+  std::vector<sid::JointPlacement<double>> flipped = arm.chain.placements();
+  for (auto& joint : flipped) joint.axis = -2.0 * joint.axis;  // any length: axes are normalised
+  const sid::SerialChain<double> mirror(flipped);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  Eigen::MatrixXd y(6, 72), y_mirror(6, 72);
+  for (int k = 0; k < 20; ++k) {
+    Eigen::VectorXd q(6), qd(6), qdd(6);
+    for (int j = 0; j < 6; ++j) {
+      q[j] = u(rng);
+      qd[j] = u(rng);
+      qdd[j] = u(rng);
+    }
+    sid::chain_regressor(arm.chain, -q, -qd, -qdd, y);
+    sid::chain_regressor(mirror, q, qd, qdd, y_mirror);
+    EXPECT_LT((y_mirror + y).cwiseAbs().maxCoeff(), kRegressorTol) << "state " << k;
+  }
+}
 
 TEST(ChainRegressor, PendulumHasItsClosedForm) {
   // One joint turning about z, gravity along -y: tau = (Izz_c + m l^2) qdd + m g l cos(q)
@@ -235,6 +278,9 @@ TEST(ChainRegressor, RejectsBadInput) {
   nan_row[1].d = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(sid::SerialChain<double>(sid::DhConvention::Modified, nan_row),
                std::invalid_argument);
+  std::vector<sid::JointPlacement<double>> zero_axis(1);
+  zero_axis[0].axis.setZero();
+  EXPECT_THROW(sid::SerialChain<double>{zero_axis}, std::invalid_argument);
   const Arm arm = tx40();
   EXPECT_THROW((void)arm.chain.link_pose(6, 0.0), std::invalid_argument);
   EXPECT_THROW((void)arm.chain.joint_axis(-1), std::invalid_argument);

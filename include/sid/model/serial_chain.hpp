@@ -1,7 +1,8 @@
 #pragma once
 /// @file
-/// @brief sid::SerialChain: the kinematics of a serial arm of revolute joints, from a
-/// Denavit-Hartenberg table in the standard or the modified (Khalil/Craig) convention.
+/// @brief sid::SerialChain: the kinematics of a serial arm of revolute joints, from joint
+/// placements as URDF writes them or from a Denavit-Hartenberg table in the standard or the
+/// modified (Khalil/Craig) convention.
 
 #include <Eigen/Core>
 
@@ -45,12 +46,43 @@ struct DhJoint {
 /// @brief The pose of a child frame in its parent: x_parent = rotation x_child + translation.
 template <typename Scalar>
 struct FramePose {
-  Matrix3<Scalar> rotation;
-  Vector3<Scalar> translation;
+  Matrix3<Scalar> rotation = Matrix3<Scalar>::Identity();
+  Vector3<Scalar> translation = Vector3<Scalar>::Zero();
 };
 
+/// @brief A revolute joint placed in its parent link's frame, the way URDF writes it and any DH
+/// row can be written: T(parent, child)(q) = before * Rot(axis, q + offset) * after.
+template <typename Scalar>
+struct JointPlacement {
+  FramePose<Scalar> before;  ///< the joint frame in the parent's frame (URDF's <origin>)
+  Vector3<Scalar> axis = Vector3<Scalar>::UnitZ();  ///< in the joint frame (URDF's <axis>)
+  FramePose<Scalar> after;    ///< the child link's frame in the turned joint frame
+  Scalar offset = Scalar(0);  ///< [rad]
+};
+
+/// @brief A DH row as a joint placement.
+template <typename Scalar>
+JointPlacement<Scalar> dh_placement(DhConvention convention, const DhJoint<Scalar>& row) {
+  using std::cos;
+  using std::sin;
+  const Scalar ca = cos(row.alpha), sa = sin(row.alpha);
+  Matrix3<Scalar> rx;
+  rx << Scalar(1), Scalar(0), Scalar(0), Scalar(0), ca, -sa, Scalar(0), sa, ca;
+  JointPlacement<Scalar> joint;
+  joint.offset = row.offset;
+  if (convention == DhConvention::Standard) {
+    joint.after.rotation = rx;  // Rz(q) Tz(d) Tx(a) Rx(alpha)
+    joint.after.translation << row.a, Scalar(0), row.d;
+  } else {
+    joint.before.rotation = rx;  // Rx(alpha) Tx(a) Rz(q) Tz(d)
+    joint.before.translation << row.a, Scalar(0), Scalar(0);
+    joint.after.translation << Scalar(0), Scalar(0), row.d;
+  }
+  return joint;
+}
+
 /// @brief A revolute joint's axis in the frame of the link it moves: the unit direction and a
-/// point on the axis. Both are constant in that frame for either DH convention.
+/// point on the axis. Both are constant in that frame.
 template <typename Scalar>
 struct JointAxis {
   Vector3<Scalar> direction;
@@ -59,72 +91,63 @@ struct JointAxis {
 
 /// @brief A chain of revolute joints from a base frame to the last link's frame.
 ///
-/// Class invariant: 1 <= joints() <= kMaxChainJoints and every table entry and the gravity are
-/// finite.
+/// Class invariant: 1 <= joints() <= kMaxChainJoints, every placement and the gravity are
+/// finite, and every axis has unit length.
 template <typename Scalar>
 class SerialChain {
  public:
   /// @param gravity the gravitational acceleration in the base frame [m/s^2]; the default is
   ///        9.81 along -z.
-  /// @throws std::invalid_argument if the table is empty, longer than kMaxChainJoints, or holds a
-  ///         value that is not finite.
-  SerialChain(DhConvention convention, std::vector<DhJoint<Scalar>> table,
-              const Vector3<Scalar>& gravity = Vector3<Scalar>(Scalar(0), Scalar(0), Scalar(-9.81)))
-      : convention_(convention), table_(std::move(table)), gravity_(gravity) {
-    const char* who = "sid::SerialChain";
-    if (table_.empty()) throw std::invalid_argument(std::string(who) + ": the DH table is empty");
-    if (static_cast<int>(table_.size()) > kMaxChainJoints)
-      throw std::invalid_argument(std::string(who) + ": the DH table has " +
-                                  std::to_string(table_.size()) + " rows, at most " +
-                                  std::to_string(kMaxChainJoints) + " are supported");
-    for (std::size_t i = 0; i < table_.size(); ++i) {
-      const auto& j = table_[i];
-      if (!(finite(j.a) && finite(j.alpha) && finite(j.d) && finite(j.offset)))
-        throw std::invalid_argument(std::string(who) + ": row " + std::to_string(i + 1) +
-                                    " of the DH table is not finite");
-    }
-    if (!(finite(gravity_[0]) && finite(gravity_[1]) && finite(gravity_[2])))
-      throw std::invalid_argument(std::string(who) + ": the gravity vector is not finite");
+  /// @throws std::invalid_argument if there are no joints or more than kMaxChainJoints, a value
+  ///         is not finite, or an axis is zero (axes are normalised).
+  explicit SerialChain(std::vector<JointPlacement<Scalar>> joints,
+                       const Vector3<Scalar>& gravity = default_gravity())
+      : joints_(std::move(joints)), gravity_(gravity) {
+    validate("sid::SerialChain");
   }
 
-  int joints() const noexcept { return static_cast<int>(table_.size()); }
-  DhConvention convention() const noexcept { return convention_; }
-  const std::vector<DhJoint<Scalar>>& table() const noexcept { return table_; }
+  /// @brief The chain of a DH table, one row per joint {a, alpha, d, offset} [m, rad].
+  /// @throws std::invalid_argument as the other constructor.
+  SerialChain(DhConvention convention, const std::vector<DhJoint<Scalar>>& table,
+              const Vector3<Scalar>& gravity = default_gravity())
+      : gravity_(gravity) {
+    for (const auto& row : table) joints_.push_back(dh_placement(convention, row));
+    validate("sid::SerialChain (DH table)");
+  }
+
+  int joints() const noexcept { return static_cast<int>(joints_.size()); }
+  const std::vector<JointPlacement<Scalar>>& placements() const noexcept { return joints_; }
   const Vector3<Scalar>& gravity() const noexcept { return gravity_; }
 
   /// @brief The pose of link frame i (0-based joint index) in frame i-1 (the base for i = 0) at
   ///        joint angle q [rad].
   /// @throws std::invalid_argument if i is not a joint index.
   FramePose<Scalar> link_pose(int i, Scalar q) const {
-    const DhJoint<Scalar>& j = row(i, "sid::SerialChain::link_pose");
+    const JointPlacement<Scalar>& j = joint(i, "sid::SerialChain::link_pose");
     using std::cos;
     using std::sin;
-    const Scalar theta = q + j.offset;
-    const Scalar ct = cos(theta), st = sin(theta), ca = cos(j.alpha), sa = sin(j.alpha);
+    const Scalar c = cos(q + j.offset), s = sin(q + j.offset);
+    const Vector3<Scalar>& u = j.axis;
+    Matrix3<Scalar> turn = (Scalar(1) - c) * u * u.transpose();  // Rodrigues
+    turn.diagonal().array() += c;
+    turn(0, 1) -= s * u[2];
+    turn(1, 0) += s * u[2];
+    turn(0, 2) += s * u[1];
+    turn(2, 0) -= s * u[1];
+    turn(1, 2) -= s * u[0];
+    turn(2, 1) += s * u[0];
+    const Matrix3<Scalar> turned = j.before.rotation * turn;
     FramePose<Scalar> pose;
-    if (convention_ == DhConvention::Standard) {
-      // Rz(theta) Rx(alpha)
-      pose.rotation << ct, -st * ca, st * sa, st, ct * ca, -ct * sa, Scalar(0), sa, ca;
-      pose.translation << j.a * ct, j.a * st, j.d;
-    } else {
-      // Rx(alpha) Rz(theta)
-      pose.rotation << ct, -st, Scalar(0), ca * st, ca * ct, -sa, sa * st, sa * ct, ca;
-      pose.translation << j.a, -sa * j.d, ca * j.d;
-    }
+    pose.rotation = turned * j.after.rotation;
+    pose.translation = j.before.translation + turned * j.after.translation;
     return pose;
   }
 
   /// @brief Joint i's axis in link frame i.
   /// @throws std::invalid_argument if i is not a joint index.
   JointAxis<Scalar> joint_axis(int i) const {
-    const DhJoint<Scalar>& j = row(i, "sid::SerialChain::joint_axis");
-    if (convention_ == DhConvention::Modified)
-      return {Vector3<Scalar>::UnitZ(), Vector3<Scalar>::Zero()};
-    // z(i-1) seen from frame i: Rx(alpha)^T e_z, through the origin of frame i-1.
-    using std::cos;
-    using std::sin;
-    const Scalar ca = cos(j.alpha), sa = sin(j.alpha);
-    return {Vector3<Scalar>(Scalar(0), sa, ca), -Vector3<Scalar>(j.a, sa * j.d, ca * j.d)};
+    (void)joint(i, "sid::SerialChain::joint_axis");
+    return axes_[static_cast<std::size_t>(i)];
   }
 
   /// @brief The pose of every link frame in the base frame at joint angles q [rad].
@@ -136,7 +159,7 @@ class SerialChain {
                                   std::to_string(q.size()) + " entries but the chain has " +
                                   std::to_string(joints()) + " joints");
     std::vector<FramePose<Scalar>> poses;
-    FramePose<Scalar> base{Matrix3<Scalar>::Identity(), Vector3<Scalar>::Zero()};
+    FramePose<Scalar> base;
     for (int i = 0; i < joints(); ++i) {
       const FramePose<Scalar> local = link_pose(i, q[i]);
       base.translation += base.rotation * local.translation;
@@ -147,11 +170,40 @@ class SerialChain {
   }
 
  private:
-  const DhJoint<Scalar>& row(int i, const char* who) const {
+  static Vector3<Scalar> default_gravity() {
+    return Vector3<Scalar>(Scalar(0), Scalar(0), Scalar(-9.81));
+  }
+
+  void validate(const char* who) {
+    if (joints_.empty())
+      throw std::invalid_argument(std::string(who) + ": the chain has no joints");
+    if (joints() > kMaxChainJoints)
+      throw std::invalid_argument(std::string(who) + ": the chain has " + std::to_string(joints()) +
+                                  " joints, at most " + std::to_string(kMaxChainJoints) +
+                                  " are supported");
+    for (std::size_t i = 0; i < joints_.size(); ++i) {
+      auto& j = joints_[i];
+      const std::string joint_name = std::string(who) + ": joint " + std::to_string(i + 1);
+      if (!(j.before.rotation.allFinite() && j.before.translation.allFinite() &&
+            j.axis.allFinite() && j.after.rotation.allFinite() && j.after.translation.allFinite() &&
+            finite(j.offset)))
+        throw std::invalid_argument(joint_name + " has a value that is not finite");
+      const Scalar length = j.axis.norm();
+      if (!(length > Scalar(0))) throw std::invalid_argument(joint_name + " has a zero axis");
+      j.axis /= length;
+      // The axis passes through the joint frame's origin; seen from the child link's frame.
+      const Matrix3<Scalar> back = j.after.rotation.transpose();
+      axes_.push_back({back * j.axis, -(back * j.after.translation)});
+    }
+    if (!gravity_.allFinite())
+      throw std::invalid_argument(std::string(who) + ": the gravity vector is not finite");
+  }
+
+  const JointPlacement<Scalar>& joint(int i, const char* who) const {
     if (i < 0 || i >= joints())
       throw std::invalid_argument(std::string(who) + ": joint index " + std::to_string(i) +
                                   " is outside 0.." + std::to_string(joints() - 1));
-    return table_[static_cast<std::size_t>(i)];
+    return joints_[static_cast<std::size_t>(i)];
   }
 
   static bool finite(const Scalar& x) {
@@ -159,8 +211,8 @@ class SerialChain {
     return isfinite(x);
   }
 
-  DhConvention convention_;
-  std::vector<DhJoint<Scalar>> table_;
+  std::vector<JointPlacement<Scalar>> joints_;
+  std::vector<JointAxis<Scalar>> axes_;
   Vector3<Scalar> gravity_;
 };
 
