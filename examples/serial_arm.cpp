@@ -5,6 +5,7 @@
 #include <sid/base_parameters.hpp>
 #include <sid/least_squares.hpp>
 #include <sid/model/chain_regressor.hpp>
+#include <sid/model/link_inertia.hpp>
 #include <sid/model/serial_chain.hpp>
 
 #include <Eigen/Core>
@@ -19,14 +20,12 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// One link's ten standard parameters from its mass, centre of mass c and inertia about c
-// (principal axes along the link frame's).
+// One link's ten standard parameters from its mass, centre of mass c and principal inertias
+// about c (principal axes along the link frame's).
 void set_link(Eigen::VectorXd& theta, int link, double m, const Eigen::Vector3d& c,
               const Eigen::Vector3d& inertia_c) {
-  const Eigen::Matrix3d i = inertia_c.asDiagonal().toDenseMatrix() +
-                            m * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
-  theta.segment<10>(10 * link) << m, m * c[0], m * c[1], m * c[2], i(0, 0), i(0, 1), i(1, 1),
-      i(0, 2), i(1, 2), i(2, 2);
+  const sid::LinkInertia<double> body{m, c, inertia_c.asDiagonal().toDenseMatrix()};
+  theta.segment<10>(10 * link) = sid::standard_parameters(body);
 }
 
 }  // namespace

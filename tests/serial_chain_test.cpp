@@ -1,11 +1,12 @@
-// Tests of sid/model/serial_chain.hpp, sid/model/chain_regressor.hpp and sid/base_parameters.hpp
-// on two 6R arms: a PUMA 560 in standard DH and a Staubli TX40 in modified DH. References are
-// Pinocchio's regressor and RNEA (tests/data/ndof/), a pendulum's closed form, and the
-// regressor's own identities.
+// Tests of sid/model/serial_chain.hpp, sid/model/chain_regressor.hpp, sid/model/link_inertia.hpp
+// and sid/base_parameters.hpp on two 6R arms: a PUMA 560 in standard DH and a Staubli TX40 in
+// modified DH. References are Pinocchio's regressor and RNEA (tests/data/ndof/), a pendulum's
+// closed form, and the regressor's own identities.
 
 #include <sid/base_parameters.hpp>
 #include <sid/least_squares.hpp>
 #include <sid/model/chain_regressor.hpp>
+#include <sid/model/link_inertia.hpp>
 #include <sid/model/serial_chain.hpp>
 
 #include "test_support.hpp"
@@ -13,11 +14,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -225,6 +228,62 @@ TEST(ChainRegressor, FlippedAxesMirrorTheMotion) {
     sid::chain_regressor(mirror, q, qd, qdd, y_mirror);
     EXPECT_LT((y_mirror + y).cwiseAbs().maxCoeff(), kRegressorTol) << "state " << k;
   }
+}
+
+// The published mass, centre of mass and inertia about it (link-frame axes) per link:
+// m, cx, cy, cz, Ixx, Iyy, Izz, Ixy, Iyz, Ixz.
+using LinkTable = std::vector<std::array<double, 10>>;
+
+const LinkTable kPuma560Links = {{0, 0, 0, 0, 0, 0.35, 0, 0, 0, 0},
+                                 {17.4, -0.3638, 0.006, 0.2275, 0.13, 0.524, 0.539, 0, 0, 0},
+                                 {4.8, -0.0203, -0.0141, 0.07, 0.066, 0.086, 0.0125, 0, 0, 0},
+                                 {0.82, 0, 0.019, 0, 0.0018, 0.0013, 0.0018, 0, 0, 0},
+                                 {0.34, 0, 0, 0, 0.0003, 0.0004, 0.0003, 0, 0, 0},
+                                 {0.09, 0, 0, 0.032, 0.00015, 0.00015, 4e-05, 0, 0, 0}};
+const LinkTable kTx40Links = {{10.5, 0, 0.02, -0.043, 0.055, 0.047, 0.035, 0, 0.003, 0},
+                              {3.6, 0.109, -0.002, 0.134, 0.038, 0.009, 0.04, 0, -0.002, 0},
+                              {4.07, 0.008, 0.006, 0.041, 0.012, 0.012, 0.004, 0, -0.001, -0.001},
+                              {3.62, -0.004, 0.002, -0.107, 0.014, 0.013, 0.004, 0, 0, -0.001},
+                              {1.02, -0.004, -0.003, -0.001, 0.001, 0.001, 0.001, 0, 0, 0},
+                              {0.2, 0, 0, 0.042, 8e-05, 8e-05, 0.00016, 0, 0, 0}};
+
+sid::LinkInertia<double> link_of(const std::array<double, 10>& row) {
+  sid::LinkInertia<double> link;
+  link.mass = row[0];
+  link.com << row[1], row[2], row[3];
+  link.inertia_com << row[4], row[7], row[9], row[7], row[5], row[8], row[9], row[8], row[6];
+  return link;
+}
+
+TEST(LinkInertia, StandardParametersOfThePublishedLinksArePinocchios) {
+  for (const auto& [arm, links] : {std::pair{std::string("puma560"), kPuma560Links},
+                                   std::pair{std::string("tx40"), kTx40Links}}) {
+    const Eigen::VectorXd theta = base_reference(arm).theta;
+    for (int i = 0; i < 6; ++i) {
+      const sid::LinkParameters<double> phi = sid::standard_parameters(link_of(links[i]));
+      EXPECT_LT((phi - theta.segment<10>(10 * i)).cwiseAbs().maxCoeff(), 1e-14)
+          << arm << " link " << i + 1;
+    }
+  }
+}
+
+TEST(LinkInertia, NamesWhyAPublishedLinkCannotBeARealBody) {
+  // The PUMA's link 1 has no mass in the source and its link 3's principal moments
+  // (0.0125, 0.066, 0.086) break the triangle inequality; the TX40's links are all real.
+  const Eigen::VectorXd puma = base_reference("puma560").theta;
+  EXPECT_EQ(sid::link_inconsistency<double>(puma.segment<10>(0)), "the mass is not positive");
+  EXPECT_EQ(sid::link_inconsistency<double>(puma.segment<10>(20)),
+            "the principal moments break the triangle inequality");
+  for (const int i : {1, 3, 4, 5})
+    EXPECT_EQ(sid::link_inconsistency<double>(puma.segment<10>(10 * i)), "") << "link " << i + 1;
+  const Eigen::VectorXd tx40 = base_reference("tx40").theta;
+  for (int i = 0; i < 6; ++i)
+    EXPECT_EQ(sid::link_inconsistency<double>(tx40.segment<10>(10 * i)), "") << "link " << i + 1;
+  // A negative principal moment about the centre of mass, seen through the parallel axes.
+  sid::LinkInertia<double> bad = link_of(kTx40Links[1]);
+  bad.inertia_com(2, 2) = -0.001;
+  EXPECT_EQ(sid::link_inconsistency(sid::standard_parameters(bad)),
+            "the inertia about the centre of mass is not positive definite");
 }
 
 TEST(ChainRegressor, PendulumHasItsClosedForm) {

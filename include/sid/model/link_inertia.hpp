@@ -1,0 +1,66 @@
+#pragma once
+/// @file
+/// @brief A link's mass, centre of mass and inertia, their ten standard parameters (the form
+/// the chain regressor is linear in), and whether a parameter set can belong to a real body.
+
+#include <sid/model/serial_chain.hpp>
+
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+
+#include <stdexcept>
+#include <string>
+
+namespace sid {
+
+template <typename Scalar>
+using LinkParameters = Eigen::Matrix<Scalar, 10, 1>;
+
+/// @brief A rigid link in its own frame: mass [kg], centre of mass [m] and inertia about the
+/// centre of mass [kg m^2], both in the link frame's axes (as CAD tools and URDF give them,
+/// once URDF's inertial rotation is applied).
+template <typename Scalar>
+struct LinkInertia {
+  Scalar mass = Scalar(0);
+  Vector3<Scalar> com = Vector3<Scalar>::Zero();
+  Matrix3<Scalar> inertia_com = Matrix3<Scalar>::Zero();
+};
+
+/// @brief [m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]: the first moments m c and the inertia
+/// about the frame's origin, I = I_c + m (|c|^2 1 - c c^T) (parallel axes).
+template <typename Scalar>
+LinkParameters<Scalar> standard_parameters(const LinkInertia<Scalar>& link) {
+  const Vector3<Scalar>& c = link.com;
+  const Matrix3<Scalar> i =
+      link.inertia_com +
+      link.mass * (c.squaredNorm() * Matrix3<Scalar>::Identity() - c * c.transpose());
+  LinkParameters<Scalar> phi;
+  phi << link.mass, link.mass * c[0], link.mass * c[1], link.mass * c[2], i(0, 0), i(0, 1), i(1, 1),
+      i(0, 2), i(1, 2), i(2, 2);
+  return phi;
+}
+
+/// @brief Why ten parameters cannot be a real body, or an empty string if they can: the mass
+/// must be positive and the inertia about the centre of mass positive definite with principal
+/// moments that satisfy the triangle inequality (each at most the sum of the other two).
+/// @param tolerance slack on the inertia tests, relative to the largest principal moment.
+template <typename Scalar>
+std::string link_inconsistency(const LinkParameters<Scalar>& phi,
+                               Scalar tolerance = Scalar(1e-12)) {
+  if (!phi.allFinite()) return "a parameter is not finite";
+  if (!(phi[0] > Scalar(0))) return "the mass is not positive";
+  const Vector3<Scalar> c = phi.template segment<3>(1) / phi[0];
+  Matrix3<Scalar> i;
+  i << phi[4], phi[5], phi[7], phi[5], phi[6], phi[8], phi[7], phi[8], phi[9];
+  const Matrix3<Scalar> i_com =
+      i - phi[0] * (c.squaredNorm() * Matrix3<Scalar>::Identity() - c * c.transpose());
+  const Vector3<Scalar> moments =
+      Eigen::SelfAdjointEigenSolver<Matrix3<Scalar>>(i_com).eigenvalues();
+  const Scalar slack = tolerance * moments.cwiseAbs().maxCoeff();
+  if (!(moments[0] > slack)) return "the inertia about the centre of mass is not positive definite";
+  if (moments[2] > moments[0] + moments[1] + slack)
+    return "the principal moments break the triangle inequality";
+  return {};
+}
+
+}  // namespace sid
