@@ -9,7 +9,7 @@
 #include <sid/model/link_inertia.hpp>
 #include <sid/model/serial_chain.hpp>
 
-#include "test_support.hpp"
+#include "chain_test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -27,10 +27,9 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 // Both sides evaluate the same recursion in double: differences are round-off, ~1e-13.
-constexpr double kRegressorTol = 1e-10;  // absolute, entries of Y
-constexpr double kTorqueTol = 1e-9;      // [N m]; |tau| reaches 77 N m
-constexpr double kBaseRelTol = 1e-10;    // relative to |beta|
-constexpr double kIdentRelTol = 1e-8;    // least squares on exact kinematics, relative to |beta|
+constexpr double kTorqueTol = 1e-9;    // [N m]; |tau| reaches 77 N m
+constexpr double kBaseRelTol = 1e-10;  // relative to |beta|
+constexpr double kIdentRelTol = 1e-8;  // least squares on exact kinematics, relative to |beta|
 
 struct Arm {
   std::string name;  // of its reference files
@@ -78,12 +77,6 @@ Arm tx40_as_urdf() {
     joints[j].before.translation << d, -std::sin(alpha) * r, std::cos(alpha) * r;
   }
   return {"tx40", sid::SerialChain<double>(joints), "tx40_urdf"};
-}
-
-Eigen::VectorXd joints_of(const sid_test::Table& table, Eigen::Index row, const std::string& stem) {
-  Eigen::VectorXd v(6);
-  for (int j = 0; j < 6; ++j) v[j] = table.data(row, table.column(stem + std::to_string(j + 1)));
-  return v;
 }
 
 Eigen::MatrixXd samples_of(const sid_test::Table& table, const std::string& stem) {
@@ -135,20 +128,7 @@ Eigen::MatrixXd random_regressor(const sid::SerialChain<double>& chain, int samp
 class SixJointArm : public ::testing::TestWithParam<Arm> {};
 
 TEST_P(SixJointArm, RegressorMatchesPinocchio) {
-  const Arm& arm = GetParam();
-  const sid_test::Table table = sid_test::read_table("ndof/regressor_" + arm.name + ".csv");
-  const std::vector<std::string> names = sid::chain_parameter_names(6);
-  ASSERT_EQ(static_cast<Eigen::Index>(names.size()), sid::chain_parameter_count(6));
-  Eigen::MatrixXd y(6, sid::chain_parameter_count(6));
-  for (Eigen::Index row = 0; row < table.data.rows(); ++row) {
-    sid::chain_regressor(arm.chain, joints_of(table, row, "q"), joints_of(table, row, "qd"),
-                         joints_of(table, row, "qdd"), y);
-    const auto joint = static_cast<Eigen::Index>(table.data(row, table.column("joint"))) - 1;
-    for (std::size_t c = 0; c < names.size(); ++c)
-      ASSERT_NEAR(y(joint, static_cast<Eigen::Index>(c)), table.data(row, table.column(names[c])),
-                  kRegressorTol)
-          << "sample " << table.data(row, 0) << ", joint " << joint + 1 << ", " << names[c];
-  }
+  sid_test::expect_reference_regressor(GetParam().chain, GetParam().name);
 }
 
 TEST_P(SixJointArm, InverseDynamicsMatchesPinocchioWithFriction) {
@@ -156,10 +136,10 @@ TEST_P(SixJointArm, InverseDynamicsMatchesPinocchioWithFriction) {
   const sid_test::Table table = sid_test::read_table("ndof/rnea_" + arm.name + ".csv");
   const Eigen::VectorXd theta = base_reference(arm.name).theta;
   for (Eigen::Index row = 0; row < table.data.rows(); ++row) {
-    const Eigen::VectorXd tau =
-        sid::chain_inverse_dynamics(arm.chain, theta, joints_of(table, row, "q"),
-                                    joints_of(table, row, "qd"), joints_of(table, row, "qdd"));
-    EXPECT_LT((tau - joints_of(table, row, "tau")).cwiseAbs().maxCoeff(), kTorqueTol)
+    const Eigen::VectorXd tau = sid::chain_inverse_dynamics(
+        arm.chain, theta, sid_test::joints_of(table, row, "q"),
+        sid_test::joints_of(table, row, "qd"), sid_test::joints_of(table, row, "qdd"));
+    EXPECT_LT((tau - sid_test::joints_of(table, row, "tau")).cwiseAbs().maxCoeff(), kTorqueTol)
         << "sample " << row;
   }
 }
@@ -226,7 +206,7 @@ TEST(ChainRegressor, FlippedAxesMirrorTheMotion) {
     }
     sid::chain_regressor(arm.chain, -q, -qd, -qdd, y);
     sid::chain_regressor(mirror, q, qd, qdd, y_mirror);
-    EXPECT_LT((y_mirror + y).cwiseAbs().maxCoeff(), kRegressorTol) << "state " << k;
+    EXPECT_LT((y_mirror + y).cwiseAbs().maxCoeff(), sid_test::kChainRegressorTol) << "state " << k;
   }
 }
 

@@ -25,6 +25,7 @@
 #include <sid/model/serial_chain.hpp>
 #include <sid/model/terms.hpp>
 #include <sid/model/two_link_arm.hpp>
+#include <sid/model/urdf.hpp>
 #include <sid/physical_consistency.hpp>
 #include <sid/smoothing_spline.hpp>
 #include <sid/study/montecarlo.hpp>

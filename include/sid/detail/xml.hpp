@@ -1,0 +1,173 @@
+#pragma once
+/// @file
+/// @brief The little XML a robot description needs: elements, attributes and nesting. Text
+/// content, namespaces and DTDs are not interpreted; declarations, comments and DOCTYPE are
+/// skipped.
+
+#include <cctype>
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace sid::detail {
+
+struct XmlElement {
+  std::string name;
+  std::vector<std::pair<std::string, std::string>> attributes;
+  std::vector<XmlElement> children;
+
+  const std::string* attribute(const std::string& key) const {
+    for (const auto& [k, v] : attributes)
+      if (k == key) return &v;
+    return nullptr;
+  }
+  const XmlElement* child(const std::string& child_name) const {
+    for (const auto& c : children)
+      if (c.name == child_name) return &c;
+    return nullptr;
+  }
+};
+
+class XmlParser {
+ public:
+  XmlParser(const std::string& text, std::string who) : text_(text), who_(std::move(who)) {}
+
+  XmlElement parse_document() {
+    skip_misc();
+    if (at_end() || text_[pos_] != '<') fail("no root element");
+    XmlElement root = parse_element();
+    skip_misc();
+    if (!at_end()) fail("text after the root element");
+    return root;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& what) const {
+    int line = 1;
+    for (std::size_t i = 0; i < pos_ && i < text_.size(); ++i) line += text_[i] == '\n';
+    throw std::invalid_argument(who_ + ": line " + std::to_string(line) + ": " + what);
+  }
+
+  bool at_end() const { return pos_ >= text_.size(); }
+  bool starts_with(const char* s) const {
+    return text_.compare(pos_, std::char_traits<char>::length(s), s) == 0;
+  }
+
+  void skip_space() {
+    while (!at_end() && (text_[pos_] == ' ' || text_[pos_] == '\t' || text_[pos_] == '\n' ||
+                         text_[pos_] == '\r'))
+      ++pos_;
+  }
+
+  void skip_past(const char* end, const char* what) {
+    const std::size_t found = text_.find(end, pos_);
+    if (found == std::string::npos) fail(std::string("unterminated ") + what);
+    pos_ = found + std::char_traits<char>::length(end);
+  }
+
+  // Whitespace, comments, declarations and DOCTYPE between elements.
+  void skip_misc() {
+    for (;;) {
+      skip_space();
+      if (starts_with("<!--"))
+        skip_past("-->", "comment");
+      else if (starts_with("<?"))
+        skip_past("?>", "declaration");
+      else if (starts_with("<!"))
+        skip_past(">", "DOCTYPE");
+      else
+        return;
+    }
+  }
+
+  std::string parse_name() {
+    const std::size_t start = pos_;
+    while (!at_end() &&
+           (std::isalnum(static_cast<unsigned char>(text_[pos_])) || text_[pos_] == '_' ||
+            text_[pos_] == '-' || text_[pos_] == '.' || text_[pos_] == ':'))
+      ++pos_;
+    if (pos_ == start) fail("expected a name");
+    return text_.substr(start, pos_ - start);
+  }
+
+  std::string parse_value() {
+    if (at_end() || (text_[pos_] != '"' && text_[pos_] != '\'')) fail("expected a quoted value");
+    const char quote = text_[pos_++];
+    std::string value;
+    while (!at_end() && text_[pos_] != quote) {
+      if (text_[pos_] == '&') {
+        static const std::pair<const char*, char> entities[] = {
+            {"&amp;", '&'}, {"&lt;", '<'}, {"&gt;", '>'}, {"&quot;", '"'}, {"&apos;", '\''}};
+        bool known = false;
+        for (const auto& [entity, c] : entities)
+          if (starts_with(entity)) {
+            value += c;
+            pos_ += std::char_traits<char>::length(entity);
+            known = true;
+            break;
+          }
+        if (!known) fail("unknown entity in an attribute value");
+      } else {
+        value += text_[pos_++];
+      }
+    }
+    if (at_end()) fail("unterminated attribute value");
+    ++pos_;
+    return value;
+  }
+
+  XmlElement parse_element() {
+    XmlElement e;
+    ++pos_;  // '<'
+    e.name = parse_name();
+    for (;;) {
+      skip_space();
+      if (at_end()) fail("unterminated element <" + e.name + ">");
+      if (starts_with("/>")) {
+        pos_ += 2;
+        return e;
+      }
+      if (text_[pos_] == '>') {
+        ++pos_;
+        break;
+      }
+      std::string key = parse_name();
+      skip_space();
+      if (at_end() || text_[pos_] != '=') fail("expected '=' after attribute " + key);
+      ++pos_;
+      skip_space();
+      if (e.attribute(key)) fail("attribute " + key + " given twice in <" + e.name + ">");
+      e.attributes.emplace_back(std::move(key), parse_value());
+    }
+    for (;;) {
+      const std::size_t text_end = text_.find('<', pos_);
+      if (text_end == std::string::npos) fail("element <" + e.name + "> is not closed");
+      pos_ = text_end;
+      if (starts_with("<!--")) {
+        skip_past("-->", "comment");
+      } else if (starts_with("<![CDATA[")) {
+        skip_past("]]>", "CDATA section");
+      } else if (starts_with("<?")) {
+        skip_past("?>", "processing instruction");
+      } else if (starts_with("</")) {
+        pos_ += 2;
+        const std::string closing = parse_name();
+        if (closing != e.name) fail("</" + closing + "> closes <" + e.name + ">");
+        skip_space();
+        if (at_end() || text_[pos_] != '>') fail("expected '>' after </" + closing);
+        ++pos_;
+        return e;
+      } else {
+        e.children.push_back(parse_element());
+      }
+    }
+  }
+
+  const std::string& text_;
+  std::string who_;
+  std::size_t pos_ = 0;
+};
+
+}  // namespace sid::detail
