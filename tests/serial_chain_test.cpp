@@ -5,6 +5,7 @@
 
 #include <sid/base_parameters.hpp>
 #include <sid/least_squares.hpp>
+#include <sid/model/chain_dynamics.hpp>
 #include <sid/model/chain_regressor.hpp>
 #include <sid/model/link_inertia.hpp>
 #include <sid/model/serial_chain.hpp>
@@ -141,6 +142,29 @@ TEST_P(SixJointArm, InverseDynamicsMatchesPinocchioWithFriction) {
         sid_test::joints_of(table, row, "qd"), sid_test::joints_of(table, row, "qdd"));
     EXPECT_LT((tau - sid_test::joints_of(table, row, "tau")).cwiseAbs().maxCoeff(), kTorqueTol)
         << "sample " << row;
+  }
+}
+
+TEST_P(SixJointArm, ForwardDynamicsInvertsTheTorquesAsPinocchiosAbaDoes) {
+  // Pinocchio's ABA maps the rigid-body torques back to qdd to 1e-13; with friction in theta
+  // and in the torques, so must sid's forward dynamics. M(q) must be symmetric and its product
+  // with qdd plus h(q, qd) the torque.
+  const Arm& arm = GetParam();
+  const sid_test::Table table = sid_test::read_table("ndof/rnea_" + arm.name + ".csv");
+  const Eigen::VectorXd theta = base_reference(arm.name).theta;
+  for (Eigen::Index row = 0; row < table.data.rows(); ++row) {
+    const Eigen::VectorXd q = sid_test::joints_of(table, row, "q"),
+                          qd = sid_test::joints_of(table, row, "qd"),
+                          qdd = sid_test::joints_of(table, row, "qdd"),
+                          tau = sid_test::joints_of(table, row, "tau");
+    const Eigen::VectorXd qdd_hat = sid::chain_forward_dynamics(arm.chain, theta, q, qd, tau);
+    EXPECT_LT((qdd_hat - qdd).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + qdd.cwiseAbs().maxCoeff()))
+        << "sample " << row;
+    const Eigen::MatrixXd m = sid::chain_mass_matrix(arm.chain, theta, q);
+    EXPECT_LT((m - m.transpose()).cwiseAbs().maxCoeff(), 1e-12 * m.cwiseAbs().maxCoeff());
+    EXPECT_LT(
+        (m * qdd + sid::chain_bias_torque(arm.chain, theta, q, qd) - tau).cwiseAbs().maxCoeff(),
+        kTorqueTol);
   }
 }
 
@@ -332,6 +356,13 @@ TEST(ChainRegressor, RejectsBadInput) {
   EXPECT_THROW(sid::chain_regressor(arm.chain, six, six, six, narrow), std::invalid_argument);
   EXPECT_THROW(
       (void)sid::chain_inverse_dynamics(arm.chain, Eigen::VectorXd::Zero(60), six, six, six),
+      std::invalid_argument);
+  EXPECT_THROW((void)sid::chain_forward_dynamics(arm.chain, Eigen::VectorXd::Zero(72), six, six,
+                                                 Eigen::VectorXd::Zero(5)),
+               std::invalid_argument);
+  // A massless arm cannot be accelerated.
+  EXPECT_THROW(
+      (void)sid::chain_forward_dynamics(arm.chain, Eigen::VectorXd::Zero(72), six, six, six),
       std::invalid_argument);
   Eigen::MatrixXd samples = Eigen::MatrixXd::Zero(4, 6);
   Eigen::MatrixXd with_nan = samples;

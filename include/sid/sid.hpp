@@ -16,6 +16,7 @@
 #include <sid/identify_runs.hpp>
 #include <sid/least_squares.hpp>
 #include <sid/measurement_noise.hpp>
+#include <sid/model/chain_dynamics.hpp>
 #include <sid/model/chain_regressor.hpp>
 #include <sid/model/dynamics.hpp>
 #include <sid/model/effects.hpp>

@@ -188,6 +188,15 @@ void check_chain_joints(const char* who, const SerialChain<Scalar>& chain, const
 }
 
 template <typename Scalar>
+void check_chain_theta(const char* who, const SerialChain<Scalar>& chain,
+                       const ChainVectorRef<Scalar>& theta) {
+  const Eigen::Index p = chain_parameter_count(chain.joints());
+  if (theta.size() != p)
+    throw std::invalid_argument(std::string(who) + ": theta has " + std::to_string(theta.size()) +
+                                " entries, the chain has " + std::to_string(p) + " parameters");
+}
+
+template <typename Scalar>
 void check_chain_state(const char* who, const SerialChain<Scalar>& chain,
                        const ChainVectorRef<Scalar>& q, const ChainVectorRef<Scalar>& qd,
                        const ChainVectorRef<Scalar>& qdd) {
@@ -226,12 +235,9 @@ VectorX<Scalar> chain_inverse_dynamics(const SerialChain<Scalar>& chain,
                                        const detail::ChainVectorRef<Scalar>& qd,
                                        const detail::ChainVectorRef<Scalar>& qdd) {
   const char* who = "sid::chain_inverse_dynamics";
-  const Eigen::Index p = chain_parameter_count(chain.joints());
-  if (theta.size() != p)
-    throw std::invalid_argument(std::string(who) + ": theta has " + std::to_string(theta.size()) +
-                                " entries, the chain has " + std::to_string(p) + " parameters");
+  detail::check_chain_theta(who, chain, theta);
   detail::check_chain_state(who, chain, q, qd, qdd);
-  ChainRegressor<Scalar> y(chain.joints(), p);
+  ChainRegressor<Scalar> y(chain.joints(), theta.size());
   detail::chain_regressor_unchecked(chain, q, qd, qdd, y);
   return y * theta;
 }
