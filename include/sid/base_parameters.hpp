@@ -64,13 +64,13 @@ void check_base_regressor(
     throw std::invalid_argument(std::string(who) + ": W holds a value that is not finite");
 }
 
-/// K with W[:, dependent] = W[:, independent] K, from a QR of the independent columns.
+/// K with W[:, dependent] = W[:, independent] K, from a QR of the given (ascending, distinct)
+/// independent columns.
 template <typename Scalar>
 BaseParameters<Scalar> regroup(
     const char* who,
     const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>>& w,
     std::vector<Eigen::Index> independent, Scalar relative_tolerance) {
-  std::sort(independent.begin(), independent.end());
   BaseParameters<Scalar> base;
   for (Eigen::Index j = 0, at = 0; j < w.cols(); ++j) {
     if (at < static_cast<Eigen::Index>(independent.size()) &&
@@ -96,6 +96,36 @@ BaseParameters<Scalar> regroup(
   return base;
 }
 
+/// The base parameters a QR with column pivoting chose: W P = Q [R11 R12], so the kept
+/// columns' K is R11^-1 R12, put into ascending column order.
+template <typename Qr>
+BaseParameters<typename Qr::Scalar> base_from_pivoted_qr(const Qr& qr) {
+  using Scalar = typename Qr::Scalar;
+  const Eigen::Index r = qr.rank(), p = qr.cols();
+  const auto& pivots = qr.colsPermutation().indices();
+  const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> k_pivoted =
+      qr.matrixR().topLeftCorner(r, r).template triangularView<Eigen::Upper>().solve(
+          qr.matrixR().topRightCorner(r, p - r));
+  // Pivot positions in the order of the columns they hold.
+  const auto by_column = [&](Eigen::Index begin, Eigen::Index end) {
+    std::vector<Eigen::Index> at(static_cast<std::size_t>(end - begin));
+    for (Eigen::Index k = begin; k < end; ++k) at[static_cast<std::size_t>(k - begin)] = k;
+    std::sort(at.begin(), at.end(),
+              [&](Eigen::Index a, Eigen::Index b) { return pivots[a] < pivots[b]; });
+    return at;
+  };
+  const std::vector<Eigen::Index> kept = by_column(0, r), regrouped = by_column(r, p);
+  BaseParameters<Scalar> base;
+  for (const Eigen::Index k : kept) base.independent.push_back(pivots[k]);
+  for (const Eigen::Index k : regrouped) base.dependent.push_back(pivots[k]);
+  base.K.resize(r, p - r);
+  for (Eigen::Index a = 0; a < r; ++a)
+    for (Eigen::Index b = 0; b < p - r; ++b)
+      base.K(a, b) =
+          k_pivoted(kept[static_cast<std::size_t>(a)], regrouped[static_cast<std::size_t>(b)] - r);
+  return base;
+}
+
 }  // namespace detail
 
 /// @brief The base parameters of a stacked regressor W (rows: equations, columns: parameters),
@@ -118,10 +148,7 @@ BaseParameters<typename Derived::Scalar> base_parameters(
   Eigen::ColPivHouseholderQR<Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>> qr(w);
   qr.setThreshold(relative_tolerance);
   if (qr.rank() == 0) throw std::invalid_argument(std::string(who) + ": every column of W is zero");
-  std::vector<Eigen::Index> independent;
-  for (Eigen::Index k = 0; k < qr.rank(); ++k)
-    independent.push_back(qr.colsPermutation().indices()[k]);
-  return detail::regroup<Scalar>(who, w, std::move(independent), relative_tolerance);
+  return detail::base_from_pivoted_qr(qr);
 }
 
 /// @brief The regrouping onto given independent columns (e.g. a published base set).

@@ -110,7 +110,9 @@ Scalar sign(const Scalar& x) {
 template <typename Scalar>
 struct ChainMotion {
   std::array<FramePose<Scalar>, kMaxChainJoints> pose;
-  std::array<JointAxis<Scalar>, kMaxChainJoints> axis;
+  /// Joint i's motion per unit rate in its link's frame: the turn about its axis, and the
+  /// velocity that turn gives the frame's origin.
+  std::array<Vector3<Scalar>, kMaxChainJoints> u, ru;
   std::array<Vector3<Scalar>, kMaxChainJoints> w, wd, a;
 };
 
@@ -124,11 +126,13 @@ void chain_motion(const SerialChain<Scalar>& chain, const Joints& q, const Joint
   for (int i = 0; i < chain.joints(); ++i) {
     const auto k = static_cast<std::size_t>(i);
     m.pose[k] = chain.link_pose(i, q[i]);
-    m.axis[k] = chain.joint_axis(i);
+    const JointAxis<Scalar> axis = chain.joint_axis(i);
+    m.u[k] = axis.direction;
+    m.ru[k] = axis.point.cross(axis.direction);
     const Matrix3<Scalar>& rt = m.pose[k].rotation;
     const Vector3<Scalar>& p = m.pose[k].translation;
-    const Vector3<Scalar> u = m.axis[k].direction;
-    const Vector3<Scalar> ru = m.axis[k].point.cross(u);
+    const Vector3<Scalar>& u = m.u[k];
+    const Vector3<Scalar>& ru = m.ru[k];
     const Vector3<Scalar> w_joint = u * qd[i], v_joint = ru * qd[i];
     const Vector3<Scalar> w_new = rt.transpose() * w + w_joint;
     const Vector3<Scalar> v_new = rt.transpose() * (v + w.cross(p)) + v_joint;
@@ -160,8 +164,8 @@ void chain_regressor_unchecked(const SerialChain<Scalar>& chain, const Joints& q
     // unit joint rate. Rather than carry each link's ten wrench columns in to joint i, carry
     // joint i's motion (axis direction, and the velocity it gives each frame's origin) out to
     // each link: one 6-vector per link instead of a 6 x 10 block.
-    Vector3<Scalar> w = m.axis[static_cast<std::size_t>(i)].direction;
-    Vector3<Scalar> v = m.axis[static_cast<std::size_t>(i)].point.cross(w);
+    Vector3<Scalar> w = m.u[static_cast<std::size_t>(i)];
+    Vector3<Scalar> v = m.ru[static_cast<std::size_t>(i)];
     for (int j = i; j < n; ++j) {
       const auto k = static_cast<std::size_t>(j);
       if (j > i) {
