@@ -319,6 +319,49 @@ TEST(ChainRegressor, PendulumHasItsClosedForm) {
   }
 }
 
+TEST(ChainRegressor, PolarArmWithAPrismaticJointHasItsClosedForm) {
+  // Joint 1 turns about z, joint 2 slides along link 1's x by r = q2 + offset; link 1 has Izz
+  // about the axis, link 2 is a point mass m at its frame's origin; gravity along -y. Then
+  // tau1 = (Izz + m r^2) qdd1 + 2 m r qd1 qd2 + m g r cos(q1) and
+  // f2 = m qdd2 - m r qd1^2 + m g sin(q1) + Fv2 qd2 + Fc2 sign(qd2).
+  const double izz = 0.05, m = 2.0, g = 9.81, offset = 0.3, fv = 4.0, fc = 1.5;
+  std::vector<sid::JointPlacement<double>> joints(2);
+  joints[1].axis = Eigen::Vector3d(-2.0, 0.0, 0.0);  // any length, either sign
+  joints[1].offset = -offset;
+  joints[1].type = sid::JointType::Prismatic;
+  const sid::SerialChain<double> chain(joints, sid::Vector3<double>(0.0, -g, 0.0));
+  EXPECT_EQ(chain.joint_type(1), sid::JointType::Prismatic);
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(24);
+  theta[9] = izz;
+  theta[10] = m;
+  theta[21] = fv;
+  theta[23] = fc;
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::Vector2d q(u(rng), u(rng)), qd(u(rng), u(rng)), qdd(u(rng), u(rng));
+    const double r = -(q[1] - offset);  // the axis points along -x
+    const double rd = -qd[1], rdd = -qdd[1];
+    const double tau1 =
+        (izz + m * r * r) * qdd[0] + 2.0 * m * r * rd * qd[0] + m * g * r * std::cos(q[0]);
+    const double f_r = m * rdd - m * r * qd[0] * qd[0] + m * g * std::sin(q[0]);
+    const double f2 = -f_r + fv * qd[1] + fc * ((qd[1] > 0) - (qd[1] < 0));
+    const Eigen::VectorXd tau = sid::chain_inverse_dynamics(chain, theta, q, qd, qdd);
+    EXPECT_LT((tau - Eigen::Vector2d(tau1, f2)).cwiseAbs().maxCoeff(), 1e-12) << "state " << k;
+    const auto poses = chain.forward_kinematics(q);
+    EXPECT_LT(
+        (poses[1].translation - r * Eigen::Vector3d(std::cos(q[0]), std::sin(q[0]), 0.0)).norm(),
+        1e-15);
+    const Eigen::MatrixXd mass = sid::chain_mass_matrix(chain, theta, q);
+    EXPECT_LT((mass - Eigen::Vector2d(izz + m * r * r, m).asDiagonal().toDenseMatrix())
+                  .cwiseAbs()
+                  .maxCoeff(),
+              1e-12);
+    EXPECT_LT((sid::chain_forward_dynamics(chain, theta, q, qd, tau) - qdd).cwiseAbs().maxCoeff(),
+              1e-12);
+  }
+}
+
 TEST(ChainRegressor, ForwardKinematicsComposesTheTable) {
   // The PUMA at q = 0, against NumPy's product of the six DH matrices: the arm reaches a2 + a3
   // along x, d3 along -y and d4 up, with the tool frame parallel to the base.

@@ -1,6 +1,8 @@
 // Tests of sid/model/urdf.hpp (and the XML reader under it): the TX40 of the n-joint reference
 // set written as URDF must give Pinocchio's regressor and the reference's parameters; fixed
-// joints fold in; bad descriptions are refused with a message naming the problem.
+// joints fold in; every body a chain carries (branches, bodies past the tip, held joints) is
+// lumped as Pinocchio lumps it (tests/data/urdf/); joint limits, dynamics and mimic are
+// reported; bad descriptions are refused with a message naming the problem.
 
 #include <sid/model/urdf.hpp>
 
@@ -12,11 +14,21 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
+#include <locale>
+#include <map>
+#include <ostream>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace {
+
+// Pinocchio lumps the same bodies by other arithmetic (SE3 actions on spatial inertias): the
+// differences are round-off.
+constexpr double kPinocchioParameterTol = 1e-12;  // entries of theta reach 11
+constexpr double kPinocchioTorqueTol = 1e-12;     // [N m or N]; |tau| reaches 221 N
 
 std::string read_text(const std::string& name) {
   std::ifstream in(sid_test::data_path(name));
@@ -26,9 +38,10 @@ std::string read_text(const std::string& name) {
 }
 
 std::string message_of(const std::string& urdf, const std::string& base = "base",
-                       const std::string& tip = "tip") {
+                       const std::string& tip = "tip",
+                       const std::map<std::string, double>& held = {}) {
   try {
-    (void)sid::chain_from_urdf(urdf, base, tip);
+    (void)sid::chain_from_urdf(urdf, base, tip, held);
   } catch (const std::invalid_argument& e) {
     return e.what();
   }
@@ -41,9 +54,14 @@ TEST(Urdf, Tx40GivesPinocchiosRegressorAndTheReferenceParameters) {
   ASSERT_EQ(arm.chain.joints(), 6);
   EXPECT_EQ(arm.joint_names, (std::vector<std::string>{"j1", "j2", "j3", "j4", "j5", "j6"}));
   EXPECT_EQ(arm.link_names.back(), "link6");
-  // The base's own mass and the camera off the path are not the chain's; the flange has none.
+  // The base's own mass is not the chain's and the flange has none; the camera fixed to link 3
+  // off the path (0.3 kg at (0.05, 0, 0.1), 1e-4 kg m^2 about each axis) is link 3's, as in
+  // Pinocchio.
   const sid_test::Table base = sid_test::read_table("ndof/base_tx40.csv");
-  EXPECT_LT((arm.theta - base.col("theta")).head(60).cwiseAbs().maxCoeff(), 1e-14);
+  Eigen::VectorXd expected = base.col("theta").head(60);
+  expected.segment<10>(20) += sid::standard_parameters(
+      sid::LinkInertia<double>{0.3, {0.05, 0.0, 0.1}, 1e-4 * Eigen::Matrix3d::Identity()});
+  EXPECT_LT((arm.theta.head(60) - expected).cwiseAbs().maxCoeff(), 1e-14);
   EXPECT_TRUE(arm.theta.tail(12).isZero());
 
   sid_test::expect_reference_regressor(arm.chain, "tx40");
@@ -105,17 +123,28 @@ TEST(Urdf, RefusesWhatItCannotReadWithTheReason) {
                "</robot> closes <link>");
   EXPECT_PRED2(contains, message_of("<robot name=\"a\" name=\"b\"/>"), "given twice");
   EXPECT_PRED2(contains, message_of("<model/>"), "not <robot>");
-  EXPECT_PRED2(contains, message_of(joint("type=\"prismatic\"")), "only revolute");
+  EXPECT_PRED2(contains, message_of(joint("type=\"floating\"")),
+               "is floating; only revolute, continuous, prismatic and fixed");
+  EXPECT_PRED2(contains, message_of(joint("type=\"planar\"")), "is planar");
   EXPECT_PRED2(contains, message_of(joint("")), "has no type");
   EXPECT_PRED2(contains, message_of(joint("type=\"revolute\"", "<axis xyz=\"0 0 one\"/>")),
                "not three finite numbers");
-  EXPECT_PRED2(contains, message_of(joint("type=\"fixed\"")), "no revolute joint");
+  EXPECT_PRED2(contains, message_of(joint("type=\"fixed\"")), "no revolute");
   EXPECT_PRED2(contains, message_of(joint("type=\"revolute\""), "base", "elbow"),
                "no joint leads to link 'elbow'");
   EXPECT_PRED2(contains, message_of(joint("type=\"revolute\""), "shoulder", "tip"),
                "no link 'shoulder'");
   EXPECT_PRED2(contains, message_of(joint("type=\"revolute\"", "<axis xyz=\"0 0 0\"/>")),
                "zero axis");
+  const std::string two_parents = head +
+                                  R"(<joint name="a" type="revolute"><parent link="base"/>
+    <child link="tip"/></joint><joint name="b" type="fixed"><parent link="base"/>
+    <child link="tip"/></joint></robot>)";
+  EXPECT_PRED2(contains, message_of(two_parents), "link 'tip' is the child of joints 'a' and 'b'");
+  const std::string loop = head + R"(<joint name="a" type="revolute"><parent link="tip"/>
+    <child link="x"/></joint><joint name="b" type="revolute"><parent link="x"/>
+    <child link="tip"/></joint><link name="x"/></robot>)";
+  EXPECT_PRED2(contains, message_of(loop), "the joints form a loop");
   const std::string no_mass = R"(<robot name="r"><link name="base"/>
     <link name="tip"><inertial><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
     <joint name="j" type="revolute"><parent link="base"/><child link="tip"/></joint></robot>)";
@@ -126,6 +155,252 @@ TEST(Urdf, RefusesWhatItCannotReadWithTheReason) {
     EXPECT_THROW((void)sid::chain_from_urdf(tx40.substr(0, length), "base_link", "tool0"),
                  std::invalid_argument)
         << length;
+}
+
+TEST(Urdf, RefusesElementsNestedDeeperThan256) {
+  // Unbounded recursion would overflow the stack long before 200 000 levels.
+  std::string deep = "<robot>";
+  for (int i = 0; i < 200000; ++i) deep += "<a>";
+  EXPECT_NE(message_of(deep).find("elements nested deeper than 256"), std::string::npos);
+  const auto nested = [](int depth) {
+    std::string text;
+    for (int i = 0; i < depth; ++i) text += i == 0 ? "<robot>" : "<a>";
+    for (int i = depth - 1; i >= 0; --i) text += i == 0 ? "</robot>" : "</a>";
+    return text;
+  };
+  EXPECT_NE(message_of(nested(256)).find("there is no link 'base'"), std::string::npos);
+  EXPECT_NE(message_of(nested(257)).find("elements nested deeper than 256"), std::string::npos);
+}
+
+TEST(Urdf, CarriesALongLineOfLinksWithoutRecursion) {
+  // 10 000 links of 1 g in a line past the tip: a recursive walk would need a frame per link.
+  constexpr int kLinks = 10000;
+  std::string urdf = R"(<robot name="r"><link name="base"/><link name="l0"/>
+    <joint name="j" type="revolute"><parent link="base"/><child link="l0"/></joint>)";
+  for (int i = 1; i <= kLinks; ++i) {
+    const std::string link = "l" + std::to_string(i), parent = "l" + std::to_string(i - 1);
+    urdf += "<link name=\"" + link +
+            "\"><inertial><mass value=\"0.001\"/><inertia ixx=\"0\" ixy=\"0\" ixz=\"0\" "
+            "iyy=\"0\" iyz=\"0\" izz=\"0\"/></inertial></link><joint name=\"f" +
+            link + "\" type=\"fixed\"><parent link=\"" + parent + "\"/><child link=\"" + link +
+            "\"/><origin xyz=\"0 0 0.001\"/></joint>";
+  }
+  urdf += "</robot>";
+  const sid::UrdfChain arm = sid::chain_from_urdf(urdf, "base", "l0");
+  EXPECT_NEAR(arm.theta[0], 0.001 * kLinks, 1e-9);
+}
+
+TEST(Urdf, XmlParserOwnsItsText) {
+  sid::detail::XmlParser parser(std::string("<robot><link name=\"a\"/></robot>"), "test");
+  const sid::detail::XmlElement root = parser.parse_document();  // the temporary is gone
+  ASSERT_EQ(root.children.size(), 1u);
+  EXPECT_EQ(*root.children[0].attribute("name"), "a");
+}
+
+// A German-style locale: decimal comma, dots between groups of three digits.
+struct CommaDecimal : std::numpunct<char> {
+  char do_decimal_point() const override { return ','; }
+  char do_thousands_sep() const override { return '.'; }
+  std::string do_grouping() const override { return "\3"; }
+};
+
+class GlobalLocale {
+ public:
+  explicit GlobalLocale(const std::locale& locale) : previous_(std::locale::global(locale)) {}
+  ~GlobalLocale() { std::locale::global(previous_); }
+  GlobalLocale(const GlobalLocale&) = delete;
+  GlobalLocale& operator=(const GlobalLocale&) = delete;
+
+ private:
+  std::locale previous_;
+};
+
+TEST(Urdf, ReadsNumbersTheSameUnderAGermanLocale) {
+  const std::string urdf = read_text("urdf/arm_hand.urdf");
+  const sid::UrdfChain classic = sid::chain_from_urdf(urdf, "base_link", "tool0");
+  {
+    const GlobalLocale german(std::locale(std::locale::classic(), new CommaDecimal));
+    std::istringstream check("0.5");
+    double half = 0.0;
+    check >> half;
+    ASSERT_NE(half, 0.5) << "the locale does not change how streams read numbers";
+    const sid::UrdfChain arm = sid::chain_from_urdf(urdf, "base_link", "tool0");
+    EXPECT_EQ(arm.theta, classic.theta);
+    EXPECT_EQ(arm.chain.link_pose(1, 0.3).translation, classic.chain.link_pose(1, 0.3).translation);
+    EXPECT_EQ(arm.joints[0].limit.lower, -2.9);
+  }
+}
+
+TEST(Urdf, ReportsLimitsDynamicsAndMimicOfEachJoint) {
+  const sid::UrdfChain arm =
+      sid::chain_from_urdf(read_text("urdf/arm_hand.urdf"), "base_link", "tool0");
+  ASSERT_EQ(arm.joints.size(), 5u);
+  const sid::UrdfJoint& j1 = arm.joints[0];
+  EXPECT_EQ(j1.type, "revolute");
+  EXPECT_EQ(j1.limit.lower, -2.9);
+  EXPECT_EQ(j1.limit.upper, 2.9);
+  EXPECT_EQ(j1.limit.velocity, 2.5);
+  EXPECT_EQ(j1.limit.effort, 150.0);
+  EXPECT_EQ(j1.damping, 0.5);
+  EXPECT_EQ(j1.friction, 1.2);
+  EXPECT_FALSE(j1.mimic.has_value());
+  EXPECT_EQ(arm.joints[1].damping, 0.4);
+  EXPECT_EQ(arm.joints[1].friction, 0.0);  // absent
+  EXPECT_EQ(arm.joints[3].damping, 0.0);   // no <dynamics>
+  const sid::UrdfJoint& j5 = arm.joints[4];
+  EXPECT_EQ(j5.type, "continuous");
+  EXPECT_TRUE(std::isnan(j5.limit.lower));
+  EXPECT_TRUE(std::isnan(j5.limit.upper));
+  EXPECT_EQ(j5.limit.velocity, 6.0);
+  EXPECT_EQ(j5.limit.effort, 10.0);
+  EXPECT_EQ(j5.friction, 0.3);
+  const std::string mimic = R"(<robot name="r"><link name="base"/><link name="mid"/>
+    <link name="tip"/><joint name="a" type="continuous"><parent link="base"/><child link="mid"/>
+    </joint><joint name="b" type="revolute"><parent link="mid"/><child link="tip"/>
+    <mimic joint="a" multiplier="-2" offset="0.1"/></joint>
+    <joint name="c" type="revolute"><parent link="mid"/><child link="side"/>
+    <mimic joint="b"/></joint><link name="side"/></robot>)";
+  const sid::UrdfChain mimicking = sid::chain_from_urdf(mimic, "base", "tip");
+  ASSERT_EQ(mimicking.joints.size(), 2u);
+  EXPECT_TRUE(std::isnan(mimicking.joints[0].limit.effort));
+  ASSERT_TRUE(mimicking.joints[1].mimic.has_value());
+  EXPECT_EQ(mimicking.joints[1].mimic->joint, "a");
+  EXPECT_EQ(mimicking.joints[1].mimic->multiplier, -2.0);
+  EXPECT_EQ(mimicking.joints[1].mimic->offset, 0.1);
+  EXPECT_EQ(mimicking.held_joints, (std::map<std::string, double>{{"c", 0.0}}));
+}
+
+// A chain of a fixture in tests/data/urdf/, with the joints off it held as in the reference.
+struct PinocchioCase {
+  std::string name;  // of its reference files
+  std::string urdf, base, tip;
+  std::map<std::string, double> held;
+};
+
+std::ostream& operator<<(std::ostream& os, const PinocchioCase& c) { return os << c.name; }
+
+const PinocchioCase kArmTool0{"arm_tool0", "arm_hand.urdf", "base_link", "tool0", {}};
+const PinocchioCase kArmTool0Held{
+    "arm_tool0_held",
+    "arm_hand.urdf",
+    "base_link",
+    "tool0",
+    {{"sensor_tilt", 0.7}, {"finger_left", 0.03}, {"finger_right", 0.01}}};
+const PinocchioCase kArmLink2Held{"arm_link2_held",
+                                  "arm_hand.urdf",
+                                  "base_link",
+                                  "link2",
+                                  {{"sensor_tilt", -0.4},
+                                   {"j3", 0.9},
+                                   {"j4", -0.8},
+                                   {"j5", 2.3},
+                                   {"finger_left", 0.02},
+                                   {"finger_right", 0.02}}};
+
+class CarriedBodies : public ::testing::TestWithParam<PinocchioCase> {};
+
+TEST_P(CarriedBodies, GiveThePinocchioReducedModelsParametersAndTorques) {
+  const PinocchioCase& c = GetParam();
+  const sid::UrdfChain arm =
+      sid::chain_from_urdf(read_text("urdf/" + c.urdf), c.base, c.tip, c.held);
+  const int n = arm.chain.joints();
+  const Eigen::VectorXd theta = sid_test::read_table("urdf/" + c.name + "_theta.csv").col("theta");
+  ASSERT_EQ(theta.size(), sid::kLinkParameters * n);
+  EXPECT_LT((arm.theta.head(theta.size()) - theta).cwiseAbs().maxCoeff(), kPinocchioParameterTol);
+  const sid_test::Table rnea = sid_test::read_table("urdf/" + c.name + "_rnea.csv");
+  ASSERT_EQ(rnea.data.cols(), 4 * n);
+  for (Eigen::Index row = 0; row < rnea.data.rows(); ++row) {
+    const auto part = [&](int k) { return Eigen::VectorXd(rnea.data.row(row).segment(k * n, n)); };
+    const Eigen::VectorXd tau =
+        sid::chain_inverse_dynamics(arm.chain, arm.theta, part(0), part(1), part(2));
+    EXPECT_LT((tau - part(3)).cwiseAbs().maxCoeff(), kPinocchioTorqueTol) << "state " << row;
+  }
+}
+
+// A mobile manipulator's prismatic torso lift and telescoping forearm (unaligned axis), with its
+// head and gripper fingers held.
+const PinocchioCase kMobileGripper{
+    "mobile_gripper", "mobile_manipulator.urdf", "base_footprint", "gripper_link", {}};
+const PinocchioCase kMobileGripperHeld{"mobile_gripper_held",
+                                       "mobile_manipulator.urdf",
+                                       "base_footprint",
+                                       "gripper_link",
+                                       {{"head_pan", 0.5},
+                                        {"head_tilt", -0.3},
+                                        {"l_gripper_finger", 0.04},
+                                        {"r_gripper_finger", 0.01}}};
+
+INSTANTIATE_TEST_SUITE_P(Urdf, CarriedBodies,
+                         ::testing::Values(kArmTool0, kArmTool0Held, kArmLink2Held, kMobileGripper,
+                                           kMobileGripperHeld),
+                         [](const auto& info) { return info.param.name; });
+
+TEST(Urdf, ReadsPrismaticJoints) {
+  const sid::UrdfChain robot = sid::chain_from_urdf(read_text("urdf/mobile_manipulator.urdf"),
+                                                    "base_footprint", "gripper_link");
+  EXPECT_EQ(robot.joint_names,
+            (std::vector<std::string>{"torso_lift", "shoulder_pan", "shoulder_lift", "arm_extend",
+                                      "wrist_flex", "wrist_roll"}));
+  ASSERT_EQ(robot.chain.joints(), 6);
+  EXPECT_EQ(robot.chain.joint_type(0), sid::JointType::Prismatic);
+  EXPECT_EQ(robot.chain.joint_type(1), sid::JointType::Revolute);
+  EXPECT_EQ(robot.chain.joint_type(3), sid::JointType::Prismatic);
+  EXPECT_EQ(robot.joints[0].type, "prismatic");
+  EXPECT_EQ(robot.joints[0].limit.upper, 0.4);
+  EXPECT_EQ(robot.joints[0].damping, 80.0);
+  EXPECT_EQ(robot.joints[0].friction, 25.0);
+  // The lift raises the torso along the base's z; the telescope slides along its unit axis.
+  const sid::FramePose<double> lifted = robot.chain.link_pose(0, 0.25);
+  EXPECT_LT((lifted.translation - Eigen::Vector3d(-0.08, 0.0, 0.1 + 0.35 + 0.25)).norm(), 1e-15);
+  EXPECT_EQ(lifted.rotation, Eigen::Matrix3d::Identity());
+  const Eigen::Vector3d slide =
+      robot.chain.link_pose(3, 0.2).translation - robot.chain.link_pose(3, 0.0).translation;
+  const Eigen::Vector3d along = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()) *
+                                Eigen::Vector3d(1.0, 0.0, 0.2).normalized();
+  EXPECT_LT((slide - 0.2 * along).norm(), 1e-15);
+}
+
+TEST(Urdf, CarriesTheBodiesOffAndPastTheChainOnlyOnce) {
+  const std::string urdf = read_text("urdf/arm_hand.urdf");
+  const sid::UrdfChain arm = sid::chain_from_urdf(urdf, "base_link", "tool0", kArmTool0Held.held);
+  EXPECT_EQ(arm.joint_names, (std::vector<std::string>{"j1", "j2", "j3", "j4", "j5"}));
+  EXPECT_EQ(arm.held_joints, kArmTool0Held.held);
+  // The pedestal (3 kg) and the base (5 kg) are the base's: the moving links carry the rest.
+  double total = 0.0;
+  for (const char* link :
+       {"link1", "link2", "camera_bracket", "camera", "sensor", "link3", "cover", "link4", "link5",
+        "hand", "finger_left_link", "left_tip", "finger_right_link"}) {
+    const std::string tag = std::string("<link name=\"") + link + "\">";
+    const auto at = urdf.find("<mass value=\"", urdf.find(tag));
+    total += std::stod(urdf.substr(at + 13));
+  }
+  double carried = 0.0;
+  for (int i = 0; i < 5; ++i) carried += arm.theta[10 * i];
+  EXPECT_NEAR(carried, total, 1e-14);
+  // Held at 0 where the map does not say; a shorter chain holds the arm's own joints past it.
+  EXPECT_EQ(sid::chain_from_urdf(urdf, "base_link", "tool0").held_joints,
+            (std::map<std::string, double>{
+                {"finger_left", 0.0}, {"finger_right", 0.0}, {"sensor_tilt", 0.0}}));
+  EXPECT_EQ(sid::chain_from_urdf(urdf, "base_link", "link2", kArmLink2Held.held).held_joints,
+            kArmLink2Held.held);
+  // A chain that starts past the first joint: link1 and what hangs before j2 are the base's.
+  const sid::UrdfChain upper = sid::chain_from_urdf(urdf, "link1", "tool0", kArmTool0Held.held);
+  EXPECT_EQ(upper.joint_names.front(), "j2");
+  EXPECT_LT((upper.theta.head(40) - arm.theta.segment(10, 40)).cwiseAbs().maxCoeff(), 1e-15);
+  // The held map may not name what cannot be held.
+  const auto contains = [](const std::string& message, const std::string& part) {
+    return message.find(part) != std::string::npos;
+  };
+  EXPECT_PRED2(contains, message_of(urdf, "base_link", "tool0", {{"j3", 0.1}}),
+               "held names joint 'j3', which is a joint of the chain");
+  EXPECT_PRED2(contains, message_of(urdf, "base_link", "tool0", {{"camera_mount", 0.1}}),
+               "which is fixed");
+  EXPECT_PRED2(contains, message_of(urdf, "base_link", "tool0", {{"finger", 0.1}}),
+               "held names joint 'finger', which there is not");
+  EXPECT_PRED2(contains,
+               message_of(urdf, "base_link", "tool0",
+                          {{"finger_left", std::numeric_limits<double>::infinity()}}),
+               "not finite");
 }
 
 }  // namespace

@@ -2,7 +2,8 @@
 /// @file
 /// @brief The little XML a robot description needs: elements, attributes and nesting. Text
 /// content, namespaces and DTDs are not interpreted; declarations, comments and DOCTYPE are
-/// skipped.
+/// skipped. Elements may nest at most kMaxXmlDepth deep, so that a hostile document cannot
+/// overflow the stack of the recursive reader.
 
 #include <cctype>
 #include <cstddef>
@@ -12,6 +13,9 @@
 #include <vector>
 
 namespace sid::detail {
+
+/// How deep elements may nest (the root is at depth 1); a robot description needs about 4.
+inline constexpr int kMaxXmlDepth = 256;
 
 struct XmlElement {
   std::string name;
@@ -30,14 +34,17 @@ struct XmlElement {
   }
 };
 
+/// Reads one document. The parser keeps its own copy of the text, so a temporary may be given.
 class XmlParser {
  public:
-  XmlParser(const std::string& text, std::string who) : text_(text), who_(std::move(who)) {}
+  /// @param who the name messages start with, e.g. "sid::chain_from_urdf".
+  XmlParser(std::string text, std::string who) : text_(std::move(text)), who_(std::move(who)) {}
 
+  /// @throws std::invalid_argument naming the line of the first problem.
   XmlElement parse_document() {
     skip_misc();
     if (at_end() || text_[pos_] != '<') fail("no root element");
-    XmlElement root = parse_element();
+    XmlElement root = parse_element(1);
     skip_misc();
     if (!at_end()) fail("text after the root element");
     return root;
@@ -118,7 +125,8 @@ class XmlParser {
     return value;
   }
 
-  XmlElement parse_element() {
+  XmlElement parse_element(int depth) {
+    if (depth > kMaxXmlDepth) fail("elements nested deeper than " + std::to_string(kMaxXmlDepth));
     XmlElement e;
     ++pos_;  // '<'
     e.name = parse_name();
@@ -160,12 +168,12 @@ class XmlParser {
         ++pos_;
         return e;
       } else {
-        e.children.push_back(parse_element());
+        e.children.push_back(parse_element(depth + 1));
       }
     }
   }
 
-  const std::string& text_;
+  std::string text_;
   std::string who_;
   std::size_t pos_ = 0;
 };

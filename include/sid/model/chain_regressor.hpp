@@ -8,7 +8,8 @@
 /// [m, mx, my, mz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz] (first moments m c, inertia about the frame's
 /// origin), then the viscous coefficients Fv_1..Fv_n and the Coulomb levels Fc_1..Fc_n:
 /// tau_j += Fv_j qd_j + Fc_j sign(qd_j), with sign(0) = 0. This is Pinocchio's order
-/// (`computeJointTorqueRegressor`) followed by the friction columns.
+/// (`computeJointTorqueRegressor`) followed by the friction columns. A revolute joint's tau is
+/// the torque about its axis [N m], a prismatic joint's the force along it [N].
 
 #include <sid/model/regressor.hpp>
 #include <sid/model/serial_chain.hpp>
@@ -110,8 +111,9 @@ Scalar sign(const Scalar& x) {
 template <typename Scalar>
 struct ChainMotion {
   std::array<FramePose<Scalar>, kMaxChainJoints> pose;
-  /// Joint i's motion per unit rate in its link's frame: the turn about its axis, and the
-  /// velocity that turn gives the frame's origin.
+  /// Joint i's motion per unit rate in its link's frame: the angular velocity (the axis for a
+  /// revolute joint, zero for a prismatic one) and the velocity it gives the frame's origin
+  /// (point x axis for a revolute joint, the axis for a prismatic one).
   std::array<Vector3<Scalar>, kMaxChainJoints> u, ru;
   std::array<Vector3<Scalar>, kMaxChainJoints> w, wd, a;
 };
@@ -127,8 +129,13 @@ void chain_motion(const SerialChain<Scalar>& chain, const Joints& q, const Joint
     const auto k = static_cast<std::size_t>(i);
     m.pose[k] = chain.link_pose(i, q[i]);
     const JointAxis<Scalar> axis = chain.joint_axis(i);
-    m.u[k] = axis.direction;
-    m.ru[k] = axis.point.cross(axis.direction);
+    if (chain.placements()[k].type == JointType::Prismatic) {
+      m.u[k].setZero();
+      m.ru[k] = axis.direction;
+    } else {
+      m.u[k] = axis.direction;
+      m.ru[k] = axis.point.cross(axis.direction);
+    }
     const Matrix3<Scalar>& rt = m.pose[k].rotation;
     const Vector3<Scalar>& p = m.pose[k].translation;
     const Vector3<Scalar>& u = m.u[k];
@@ -160,9 +167,9 @@ void chain_regressor_unchecked(const SerialChain<Scalar>& chain, const Joints& q
     wrench[k] = link_wrench_columns(m.w[k], m.wd[k], m.a[k]);
   out.setZero();
   for (int i = 0; i < n; ++i) {
-    // Joint i carries the wrenches of links i..n-1; its torque is the power of their wrench per
-    // unit joint rate. Rather than carry each link's ten wrench columns in to joint i, carry
-    // joint i's motion (axis direction, and the velocity it gives each frame's origin) out to
+    // Joint i carries the wrenches of links i..n-1; its torque (or force) is the power of their
+    // wrench per unit joint rate. Rather than carry each link's ten wrench columns in to joint i,
+    // carry joint i's motion (axis direction, and the velocity it gives each frame's origin) out to
     // each link: one 6-vector per link instead of a 6 x 10 block.
     Vector3<Scalar> w = m.u[static_cast<std::size_t>(i)];
     Vector3<Scalar> v = m.ru[static_cast<std::size_t>(i)];
@@ -212,7 +219,7 @@ void check_chain_state(const char* who, const SerialChain<Scalar>& chain,
 }  // namespace detail
 
 /// @brief Y(q, qd, qdd) written into out (joints() x chain_parameter_count(joints())).
-/// @param q [rad], qd [rad/s], qdd [rad/s^2], each of joints() entries.
+/// @param q [rad or m], qd [rad/s or m/s], qdd [rad/s^2 or m/s^2], each of joints() entries.
 /// Allocates nothing.
 /// @throws std::invalid_argument if a size does not match the chain.
 template <typename Scalar>
@@ -230,7 +237,7 @@ void chain_regressor(const SerialChain<Scalar>& chain, const detail::ChainVector
   detail::chain_regressor_unchecked(chain, q, qd, qdd, out);
 }
 
-/// @brief tau = Y(q, qd, qdd) theta [N m]; allocates nothing but the result.
+/// @brief tau = Y(q, qd, qdd) theta [N m or N]; allocates nothing but the result.
 /// @throws std::invalid_argument if a size does not match the chain.
 template <typename Scalar>
 VectorX<Scalar> chain_inverse_dynamics(const SerialChain<Scalar>& chain,
@@ -247,7 +254,8 @@ VectorX<Scalar> chain_inverse_dynamics(const SerialChain<Scalar>& chain,
 }
 
 /// @brief The regression over N samples: row j N + k of X and y is joint j at sample k.
-/// @param q, qd, qdd, tau N x joints() samples [rad, rad/s, rad/s^2, N m].
+/// @param q, qd, qdd, tau N x joints() samples [rad, rad/s, rad/s^2, N m; m, m/s, m/s^2, N for
+///        prismatic joints].
 /// @throws std::invalid_argument if the sizes disagree, there are no samples, or a value is not
 ///         finite.
 template <typename Scalar>

@@ -1,8 +1,8 @@
 #pragma once
 /// @file
-/// @brief sid::SerialChain: the kinematics of a serial arm of revolute joints, from joint
-/// placements as URDF writes them or from a Denavit-Hartenberg table in the standard or the
-/// modified (Khalil/Craig) convention.
+/// @brief sid::SerialChain: the kinematics of a serial arm of revolute and prismatic joints, from
+/// joint placements as URDF writes them or from a Denavit-Hartenberg table (revolute joints) in
+/// the standard or the modified (Khalil/Craig) convention.
 
 #include <Eigen/Core>
 
@@ -50,14 +50,22 @@ struct FramePose {
   Vector3<Scalar> translation = Vector3<Scalar>::Zero();
 };
 
-/// @brief A revolute joint placed in its parent link's frame, the way URDF writes it and any DH
-/// row can be written: T(parent, child)(q) = before * Rot(axis, q + offset) * after.
+/// @brief How a joint moves its child link: turning about its axis or sliding along it.
+enum class JointType {
+  Revolute,   ///< Rot(axis, q + offset); q [rad], its generalized force a torque [N m]
+  Prismatic,  ///< Trans(axis (q + offset)); q [m], its generalized force a force [N]
+};
+
+/// @brief A joint placed in its parent link's frame, the way URDF writes it and any DH row can
+/// be written: T(parent, child)(q) = before * Rot(axis, q + offset) * after for a revolute
+/// joint, before * Trans(axis (q + offset)) * after for a prismatic one.
 template <typename Scalar>
 struct JointPlacement {
   FramePose<Scalar> before;  ///< the joint frame in the parent's frame (URDF's <origin>)
   Vector3<Scalar> axis = Vector3<Scalar>::UnitZ();  ///< in the joint frame (URDF's <axis>)
-  FramePose<Scalar> after;    ///< the child link's frame in the turned joint frame
-  Scalar offset = Scalar(0);  ///< [rad]
+  FramePose<Scalar> after;    ///< the child link's frame in the moved joint frame
+  Scalar offset = Scalar(0);  ///< [rad] or [m]
+  JointType type = JointType::Revolute;
 };
 
 /// @brief A DH row as a joint placement.
@@ -81,15 +89,15 @@ JointPlacement<Scalar> dh_placement(DhConvention convention, const DhJoint<Scala
   return joint;
 }
 
-/// @brief A revolute joint's axis in the frame of the link it moves: the unit direction and a
-/// point on the axis. Both are constant in that frame.
+/// @brief A joint's axis in the frame of the link it moves: the unit direction and a point on
+/// the axis (the joint frame's origin). Both are constant in that frame.
 template <typename Scalar>
 struct JointAxis {
   Vector3<Scalar> direction;
   Vector3<Scalar> point;
 };
 
-/// @brief A chain of revolute joints from a base frame to the last link's frame.
+/// @brief A chain of revolute and prismatic joints from a base frame to the last link's frame.
 ///
 /// Class invariant: 1 <= joints() <= kMaxChainJoints, every placement and the gravity are
 /// finite, and every axis has unit length.
@@ -99,7 +107,7 @@ class SerialChain {
   /// @param gravity the gravitational acceleration in the base frame [m/s^2]; the default is
   ///        9.81 along -z.
   /// @throws std::invalid_argument if there are no joints or more than kMaxChainJoints, a value
-  ///         is not finite, or an axis is zero (axes are normalised).
+  ///         is not finite, an axis is zero (axes are normalised) or a type is not a JointType.
   explicit SerialChain(std::vector<JointPlacement<Scalar>> joints,
                        const Vector3<Scalar>& gravity = default_gravity())
       : joints_(std::move(joints)), gravity_(gravity) {
@@ -119,11 +127,22 @@ class SerialChain {
   const std::vector<JointPlacement<Scalar>>& placements() const noexcept { return joints_; }
   const Vector3<Scalar>& gravity() const noexcept { return gravity_; }
 
+  /// @brief Joint i's type.
+  /// @throws std::invalid_argument if i is not a joint index.
+  JointType joint_type(int i) const { return joint(i, "sid::SerialChain::joint_type").type; }
+
   /// @brief The pose of link frame i (0-based joint index) in frame i-1 (the base for i = 0) at
-  ///        joint angle q [rad].
+  ///        joint value q [rad or m].
   /// @throws std::invalid_argument if i is not a joint index.
   FramePose<Scalar> link_pose(int i, Scalar q) const {
     const JointPlacement<Scalar>& j = joint(i, "sid::SerialChain::link_pose");
+    FramePose<Scalar> pose;
+    if (j.type == JointType::Prismatic) {
+      pose.rotation = j.before.rotation * j.after.rotation;
+      pose.translation = j.before.translation +
+                         j.before.rotation * (j.axis * (q + j.offset) + j.after.translation);
+      return pose;
+    }
     using std::cos;
     using std::sin;
     const Scalar c = cos(q + j.offset), s = sin(q + j.offset);
@@ -137,7 +156,6 @@ class SerialChain {
     turn(1, 2) -= s * u[0];
     turn(2, 1) += s * u[0];
     const Matrix3<Scalar> turned = j.before.rotation * turn;
-    FramePose<Scalar> pose;
     pose.rotation = turned * j.after.rotation;
     pose.translation = j.before.translation + turned * j.after.translation;
     return pose;
@@ -150,7 +168,7 @@ class SerialChain {
     return axes_[static_cast<std::size_t>(i)];
   }
 
-  /// @brief The pose of every link frame in the base frame at joint angles q [rad].
+  /// @brief The pose of every link frame in the base frame at joint values q [rad or m].
   /// @throws std::invalid_argument if q.size() != joints().
   std::vector<FramePose<Scalar>> forward_kinematics(
       const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, 1>>& q) const {
@@ -190,6 +208,8 @@ class SerialChain {
         throw std::invalid_argument(joint_name + " has a value that is not finite");
       const Scalar length = j.axis.norm();
       if (!(length > Scalar(0))) throw std::invalid_argument(joint_name + " has a zero axis");
+      if (j.type != JointType::Revolute && j.type != JointType::Prismatic)
+        throw std::invalid_argument(joint_name + " has an unknown type");
       j.axis /= length;
       // The axis passes through the joint frame's origin; seen from the child link's frame.
       const Matrix3<Scalar> back = j.after.rotation.transpose();
