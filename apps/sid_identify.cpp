@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "app.hpp"
+#include "chain_identify_app.hpp"
 #include "csv.hpp"
 #include "runs_report.hpp"
 
@@ -152,6 +153,19 @@ Exit codes: 0 success, 2 bad input or options, or a regressor whose columns are 
 dependent (the data do not excite every parameter; the message names the columns), 1 internal
 error.
 
+Any serial chain (--robot FILE): a URDF (the chain from --base to --tip, defaults the root
+and the one end link) or a DH table (docs/serial-arms.md). Runs have columns t, q1..qn,
+tau1..taun (joint order of the description). The model is the links' rigid-body parameters plus,
+per joint, the drive terms of --effects (default viscous,coulomb,offset,armature; also
+coulomb_asymmetry, or none); a --transmission file (YAML: gear_ratios, couplings, joint_zero)
+makes the runs motor-side and adds the coupled motors' friction and inertia. Each joint's
+smoothing cutoff is chosen by held-out torque prediction (or --cutoff F or F1,...,Fn), the
+torque goes through its joint's smoother too, equations at rest are left out (--rest-fraction).
+The report names each base parameter by the combination it stands for, with its HAC standard
+deviation; --validate RUN and --validate-fraction F report how well held-out torques are
+predicted. The JSON has joint_names, parameter_names, theta, std_dev, residual_rms,
+relative_residual and validation [{file, residual_rms, relative_residual}].
+
 Examples:
   sid_identify log.csv
   sid_identify --columns t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2 \
@@ -160,6 +174,8 @@ Examples:
   sid_identify --smoothing cv --json result.json log.csv
   sid_identify --method filtered --json result.json log.csv
   sid_identify --estimator iv log.csv
+  sid_identify --robot arm.urdf --validate run2.csv --json fit.json run1.csv
+  sid_identify --robot tx40.urdf --transmission tx40.yaml --validate-fraction 0.3 motor_log.csv
   sid_simulate | sid_identify -
 )";
 
@@ -167,6 +183,7 @@ const char* const kUnits[7] = {"kg m^2", "kg m^2",    "kg m^2",   "kg m",
                                "kg m",   "N m s/rad", "N m s/rad"};
 
 struct Options {
+  sid::app::ChainIdentifyAppOptions chain;
   std::vector<std::string> inputs;
   std::string columns;
   std::vector<std::string> validate;
@@ -188,6 +205,24 @@ struct Options {
 
 void define_options(CLI::App& cli, Options& o) {
   cli.footer(kFooter);
+  cli.add_option("--robot", o.chain.robot,
+                 "identify any serial chain: its URDF or DH table (see the chain section "
+                 "below); the runs then have columns t, q1..qn, tau1..taun")
+      ->check(CLI::ExistingFile);
+  cli.add_option("--base", o.chain.base, "--robot URDF: the chain's first link (default: root)");
+  cli.add_option("--tip", o.chain.tip,
+                 "--robot URDF: the chain's last link (default: the one end link)");
+  cli.add_option("--transmission", o.chain.transmission,
+                 "--robot: YAML with gear_ratios, couplings and joint_zero; the runs are then "
+                 "motor-side (angles and torques as the drives log them)")
+      ->check(CLI::ExistingFile);
+  cli.add_option("--validate-fraction", o.chain.validate_fraction,
+                 "--robot: fit the first 1 - F of the one run, predict its last F");
+  cli.add_option("--rest-fraction", o.chain.rest_fraction,
+                 "--robot: leave out joint j's equations where |qd_j| < F RMS(qd_j) "
+                 "(default 0.1)");
+  cli.add_option("--coulomb-epsilon", o.chain.coulomb_epsilon,
+                 "--robot: Coulomb friction as tanh(qd / EPS) [rad/s] (default 0.01; 0: sign)");
   cli.add_option("RUN", o.inputs,
                  "input CSV file(s), one per measured run ('-' reads standard input); several runs "
                  "are fitted together")
@@ -665,8 +700,29 @@ int identify_from_runs(const Options& o) {
   return sid::app::kExitOk;
 }
 
-int identify(const Options& o) {
+int identify(Options o) {
   using sid::app::require;
+  if (!o.chain.robot.empty()) {
+    require(o.method == "css" && o.sigma_q.empty() && !o.S && o.smoothing.empty() && !o.lambda &&
+                o.truth.empty() && o.reference_theta.empty() && o.gear_ratio.empty() &&
+                o.columns.empty(),
+            "with --robot the smoothing is chosen per joint by held-out torque prediction; "
+            "--method, --sigma-q, --S, --smoothing, --lambda, --true, --reference-theta, "
+            "--gear-ratio and --columns apply to the two-link arm");
+    o.chain.inputs = o.inputs;
+    o.chain.validate = o.validate;
+    if (o.cutoff) o.chain.cutoff = std::to_string(*o.cutoff);
+    o.chain.effects = o.effects;
+    o.chain.skip = o.skip;
+    o.chain.estimator = o.estimator;
+    o.chain.json = o.json;
+    o.chain.force = o.force;
+    return sid::app::identify_robot(o.chain, kName);
+  }
+  require(o.chain.base.empty() && o.chain.tip.empty() && o.chain.transmission.empty() &&
+              !o.chain.validate_fraction && !o.chain.rest_fraction && !o.chain.coulomb_epsilon,
+          "--base, --tip, --transmission, --validate-fraction, --rest-fraction and "
+          "--coulomb-epsilon need --robot");
   if (uses_torque_cv(o)) return identify_from_runs(o);
   require(o.inputs.size() == 1,
           "several runs are fitted together only with --smoothing torque-cv "

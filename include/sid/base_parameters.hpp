@@ -9,9 +9,13 @@
 /// beta = theta[independent] + K theta[dependent], and W theta = W[:, independent] beta.
 
 #include <Eigen/Core>
+#include <Eigen/Householder>
 #include <Eigen/QR>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -26,6 +30,11 @@ struct BaseParameters {
   std::vector<Eigen::Index> independent;  ///< columns kept, ascending
   std::vector<Eigen::Index> dependent;    ///< columns regrouped onto them, ascending
   Matrix K;                               ///< independent.size() x dependent.size()
+
+  /// The smallest kept column's distance from the columns before it over the largest dropped
+  /// one's (unit-norm columns; set by base_parameters_in_order, NaN otherwise): how clearly the
+  /// rank was decided. Infinite when no column was dropped for being a combination.
+  Scalar rank_gap = std::numeric_limits<Scalar>::quiet_NaN();
 
   Eigen::Index rank() const noexcept { return static_cast<Eigen::Index>(independent.size()); }
 
@@ -172,6 +181,105 @@ BaseParameters<typename Derived::Scalar> base_parameters(
   if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
     throw std::invalid_argument(std::string(who) + ": an independent column is given twice");
   return detail::regroup<Scalar>(who, w, std::move(sorted), relative_tolerance);
+}
+
+/// @brief The base parameters in the columns' own order: a column is kept when its distance
+/// from the span of the columns before it exceeds relative_tolerance (columns scaled to unit
+/// norm first, so units do not decide), else it regroups onto them. Earlier columns are kept
+/// in preference to later ones, so ordering the columns by what should be reported (a link's
+/// own parameters before the drive terms that repeat them) decides the names, and the choice
+/// depends on nothing but W.
+/// @param w a regressor that excites the arm richly (many random samples).
+/// @throws std::invalid_argument if W is empty or not finite, the tolerance is not in (0, 1),
+///         or every column is zero.
+template <typename Derived>
+BaseParameters<typename Derived::Scalar> base_parameters_in_order(
+    const Eigen::MatrixBase<Derived>& w_in,
+    typename Derived::Scalar relative_tolerance = typename Derived::Scalar(1e-8)) {
+  using Scalar = typename Derived::Scalar;
+  using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
+  const Eigen::Ref<const Matrix> w(w_in);
+  const char* who = "sid::base_parameters_in_order";
+  detail::check_base_regressor<Scalar>(who, w);
+  if (!(relative_tolerance > Scalar(0) && relative_tolerance < Scalar(1)))
+    throw std::invalid_argument(std::string(who) + ": the relative tolerance must be in (0, 1)");
+  Eigen::Matrix<Scalar, Eigen::Dynamic, 1> norms = w.colwise().norm().transpose();
+  // A column that is zero in exact arithmetic comes out as round-off of the terms that cancel
+  // (e.g. 1e-14 beside columns of 100); scaled to unit norm it would look independent.
+  const Scalar zero_column =
+      Scalar(1e3) * std::numeric_limits<Scalar>::epsilon() * norms.maxCoeff();
+  Matrix scaled = w;
+  for (Eigen::Index j = 0; j < w.cols(); ++j) {
+    if (norms[j] <= zero_column) norms[j] = Scalar(0);
+    scaled.col(j) = norms[j] > Scalar(0)
+                        ? Eigen::Matrix<Scalar, Eigen::Dynamic, 1>(w.col(j) / norms[j])
+                        : Eigen::Matrix<Scalar, Eigen::Dynamic, 1>::Zero(w.rows());
+  }
+  // R's diagonal of an unpivoted QR: each column's distance from the span of those before it.
+  const Eigen::HouseholderQR<Matrix> qr(scaled);
+  std::vector<Eigen::Index> kept;
+  Scalar smallest_kept = std::numeric_limits<Scalar>::infinity(), largest_dropped = Scalar(0);
+  for (Eigen::Index j = 0; j < w.cols(); ++j) {
+    const Scalar distance = j < qr.matrixQR().rows() ? std::abs(qr.matrixQR()(j, j)) : Scalar(0);
+    if (norms[j] > Scalar(0) && distance > relative_tolerance) {
+      kept.push_back(j);
+      smallest_kept = std::min(smallest_kept, distance);
+    } else if (norms[j] > Scalar(0)) {
+      largest_dropped = std::max(largest_dropped, distance);
+    }
+  }
+  if (kept.empty()) throw std::invalid_argument(std::string(who) + ": every column of W is zero");
+  BaseParameters<Scalar> base =
+      detail::regroup<Scalar>(who, scaled, std::move(kept), relative_tolerance);
+  for (Eigen::Index a = 0; a < base.K.rows(); ++a)  // back from unit-norm columns
+    for (Eigen::Index b = 0; b < base.K.cols(); ++b)
+      base.K(a, b) *= norms[base.dependent[static_cast<std::size_t>(b)]] /
+                      norms[base.independent[static_cast<std::size_t>(a)]];
+  base.rank_gap = largest_dropped > Scalar(0) ? smallest_kept / largest_dropped
+                                              : std::numeric_limits<Scalar>::infinity();
+  return base;
+}
+
+/// @brief Each base parameter written as the combination it stands for, e.g.
+/// "Izz_1 + Ia_1 + Iyy_2 + 0.05185*m_3 + ...": the kept column's name, then every regrouped
+/// column with its coefficient (4 significant digits; coefficients below 1e-9 of the largest are
+/// left out), at most max_terms terms and "+ ..." after them (0: all).
+/// @throws std::invalid_argument if names does not have one entry per column.
+template <typename Scalar>
+std::vector<std::string> base_parameter_names(const BaseParameters<Scalar>& base,
+                                              const std::vector<std::string>& names,
+                                              std::size_t max_terms = 6) {
+  if (names.size() != base.independent.size() + base.dependent.size())
+    throw std::invalid_argument(
+        "sid::base_parameter_names: " + std::to_string(names.size()) + " names for " +
+        std::to_string(base.independent.size() + base.dependent.size()) + " columns");
+  std::vector<std::string> out;
+  const Scalar scale = base.K.size() > 0 ? base.K.cwiseAbs().maxCoeff() : Scalar(0);
+  for (std::size_t a = 0; a < base.independent.size(); ++a) {
+    std::ostringstream text;
+    text << names[static_cast<std::size_t>(base.independent[a])];
+    std::size_t terms = 1;
+    for (std::size_t b = 0; b < base.dependent.size(); ++b) {
+      const Scalar k = base.K(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b));
+      if (!(std::abs(k) > Scalar(1e-9) * scale)) continue;
+      if (max_terms > 0 && terms == max_terms) {
+        text << " + ...";
+        break;
+      }
+      text << (k < Scalar(0) ? " - " : " + ");
+      const Scalar magnitude = std::abs(k);
+      if (std::abs(magnitude - Scalar(1)) > Scalar(1e-9)) {
+        std::ostringstream number;
+        number.precision(4);
+        number << magnitude;
+        text << number.str() << "*";
+      }
+      text << names[static_cast<std::size_t>(base.dependent[b])];
+      ++terms;
+    }
+    out.push_back(text.str());
+  }
+  return out;
 }
 
 }  // namespace sid

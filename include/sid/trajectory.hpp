@@ -18,16 +18,23 @@ using MatrixX2 = Eigen::Matrix<Scalar, Eigen::Dynamic, 2>;
 template <typename Scalar>
 using Vector2 = Eigen::Matrix<Scalar, 2, 1>;
 
-/// @brief Measured samples of a two-joint arm: times t [s], angles q [rad], torques tau [N m].
+/// @brief Joint samples: one row per sample, one column per joint (fixed at compile time where
+/// the arm is known, e.g. 2 for the paper's arm; Eigen::Dynamic for a chain read at run time).
+template <typename Scalar, int Joints>
+using JointSamples = Eigen::Matrix<Scalar, Eigen::Dynamic, Joints>;
+
+/// @brief Measured samples of an arm: times t [s], angles q [rad], torques tau [N m], one
+/// column per joint (two for the paper's arm; Eigen::Dynamic for any chain, see ChainTrajectory).
 /// Class invariant (checked by validate()): t strictly increasing and finite, q and tau have one
-/// row per time and finite entries.
-template <typename Scalar>
+/// row per time, the same number of columns, and finite entries.
+template <typename Scalar, int Joints = 2>
 struct Trajectory {
   VectorX<Scalar> t;
-  MatrixX2<Scalar> q;
-  MatrixX2<Scalar> tau;
+  JointSamples<Scalar, Joints> q;
+  JointSamples<Scalar, Joints> tau;
 
   Eigen::Index size() const { return t.size(); }
+  Eigen::Index joints() const { return q.cols(); }
 
   /// @throws std::invalid_argument naming the first violated invariant.
   void validate(const char* who = "sid::Trajectory") const {
@@ -36,6 +43,10 @@ struct Trajectory {
       throw std::invalid_argument(prefix + "t, q and tau must have the same number of rows (t: " +
                                   std::to_string(t.size()) + ", q: " + std::to_string(q.rows()) +
                                   ", tau: " + std::to_string(tau.rows()) + ")");
+    if (q.cols() != tau.cols() || q.cols() == 0)
+      throw std::invalid_argument(prefix + "q and tau must have the same number of joints, at " +
+                                  "least one (q: " + std::to_string(q.cols()) +
+                                  ", tau: " + std::to_string(tau.cols()) + ")");
     for (Eigen::Index i = 0; i < t.size(); ++i) {
       using std::isfinite;
       if (!isfinite(t[i]))
@@ -53,15 +64,22 @@ struct Trajectory {
 
 /// @brief Angles, velocities [rad/s], accelerations [rad/s^2] and torques at the samples an
 /// estimator kept (a derivative method may drop samples at the ends).
-template <typename Scalar>
+template <typename Scalar, int Joints = 2>
 struct Kinematics {
   VectorX<Scalar> t;
-  MatrixX2<Scalar> q;
-  MatrixX2<Scalar> qd;
-  MatrixX2<Scalar> qdd;
-  MatrixX2<Scalar> tau;
+  JointSamples<Scalar, Joints> q;
+  JointSamples<Scalar, Joints> qd;
+  JointSamples<Scalar, Joints> qdd;
+  JointSamples<Scalar, Joints> tau;
 
   Eigen::Index size() const { return t.size(); }
+  Eigen::Index joints() const { return q.cols(); }
 };
+
+/// @brief Samples of a chain whose joint count is known at run time.
+template <typename Scalar>
+using ChainTrajectory = Trajectory<Scalar, Eigen::Dynamic>;
+template <typename Scalar>
+using ChainKinematics = Kinematics<Scalar, Eigen::Dynamic>;
 
 }  // namespace sid

@@ -1,0 +1,550 @@
+#pragma once
+// Definitions of <sid/identify_chain.hpp>: inline in header-only mode, compiled once in the
+// compiled library (see sid/config.hpp).
+
+#include <sid/diagnosis/hac.hpp>
+#include <sid/identify_chain.hpp>
+#include <sid/identify_runs.hpp>
+#include <sid/smoothing_spline.hpp>
+
+#include <Eigen/Cholesky>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace sid {
+namespace detail {
+
+/// One run smoothed at the current cutoffs: every sample's kinematics and filtered torque.
+struct SmoothedChainRun {
+  const ChainTrajectory<double>* run = nullptr;
+  SmoothingSpline<double> spline;
+  double mean_period = 0.0;
+  ChainKinematics<double> k;
+  std::vector<Eigen::Index> samples;  ///< the samples equations are taken at
+
+  SmoothedChainRun(const ChainTrajectory<double>& r, const ChainIdentifyOptions& o)
+      : run(&r), spline(r.t) {
+    const Eigen::Index n = r.size(), joints = r.joints();
+    mean_period = (r.t[n - 1] - r.t[0]) / static_cast<double>(n - 1);
+    k.t = r.t;
+    k.q.resize(n, joints);
+    k.qd.resize(n, joints);
+    k.qdd.resize(n, joints);
+    k.tau = r.tau;
+    const auto stride = static_cast<Eigen::Index>(
+        std::max(1.0, std::floor(1.0 / (mean_period * o.regression_rate_hz))));
+    for (Eigen::Index i = 0; i < n; i += stride)
+      if (r.t[i] >= r.t[0] + o.skip && r.t[i] <= r.t[n - 1] - o.skip_end) samples.push_back(i);
+  }
+
+  void smooth_joint(int j, double cutoff_hz, bool filter_torque) {
+    const double p = 1.0 / smoothing_lambda_for_cutoff(cutoff_hz, mean_period);
+    const auto fit = spline.fit_penalized(run->q.col(j), 1.0, p);
+    fit.spline.derivatives_at_knots(0, k.q.col(j));
+    fit.spline.derivatives_at_knots(1, k.qd.col(j));
+    fit.spline.derivatives_at_knots(2, k.qdd.col(j));
+    if (filter_torque)
+      spline.fit_penalized(run->tau.col(j), 1.0, p).spline.derivatives_at_knots(0, k.tau.col(j));
+  }
+};
+
+/// The equations of one run on the base columns; row r is joint joint[r] at samples[at[r]].
+struct ChainEquations {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y, y_unfiltered;
+  std::vector<int> joint;
+  std::vector<Eigen::Index> at;
+};
+
+inline ChainEquations chain_equations(const ChainModel& model, const SmoothedChainRun& s,
+                                      const std::vector<Eigen::Index>& columns,
+                                      double rest_fraction) {
+  const int n = model.joints();
+  Eigen::VectorXd rest(n);
+  for (int j = 0; j < n; ++j) {
+    double sum = 0.0;
+    for (const Eigen::Index i : s.samples) sum += s.k.qd(i, j) * s.k.qd(i, j);
+    rest[j] = rest_fraction * std::sqrt(sum / static_cast<double>(s.samples.size()));
+  }
+  std::vector<std::pair<Eigen::Index, int>> rows;  // (sample position, joint)
+  for (std::size_t a = 0; a < s.samples.size(); ++a)
+    for (int j = 0; j < n; ++j)
+      if (std::abs(s.k.qd(s.samples[a], j)) >= rest[j])
+        rows.emplace_back(static_cast<Eigen::Index>(a), j);
+  ChainEquations e;
+  const auto m = static_cast<Eigen::Index>(rows.size());
+  e.x.resize(m, static_cast<Eigen::Index>(columns.size()));
+  e.y.resize(m);
+  e.y_unfiltered.resize(m);
+  Eigen::MatrixXd y(n, model.parameters());
+  Eigen::VectorXd q(n), qd(n), qdd(n);
+  Eigen::Index last = -1;
+  for (Eigen::Index r = 0; r < m; ++r) {
+    const auto [a, j] = rows[static_cast<std::size_t>(r)];
+    const Eigen::Index i = s.samples[static_cast<std::size_t>(a)];
+    if (a != last) {
+      q = s.k.q.row(i).transpose();
+      qd = s.k.qd.row(i).transpose();
+      qdd = s.k.qdd.row(i).transpose();
+      model.regressor(q, qd, qdd, y);
+      last = a;
+    }
+    e.x.row(r) = y.row(j)(columns);
+    e.y[r] = s.k.tau(i, j);
+    e.y_unfiltered[r] = s.run->tau(i, j);
+    e.joint.push_back(j);
+    e.at.push_back(a);
+  }
+  return e;
+}
+
+/// Deterministic uniform numbers in [lo, hi) from a generator whose output the standard fixes.
+inline double uniform(std::mt19937& g, double lo, double hi) {
+  return lo + (hi - lo) * (static_cast<double>(g()) + 0.5) / 4294967296.0;
+}
+
+inline BaseParameters<double> chain_base_parameters(const ChainModel& model,
+                                                    const ChainIdentifyOptions& o) {
+  const int n = model.joints();
+  std::mt19937 g(o.base_seed);
+  Eigen::MatrixXd w(static_cast<Eigen::Index>(o.base_samples) * n, model.parameters());
+  Eigen::MatrixXd y(n, model.parameters());
+  Eigen::VectorXd q(n), qd(n), qdd(n);
+  for (int s = 0; s < o.base_samples; ++s) {
+    for (int j = 0; j < n; ++j) {
+      q[j] = uniform(g, -3.14159265358979, 3.14159265358979);
+      qd[j] = uniform(g, -2.0, 2.0);
+      qdd[j] = uniform(g, -10.0, 10.0);
+    }
+    model.regressor(q, qd, qdd, y);
+    w.middleRows(static_cast<Eigen::Index>(s) * n, n) = y;
+  }
+  return base_parameters_in_order(w, o.base_tolerance);
+}
+
+/// The base parameters of the data: structural base columns that the runs' equations do not
+/// tell apart from the columns before them (relative distance below data_tolerance at unit
+/// norm, e.g. an asymmetric Coulomb level when no equation is at rest) regroup onto those, so
+/// that every parameter reported is one the data determine.
+inline BaseParameters<double> data_base_parameters(const ChainModel& model,
+                                                   const BaseParameters<double>& structural,
+                                                   const std::vector<ChainEquations>& equations,
+                                                   double data_tolerance) {
+  Eigen::Index rows = 0;
+  for (const auto& e : equations) rows += e.y.size();
+  const Eigen::Index r = structural.rank();
+  Eigen::MatrixXd x(rows, r);
+  Eigen::Index at = 0;
+  for (const auto& e : equations) {
+    x.middleRows(at, e.y.size()) = e.x;
+    at += e.y.size();
+  }
+  if (rows < r) return structural;
+  const BaseParameters<double> in_data = base_parameters_in_order(x, data_tolerance);
+  if (in_data.rank() == r) return structural;
+  // beta_data = E beta_structural, beta_structural = M theta: compose E M.
+  const Eigen::Index p = model.parameters();
+  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(r, p);
+  for (Eigen::Index a = 0; a < r; ++a) {
+    m(a, structural.independent[static_cast<std::size_t>(a)]) = 1.0;
+    for (Eigen::Index b = 0; b < structural.K.cols(); ++b)
+      m(a, structural.dependent[static_cast<std::size_t>(b)]) = structural.K(a, b);
+  }
+  Eigen::MatrixXd e = Eigen::MatrixXd::Zero(in_data.rank(), r);
+  for (Eigen::Index a = 0; a < in_data.rank(); ++a) {
+    e(a, in_data.independent[static_cast<std::size_t>(a)]) = 1.0;
+    for (Eigen::Index b = 0; b < in_data.K.cols(); ++b)
+      e(a, in_data.dependent[static_cast<std::size_t>(b)]) = in_data.K(a, b);
+  }
+  const Eigen::MatrixXd combined = e * m;
+  BaseParameters<double> base;
+  for (const Eigen::Index a : in_data.independent)
+    base.independent.push_back(structural.independent[static_cast<std::size_t>(a)]);
+  for (Eigen::Index c = 0; c < p; ++c)
+    if (std::find(base.independent.begin(), base.independent.end(), c) == base.independent.end())
+      base.dependent.push_back(c);
+  base.K = combined(Eigen::all, base.dependent);
+  base.rank_gap = std::min(structural.rank_gap, in_data.rank_gap);
+  return base;
+}
+
+inline void check_chain_options(const ChainIdentifyOptions& o, int joints, const char* who) {
+  const std::string prefix = std::string(who) + ": ";
+  const auto positive = [](double v) { return v > 0.0 && std::isfinite(v); };
+  if (!o.cutoff_hz.empty() && o.cutoff_hz.size() != 1 &&
+      o.cutoff_hz.size() != static_cast<std::size_t>(joints))
+    throw std::invalid_argument(prefix + "give one cutoff or one per joint (" +
+                                std::to_string(joints) + "), not " +
+                                std::to_string(o.cutoff_hz.size()));
+  for (const double c : o.cutoff_hz)
+    if (!positive(c)) throw std::invalid_argument(prefix + "a cutoff must be finite and > 0 Hz");
+  if (!positive(o.min_cutoff_hz) || !positive(o.max_cutoff_hz) || o.max_cutoff_hz < o.min_cutoff_hz)
+    throw std::invalid_argument(prefix + "the cutoff range needs 0 < min <= max < inf");
+  if (o.grid_points_per_octave < 1 || o.grid_points_per_octave > 64)
+    throw std::invalid_argument(prefix + "grid_points_per_octave must be in 1..64");
+  if (o.folds_per_run < 2) throw std::invalid_argument(prefix + "folds_per_run must be >= 2");
+  if (!(o.skip >= 0.0) || !(o.skip_end >= 0.0) || !std::isfinite(o.skip + o.skip_end))
+    throw std::invalid_argument(prefix + "skip and skip_end must be finite and >= 0 s");
+  if (!positive(o.regression_rate_hz))
+    throw std::invalid_argument(prefix + "regression_rate_hz must be finite and > 0");
+  if (!(o.rest_fraction >= 0.0 && o.rest_fraction < 1.0))
+    throw std::invalid_argument(prefix + "rest_fraction must be in [0, 1)");
+  if (!(o.base_tolerance > 0.0 && o.base_tolerance < 1.0))
+    throw std::invalid_argument(prefix + "base_tolerance must be in (0, 1)");
+  if (!(o.data_tolerance > 0.0 && o.data_tolerance < 1.0))
+    throw std::invalid_argument(prefix + "data_tolerance must be in (0, 1)");
+  if (o.base_samples < 1) throw std::invalid_argument(prefix + "base_samples must be >= 1");
+}
+
+inline void check_chain_run(const ChainModel& model, const ChainTrajectory<double>& run,
+                            const std::string& who) {
+  run.validate(who.c_str());
+  if (run.joints() != model.joints())
+    throw std::invalid_argument(who + ": the run has " + std::to_string(run.joints()) +
+                                " joints, the model " + std::to_string(model.joints()));
+  if (run.size() < 4) throw std::invalid_argument(who + ": a run needs at least 4 samples");
+}
+
+inline Eigen::VectorXd expand_cutoffs(const std::vector<double>& given, int joints) {
+  Eigen::VectorXd c(joints);
+  for (int j = 0; j < joints; ++j)
+    c[j] = given.size() == 1 ? given[0] : given[static_cast<std::size_t>(j)];
+  return c;
+}
+
+/// The cross-validation criterion: each joint's held-out RSS over its measured torque's sum of
+/// squares, averaged over joints; infinite where a fold cannot be fitted.
+inline double chain_cross_validation(const std::vector<ChainEquations>& equations, int joints,
+                                     int folds) {
+  Eigen::VectorXd yy = Eigen::VectorXd::Zero(joints);
+  for (const auto& e : equations)
+    for (Eigen::Index r = 0; r < e.y.size(); ++r)
+      yy[e.joint[static_cast<std::size_t>(r)]] += e.y_unfiltered[r] * e.y_unfiltered[r];
+  const Eigen::Index p = equations.front().x.cols();
+  std::vector<Eigen::MatrixXd> gram;
+  std::vector<Eigen::VectorXd> moment;
+  std::vector<double> fold_yy;
+  for (const auto& e : equations) {
+    const Eigen::Index positions = e.at.empty() ? 0 : e.at.back() + 1;
+    Eigen::Index begin = 0;
+    for (int f = 0; f < folds; ++f) {
+      Eigen::Index end = begin;
+      const Eigen::Index last = positions * (f + 1) / folds;
+      while (end < e.y.size() && e.at[static_cast<std::size_t>(end)] < last) ++end;
+      Eigen::MatrixXd xw = e.x.middleRows(begin, end - begin);
+      Eigen::VectorXd yw = e.y_unfiltered.segment(begin, end - begin);
+      for (Eigen::Index r = 0; r < xw.rows(); ++r) {
+        const double w = 1.0 / std::sqrt(yy[e.joint[static_cast<std::size_t>(begin + r)]] * joints);
+        xw.row(r) *= w;
+        yw[r] *= w;
+      }
+      gram.push_back(xw.transpose() * xw);
+      moment.push_back(xw.transpose() * yw);
+      fold_yy.push_back(yw.squaredNorm());
+      begin = end;
+    }
+  }
+  Eigen::MatrixXd total_gram = Eigen::MatrixXd::Zero(p, p);
+  Eigen::VectorXd total_moment = Eigen::VectorXd::Zero(p);
+  for (std::size_t f = 0; f < gram.size(); ++f) {
+    total_gram += gram[f];
+    total_moment += moment[f];
+  }
+  // Columns scaled to a unit diagonal: the Cholesky factor's pivots then say how well a fold's
+  // complement determines each parameter whatever the units.
+  const Eigen::VectorXd scale = total_gram.diagonal().cwiseMax(1e-300).cwiseSqrt().cwiseInverse();
+  double score = 0.0;
+  for (std::size_t f = 0; f < gram.size(); ++f) {
+    // A tiny ridge: a fold's complement may leave a parameter the data barely excite undecided,
+    // and the prediction is then scored with it near zero instead of failing.
+    Eigen::MatrixXd g = scale.asDiagonal() * (total_gram - gram[f]) * scale.asDiagonal();
+    g.diagonal().array() += 1e-9;
+    const Eigen::LLT<Eigen::MatrixXd> llt(g);
+    if (llt.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
+    const Eigen::VectorXd theta =
+        scale.asDiagonal() * llt.solve(scale.asDiagonal() * (total_moment - moment[f]));
+    score += fold_yy[f] - 2.0 * theta.dot(moment[f]) + theta.dot(gram[f] * theta);
+  }
+  return score;
+}
+
+inline std::vector<ChainEquations> all_equations(const ChainModel& model,
+                                                 const std::vector<SmoothedChainRun>& runs,
+                                                 const std::vector<Eigen::Index>& columns,
+                                                 double rest_fraction) {
+  std::vector<ChainEquations> e;
+  for (const auto& s : runs) e.push_back(chain_equations(model, s, columns, rest_fraction));
+  return e;
+}
+
+/// Chooses each joint's cutoff (see the file comment of identify_chain.hpp); leaves the runs
+/// smoothed at the choice and returns the criterion there.
+inline double choose_chain_cutoffs(const ChainModel& model, std::vector<SmoothedChainRun>& runs,
+                                   const std::vector<Eigen::Index>& columns,
+                                   const ChainIdentifyOptions& o, Eigen::VectorXd& cutoff) {
+  const int n = model.joints();
+  const double step = std::pow(2.0, 1.0 / o.grid_points_per_octave);
+  std::vector<double> grid;
+  for (double c = o.min_cutoff_hz; c <= o.max_cutoff_hz * (1.0 + 1e-9); c *= step)
+    grid.push_back(c);
+  const auto score_at = [&](int joint, double c) {
+    for (auto& s : runs)
+      for (int j = 0; j < n; ++j)
+        if (joint < 0 || j == joint) s.smooth_joint(j, c, false);
+    return chain_cross_validation(all_equations(model, runs, columns, o.rest_fraction), n,
+                                  o.folds_per_run);
+  };
+  double best = std::numeric_limits<double>::infinity();
+  double shared = grid.front();
+  for (const double c : grid) {
+    const double score = score_at(-1, c);
+    if (score < best) {
+      best = score;
+      shared = c;
+    }
+  }
+  if (!std::isfinite(best))
+    throw std::invalid_argument(
+        "sid::identify_chain: no cutoff gives a fit on every fold; the runs do not excite the "
+        "model's base parameters (or are too short for the folds)");
+  cutoff = Eigen::VectorXd::Constant(n, shared);
+  (void)score_at(-1, shared);
+  // Half-octave moves per joint while the held-out prediction improves.
+  const double move = std::sqrt(2.0);
+  for (int j = 0; j < n; ++j) {
+    for (const double factor : {move, 1.0 / move}) {
+      for (;;) {
+        const double c = cutoff[j] * factor;
+        if (c < o.min_cutoff_hz * (1.0 - 1e-9) || c > o.max_cutoff_hz * (1.0 + 1e-9)) break;
+        const double score = score_at(j, c);
+        if (!(score < best)) break;
+        best = score;
+        cutoff[j] = c;
+      }
+      for (auto& s : runs) s.smooth_joint(j, cutoff[j], false);
+    }
+  }
+  return best;
+}
+
+inline ChainPrediction chain_prediction(const std::vector<ChainEquations>& equations, int joints,
+                                        const Eigen::VectorXd& theta) {
+  Eigen::VectorXd rss = Eigen::VectorXd::Zero(joints), yy = rss, rss_raw = rss, yy_raw = rss;
+  ChainPrediction p;
+  p.equations = Eigen::VectorXi::Zero(joints);
+  for (const auto& e : equations) {
+    const Eigen::VectorXd fitted = e.x * theta;
+    for (Eigen::Index r = 0; r < e.y.size(); ++r) {
+      const int j = e.joint[static_cast<std::size_t>(r)];
+      rss[j] += (e.y[r] - fitted[r]) * (e.y[r] - fitted[r]);
+      yy[j] += e.y[r] * e.y[r];
+      rss_raw[j] += (e.y_unfiltered[r] - fitted[r]) * (e.y_unfiltered[r] - fitted[r]);
+      yy_raw[j] += e.y_unfiltered[r] * e.y_unfiltered[r];
+      ++p.equations[j];
+    }
+  }
+  p.residual_rms = (rss.array() / p.equations.cast<double>().array().max(1.0)).sqrt();
+  p.relative_per_joint = (rss.array() / yy.array()).sqrt();
+  p.relative_residual = std::sqrt(rss.sum() / yy.sum());
+  p.relative_residual_unfiltered = std::sqrt(rss_raw.sum() / yy_raw.sum());
+  return p;
+}
+
+inline std::vector<SmoothedChainRun> smoothed_runs(const ChainModel& model,
+                                                   const std::vector<ChainTrajectory<double>>& runs,
+                                                   const ChainIdentifyOptions& o, const char* who) {
+  std::vector<SmoothedChainRun> smoothed;
+  smoothed.reserve(runs.size());
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    check_chain_run(model, runs[r], std::string(who) + ": run " + std::to_string(r + 1));
+    smoothed.emplace_back(runs[r], o);
+    if (smoothed.back().samples.size() < static_cast<std::size_t>(2 * o.folds_per_run))
+      throw std::invalid_argument(std::string(who) + ": run " + std::to_string(r + 1) +
+                                  " has too few samples left after the skips");
+  }
+  return smoothed;
+}
+
+/// Standard deviations from the HAC covariance of a fit on the stacked equations (see
+/// ChainIdentification::std_dev); row weights as the fit's.
+inline Eigen::VectorXd chain_hac_std_dev(const std::vector<ChainEquations>& equations,
+                                         const LeastSquaresResult<double>& fit,
+                                         const Eigen::VectorXd& row_weight) {
+  const Eigen::Index p = fit.theta.size();
+  if (!fit.ok()) return Eigen::VectorXd::Constant(p, std::nan(""));
+  Eigen::MatrixXd long_run = Eigen::MatrixXd::Zero(p, p);
+  Eigen::Index offset = 0;
+  for (const auto& e : equations) {
+    const Eigen::Index positions = e.at.empty() ? 0 : e.at.back() + 1;
+    Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(positions, p);
+    const Eigen::VectorXd residual = e.y - e.x * fit.theta;
+    for (Eigen::Index r = 0; r < e.y.size(); ++r)
+      scores.row(e.at[static_cast<std::size_t>(r)]) +=
+          row_weight[offset + r] * residual[r] * e.x.row(r);
+    long_run += hac_long_run_sum(scores);
+    offset += e.y.size();
+  }
+  const Eigen::MatrixXd bread = fit.inverse_gram();
+  return (bread * long_run * bread).diagonal().cwiseMax(0.0).cwiseSqrt();
+}
+
+}  // namespace detail
+
+SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
+                                              const std::vector<ChainTrajectory<double>>& runs,
+                                              const ChainIdentifyOptions& options) {
+  const char* who = "sid::identify_chain";
+  detail::check_chain_options(options, model.joints(), who);
+  if (runs.empty()) throw std::invalid_argument(std::string(who) + ": no runs given");
+  const int n = model.joints();
+  std::vector<detail::SmoothedChainRun> smoothed = detail::smoothed_runs(model, runs, options, who);
+
+  ChainIdentification id;
+  const BaseParameters<double> structural = detail::chain_base_parameters(model, options);
+  {
+    // Which structural parameters the runs leave undetermined does not hinge on the smoothing:
+    // judged at one cutoff, the geometric middle of the search range unless given.
+    const Eigen::VectorXd c =
+        options.cutoff_hz.empty()
+            ? Eigen::VectorXd::Constant(n, std::sqrt(options.min_cutoff_hz * options.max_cutoff_hz))
+            : detail::expand_cutoffs(options.cutoff_hz, n);
+    for (auto& s : smoothed)
+      for (int j = 0; j < n; ++j) s.smooth_joint(j, c[j], false);
+    id.base = detail::data_base_parameters(
+        model, structural,
+        detail::all_equations(model, smoothed, structural.independent, options.rest_fraction),
+        options.data_tolerance);
+  }
+  id.parameter_names = base_parameter_names(id.base, model.parameter_names(), 6);
+  id.parameter_combinations = base_parameter_names(id.base, model.parameter_names(), 0);
+  id.structural_rank = structural.rank();
+  const std::vector<Eigen::Index>& columns = id.base.independent;
+
+  if (options.cutoff_hz.empty()) {
+    id.cross_validation_score =
+        detail::choose_chain_cutoffs(model, smoothed, columns, options, id.cutoff_hz);
+    id.cutoff_chosen = true;
+  } else {
+    id.cutoff_hz = detail::expand_cutoffs(options.cutoff_hz, n);
+    id.cross_validation_score = std::nan("");
+  }
+  for (auto& s : smoothed)
+    for (int j = 0; j < n; ++j) s.smooth_joint(j, id.cutoff_hz[j], options.filter_torque);
+
+  const std::vector<detail::ChainEquations> equations =
+      detail::all_equations(model, smoothed, columns, options.rest_fraction);
+  Eigen::Index rows = 0;
+  for (const auto& e : equations) rows += e.y.size();
+  Eigen::MatrixXd x(rows, static_cast<Eigen::Index>(columns.size()));
+  Eigen::VectorXd y(rows);
+  Eigen::Index at = 0;
+  for (const auto& e : equations) {
+    x.middleRows(at, e.y.size()) = e.x;
+    y.segment(at, e.y.size()) = e.y;
+    at += e.y.size();
+  }
+  if (rows <= x.cols())
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(rows) + " equations for " +
+                                std::to_string(x.cols()) +
+                                " base parameters; give longer or more runs");
+  LeastSquaresOptions ls = options.least_squares;
+  ls.column_names = id.parameter_names;
+  id.fit = least_squares(x, y, 1, ls);
+  Eigen::VectorXd weight = Eigen::VectorXd::Ones(rows);
+  if (options.weighted && id.fit.ok()) {
+    // Gautier: each joint's equations weighted by the inverse of its residual variance.
+    const ChainPrediction first = detail::chain_prediction(equations, n, id.fit.theta);
+    at = 0;
+    for (const auto& e : equations)
+      for (Eigen::Index r = 0; r < e.y.size(); ++r, ++at) {
+        const double rms = first.residual_rms[e.joint[static_cast<std::size_t>(r)]];
+        weight[at] = 1.0 / std::max(rms * rms, 1e-300);
+      }
+    id.fit = weighted_least_squares(x, y, weight, 1, ls);
+  }
+  id.std_dev = detail::chain_hac_std_dev(equations, id.fit, weight);
+  id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
+  id.fitted = detail::chain_prediction(equations, n, id.fit.theta);
+  for (const auto& e : equations)
+    id.per_run.push_back(detail::chain_prediction({e}, n, id.fit.theta));
+
+  if (runs.size() >= 3 && id.fit.ok()) {
+    const auto r_count = static_cast<double>(runs.size());
+    std::vector<Eigen::VectorXd> left_out;
+    for (std::size_t r = 0; r < runs.size(); ++r) {
+      std::vector<detail::ChainEquations> others;
+      for (std::size_t s = 0; s < runs.size(); ++s)
+        if (s != r) others.push_back(equations[s]);
+      Eigen::Index m = 0;
+      for (const auto& e : others) m += e.y.size();
+      Eigen::MatrixXd xo(m, x.cols());
+      Eigen::VectorXd yo(m);
+      Eigen::Index k = 0;
+      for (const auto& e : others) {
+        xo.middleRows(k, e.y.size()) = e.x;
+        yo.segment(k, e.y.size()) = e.y;
+        k += e.y.size();
+      }
+      const LeastSquaresResult<double> fit = least_squares(xo, yo, 1, ls);
+      if (fit.ok()) left_out.push_back(fit.theta);
+    }
+    if (left_out.size() == runs.size()) {
+      Eigen::VectorXd mean = Eigen::VectorXd::Zero(x.cols()), sum2 = mean;
+      for (const auto& t : left_out) mean += t / r_count;
+      for (const auto& t : left_out) sum2 += (t - mean).cwiseAbs2();
+      id.jackknife_std_dev = ((r_count - 1.0) / r_count * sum2).cwiseSqrt();
+    }
+  }
+  return id;
+}
+
+SID_INLINE ChainPrediction predict_chain(const ChainModel& model,
+                                         const ChainIdentification& identification,
+                                         const ChainTrajectory<double>& run,
+                                         const ChainIdentifyOptions& options) {
+  const char* who = "sid::predict_chain";
+  detail::check_chain_options(options, model.joints(), who);
+  if (identification.fit.theta.size() != identification.base.rank() ||
+      identification.cutoff_hz.size() != model.joints())
+    throw std::invalid_argument(std::string(who) +
+                                ": the identification does not belong to this model");
+  if (!identification.fit.theta.allFinite())
+    throw std::invalid_argument(std::string(who) + ": the identification failed");
+  detail::check_chain_run(model, run, std::string(who));
+  detail::SmoothedChainRun s(run, options);
+  if (s.samples.empty())
+    throw std::invalid_argument(std::string(who) + ": the run has no samples after the skips");
+  for (int j = 0; j < model.joints(); ++j)
+    s.smooth_joint(j, identification.cutoff_hz[j], options.filter_torque);
+  return detail::chain_prediction(
+      {detail::chain_equations(model, s, identification.base.independent, options.rest_fraction)},
+      model.joints(), identification.fit.theta);
+}
+
+SID_INLINE std::pair<ChainTrajectory<double>, ChainTrajectory<double>> split_run(
+    const ChainTrajectory<double>& run, double fraction) {
+  const char* who = "sid::split_run";
+  run.validate(who);
+  if (!(fraction > 0.0 && fraction < 1.0))
+    throw std::invalid_argument(std::string(who) + ": the fraction must be in (0, 1)");
+  const double at = run.t[0] + fraction * (run.t[run.size() - 1] - run.t[0]);
+  Eigen::Index k = 0;
+  while (k < run.size() && run.t[k] < at) ++k;
+  if (k == 0 || k == run.size())
+    throw std::invalid_argument(std::string(who) + ": one part would have no samples");
+  ChainTrajectory<double> first{run.t.head(k), run.q.topRows(k), run.tau.topRows(k)};
+  const Eigen::Index rest = run.size() - k;
+  ChainTrajectory<double> second{run.t.tail(rest), run.q.bottomRows(rest),
+                                 run.tau.bottomRows(rest)};
+  return {std::move(first), std::move(second)};
+}
+
+}  // namespace sid

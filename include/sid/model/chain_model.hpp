@@ -1,0 +1,234 @@
+#pragma once
+/// @file
+/// @brief sid::ChainModel: the identification model of a serial chain, its links' rigid-body
+/// parameters plus the terms real drives add on each joint (viscous and Coulomb friction, a
+/// torque offset, the rotor's inertia) and on each motor a transmission couples to several
+/// joints.
+///
+/// tau = Y(q, qd, qdd) theta with theta = [link parameters (ten per link, in
+/// chain_parameter_names order), drive terms (in the order given)]. Every term is linear in its
+/// parameter; a joint term writes only its own joint's row.
+
+#include <sid/model/chain_regressor.hpp>
+#include <sid/model/serial_chain.hpp>
+#include <sid/model/transmission.hpp>
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace sid {
+
+/// @brief What a drive adds to the torque of the joint (or motor combination) it acts on, with v
+/// its rate and a its acceleration.
+enum class DriveTermKind {
+  Viscous,           ///< fv v
+  Coulomb,           ///< fc c(v), c = tanh(v / epsilon) (sign(v) when epsilon = 0)
+  CoulombAsymmetry,  ///< fa |c(v)|: a Coulomb level that differs between the two directions
+  Offset,            ///< a constant torque (the drive's current offset)
+  Armature,          ///< Ia a: the rotor's inertia seen through the gear
+};
+
+/// @brief One drive term; on_motor: it acts on motor `index`'s combination of joint rates
+/// (Transmission::motor_direction) instead of on joint `index` alone.
+struct DriveTerm {
+  DriveTermKind kind = DriveTermKind::Viscous;
+  int index = 0;
+  bool on_motor = false;
+};
+
+/// @brief The keyword of a kind, as --effects takes it.
+inline const char* drive_term_keyword(DriveTermKind kind) {
+  switch (kind) {
+    case DriveTermKind::Viscous:
+      return "viscous";
+    case DriveTermKind::Coulomb:
+      return "coulomb";
+    case DriveTermKind::CoulombAsymmetry:
+      return "coulomb_asymmetry";
+    case DriveTermKind::Offset:
+      return "offset";
+    case DriveTermKind::Armature:
+      return "armature";
+  }
+  return "?";
+}
+
+/// @brief Parses a comma-separated list of kinds ("viscous,coulomb,offset,armature"); "none"
+/// gives the empty list.
+/// @throws std::invalid_argument naming an unknown or repeated keyword.
+inline std::vector<DriveTermKind> parse_drive_term_kinds(const std::string& text) {
+  std::vector<DriveTermKind> kinds;
+  if (text == "none") return kinds;
+  std::stringstream in(text);
+  std::string word;
+  const DriveTermKind all[] = {DriveTermKind::Viscous, DriveTermKind::Coulomb,
+                               DriveTermKind::CoulombAsymmetry, DriveTermKind::Offset,
+                               DriveTermKind::Armature};
+  while (std::getline(in, word, ',')) {
+    const auto found = std::find_if(std::begin(all), std::end(all),
+                                    [&](DriveTermKind k) { return word == drive_term_keyword(k); });
+    if (found == std::end(all))
+      throw std::invalid_argument(
+          "unknown drive term '" + word +
+          "'; known: viscous, coulomb, coulomb_asymmetry, offset, armature, or none");
+    if (std::find(kinds.begin(), kinds.end(), *found) != kinds.end())
+      throw std::invalid_argument("drive term '" + word + "' is given twice");
+    kinds.push_back(*found);
+  }
+  if (kinds.empty()) throw std::invalid_argument("no drive term given (write none for none)");
+  return kinds;
+}
+
+/// @brief The terms a real chain's drives have: every kind on every joint, and friction and
+/// inertia on every motor the transmission couples to several joints (an offset there would
+/// repeat the joints' own).
+inline std::vector<DriveTerm> drive_terms(const std::vector<DriveTermKind>& kinds,
+                                          const Transmission& transmission) {
+  std::vector<DriveTerm> terms;
+  for (int j = 0; j < transmission.joints(); ++j)
+    for (const DriveTermKind kind : kinds) terms.push_back({kind, j, false});
+  for (const int motor : transmission.coupled_motors())
+    for (const DriveTermKind kind : kinds)
+      if (kind != DriveTermKind::Offset) terms.push_back({kind, motor, true});
+  return terms;
+}
+
+/// @brief The default model of a real drive: viscous and Coulomb friction, offset, armature.
+inline std::vector<DriveTermKind> default_drive_term_kinds() {
+  return {DriveTermKind::Viscous, DriveTermKind::Coulomb, DriveTermKind::Offset,
+          DriveTermKind::Armature};
+}
+
+/// @brief A chain, its drives and the names of its joints. Immutable; holds no parameter values.
+/// Class invariant: joint_names, the transmission and the chain agree on the joint count; every
+/// term's index is a joint (or motor); coulomb_epsilon >= 0.
+class ChainModel {
+ public:
+  /// @param joint_names one per joint, for reports; empty: "1".."n".
+  /// @param coulomb_epsilon the Coulomb terms' tanh velocity [rad/s, or m/s]; 0 takes sign(v).
+  /// @throws std::invalid_argument if the sizes disagree, an index is out of range or the same
+  ///         term is given twice.
+  ChainModel(SerialChain<double> chain, std::vector<std::string> joint_names,
+             std::vector<DriveTerm> terms, Transmission transmission, double coulomb_epsilon = 0.01)
+      : chain_(std::move(chain)),
+        joint_names_(std::move(joint_names)),
+        terms_(std::move(terms)),
+        transmission_(std::move(transmission)),
+        epsilon_(coulomb_epsilon) {
+    const std::string who = "sid::ChainModel: ";
+    const int n = chain_.joints();
+    if (joint_names_.empty())
+      for (int j = 1; j <= n; ++j) joint_names_.push_back(std::to_string(j));
+    if (static_cast<int>(joint_names_.size()) != n || transmission_.joints() != n)
+      throw std::invalid_argument(who + "the chain has " + std::to_string(n) +
+                                  " joints, the names " + std::to_string(joint_names_.size()) +
+                                  ", the transmission " + std::to_string(transmission_.joints()));
+    if (!(epsilon_ >= 0.0) || !std::isfinite(epsilon_))
+      throw std::invalid_argument(who + "coulomb_epsilon must be finite and >= 0");
+    for (std::size_t a = 0; a < terms_.size(); ++a) {
+      const DriveTerm& t = terms_[a];
+      if (t.index < 0 || t.index >= n)
+        throw std::invalid_argument(who + "a " + drive_term_keyword(t.kind) + " term is on joint " +
+                                    std::to_string(t.index + 1) + " of " + std::to_string(n));
+      for (std::size_t b = 0; b < a; ++b)
+        if (terms_[b].kind == t.kind && terms_[b].index == t.index &&
+            terms_[b].on_motor == t.on_motor)
+          throw std::invalid_argument(who + "the " + drive_term_keyword(t.kind) + " term of " +
+                                      term_place(t) + " is given twice");
+    }
+    names_ = chain_parameter_names(n);
+    names_.resize(static_cast<std::size_t>(kLinkParameters * n));
+    for (const DriveTerm& t : terms_) names_.push_back(term_name(t));
+    directions_.resize(n, n);
+    for (int m = 0; m < n; ++m) directions_.row(m) = transmission_.motor_direction(m);
+  }
+
+  int joints() const noexcept { return chain_.joints(); }
+  Eigen::Index parameters() const noexcept { return static_cast<Eigen::Index>(names_.size()); }
+  Eigen::Index rigid_body_parameters() const noexcept { return kLinkParameters * joints(); }
+  const SerialChain<double>& chain() const noexcept { return chain_; }
+  const std::vector<std::string>& joint_names() const noexcept { return joint_names_; }
+  const std::vector<DriveTerm>& terms() const noexcept { return terms_; }
+  const Transmission& transmission() const noexcept { return transmission_; }
+  double coulomb_epsilon() const noexcept { return epsilon_; }
+  /// @brief m_1, mx_1, ..., Izz_n, then per term fv_j, fc_j, fa_j, off_j, Ia_j (motors: fv_mj ...).
+  const std::vector<std::string>& parameter_names() const noexcept { return names_; }
+
+  /// @brief Y(q, qd, qdd) into out (joints() x parameters()); allocates nothing.
+  /// @throws std::invalid_argument if a size does not match.
+  template <typename Q, typename Out>
+  void regressor(const Eigen::MatrixBase<Q>& q, const Eigen::MatrixBase<Q>& qd,
+                 const Eigen::MatrixBase<Q>& qdd, Eigen::MatrixBase<Out>& out) const {
+    if (q.size() != joints() || qd.size() != joints() || qdd.size() != joints() ||
+        out.rows() != joints() || out.cols() != parameters())
+      throw std::invalid_argument("sid::ChainModel::regressor: sizes do not match the model's " +
+                                  std::to_string(joints()) + " joints and " +
+                                  std::to_string(parameters()) + " parameters");
+    ChainRegressor<double> y(joints(), chain_parameter_count(joints()));
+    detail::chain_regressor_unchecked(chain_, q, qd, qdd, y);
+    out.leftCols(rigid_body_parameters()) = y.leftCols(rigid_body_parameters());
+    Eigen::Index column = rigid_body_parameters();
+    for (const DriveTerm& t : terms_) {
+      auto col = out.col(column++);
+      col.setZero();
+      if (!t.on_motor) {
+        col[t.index] = term_value(t.kind, qd[t.index], qdd[t.index]);
+      } else {
+        double v = 0.0, a = 0.0;
+        for (int j = 0; j < joints(); ++j) {
+          v += directions_(t.index, j) * qd[j];
+          a += directions_(t.index, j) * qdd[j];
+        }
+        col = directions_.row(t.index).transpose() * term_value(t.kind, v, a);
+      }
+    }
+  }
+
+ private:
+  double coulomb(double v) const {
+    return epsilon_ > 0.0 ? std::tanh(v / epsilon_) : double((v > 0.0) - (v < 0.0));
+  }
+
+  double term_value(DriveTermKind kind, double v, double a) const {
+    switch (kind) {
+      case DriveTermKind::Viscous:
+        return v;
+      case DriveTermKind::Coulomb:
+        return coulomb(v);
+      case DriveTermKind::CoulombAsymmetry:
+        return std::abs(coulomb(v));
+      case DriveTermKind::Offset:
+        return 1.0;
+      case DriveTermKind::Armature:
+        return a;
+    }
+    return 0.0;
+  }
+
+  static std::string term_place(const DriveTerm& t) {
+    return (t.on_motor ? "motor " : "joint ") + std::to_string(t.index + 1);
+  }
+
+  static std::string term_name(const DriveTerm& t) {
+    static const char* const prefix[] = {"fv_", "fc_", "fa_", "off_", "Ia_"};
+    return prefix[static_cast<int>(t.kind)] + std::string(t.on_motor ? "m" : "") +
+           std::to_string(t.index + 1);
+  }
+
+  SerialChain<double> chain_;
+  std::vector<std::string> joint_names_;
+  std::vector<DriveTerm> terms_;
+  Transmission transmission_;
+  double epsilon_;
+  std::vector<std::string> names_;
+  Eigen::MatrixXd directions_;
+};
+
+}  // namespace sid

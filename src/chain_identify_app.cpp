@@ -1,0 +1,233 @@
+#include "chain_identify_app.hpp"
+
+#include <sid/identify_chain.hpp>
+#include <sid/model/chain_model.hpp>
+
+#include "app.hpp"
+#include "csv.hpp"
+#include "robot_description.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+namespace sid::app {
+namespace {
+
+struct LoadedRun {
+  std::string file;
+  sid::ChainTrajectory<double> data;
+};
+
+LoadedRun load_run(const std::string& path, const sid::Transmission& transmission,
+                   bool motor_side) {
+  const CsvTable table = read_csv(path);
+  sid::ChainTrajectory<double> run = chain_trajectory_from_table(table, transmission.joints());
+  if (run.size() < 4)
+    throw InputError(table.source + ": identification needs at least 4 data rows, got " +
+                     std::to_string(run.size()));
+  try {
+    if (motor_side) run = transmission.joint_side(run);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(table.source + ": " + e.what());
+  }
+  return {table.source, std::move(run)};
+}
+
+sid::ChainIdentifyOptions make_options(const ChainIdentifyAppOptions& o, int joints) {
+  sid::ChainIdentifyOptions options;
+  if (!o.cutoff.empty()) {
+    options.cutoff_hz = parse_doubles(o.cutoff, "--cutoff");
+    require(options.cutoff_hz.size() == 1 || options.cutoff_hz.size() == std::size_t(joints),
+            "--cutoff takes one value or one per joint (" + std::to_string(joints) + ")");
+    for (const double c : options.cutoff_hz) require(c > 0.0, "--cutoff values must be > 0 Hz");
+  }
+  if (o.rest_fraction) {
+    require(*o.rest_fraction >= 0.0 && *o.rest_fraction < 1.0, "--rest-fraction must be in [0, 1)");
+    options.rest_fraction = *o.rest_fraction;
+  }
+  if (o.skip) {
+    require(*o.skip >= 0.0 && std::isfinite(*o.skip), "--skip must be finite and >= 0 s");
+    options.skip = options.skip_end = *o.skip;
+  }
+  require(o.estimator == "ls" || o.estimator == "wls",
+          "--estimator: with --robot the estimators are ls and wls, not '" + o.estimator + "'");
+  options.weighted = o.estimator == "wls";
+  return options;
+}
+
+std::string number(const char* format, double v) { return format_number(format, v); }
+
+nlohmann::json prediction_json(const sid::ChainPrediction& p) {
+  nlohmann::json j;
+  j["file"] = p.source;
+  j["residual_rms"] = to_json_array(p.residual_rms);
+  j["relative_residual"] = p.relative_residual;
+  j["relative_residual_per_joint"] = to_json_array(p.relative_per_joint);
+  j["relative_residual_unfiltered"] = p.relative_residual_unfiltered;
+  j["equations"] = to_json_array(p.equations.cast<double>());
+  return j;
+}
+
+void print_prediction_rows(std::ostream& out, const sid::ChainModel& model,
+                           const sid::ChainPrediction& p) {
+  for (int j = 0; j < model.joints(); ++j)
+    out << "  " << model.joint_names()[static_cast<std::size_t>(j)] << ": RMS "
+        << number("%.4g", p.residual_rms[j]) << " N m, "
+        << number("%.2f", 100.0 * p.relative_per_joint[j]) << " %, " << p.equations[j]
+        << " equations\n";
+  out << "  all joints: " << number("%.2f", 100.0 * p.relative_residual)
+      << " % of the torque (against the unfiltered torque: "
+      << number("%.2f", 100.0 * p.relative_residual_unfiltered) << " %)\n";
+}
+
+std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel& model,
+                        const sid::ChainIdentification& id,
+                        const std::vector<sid::ChainPrediction>& validation) {
+  std::ostringstream out;
+  out << "robot " << o.robot << ": " << model.joints() << " joints (" << [&] {
+    std::string s;
+    for (const auto& n : model.joint_names()) s += (s.empty() ? "" : ", ") + n;
+    return s;
+  }() << ")\n";
+  out << "smoothing cutoff per joint [Hz]"
+      << (id.cutoff_chosen ? " (chosen by held-out torque prediction)" : "") << ":";
+  for (int j = 0; j < model.joints(); ++j) out << " " << number("%.3g", id.cutoff_hz[j]);
+  out << "\n"
+      << id.base.rank() << " base parameters of " << model.parameters() << " (rank gap "
+      << number("%.2g", id.base.rank_gap) << "), condition number "
+      << number("%.4g", id.fit.condition_number) << "\n";
+  if (id.structural_rank > id.base.rank())
+    out << "  (" << id.structural_rank - id.base.rank()
+        << " more the model has, which these runs do not tell apart: regrouped)\n";
+  out << "\n";
+  std::size_t width = 10;
+  for (const auto& n : id.parameter_names)
+    width = std::max(width, std::min<std::size_t>(n.size(), 60));
+  char line[512];
+  std::snprintf(line, sizeof line, "  %-3s %-*s %13s %11s %9s\n", "#", int(width), "parameter",
+                "value", "std", "std %");
+  out << line;
+  for (Eigen::Index i = 0; i < id.fit.theta.size(); ++i) {
+    std::string name = id.parameter_names[static_cast<std::size_t>(i)];
+    if (name.size() > 60) name = name.substr(0, 57) + "...";
+    std::snprintf(line, sizeof line, "  %-3d %-*s %13.6g %11.3g %9s\n", int(i + 1), int(width),
+                  name.c_str(), id.fit.theta[i], id.std_dev[i],
+                  number("%.2f", id.relative_std_dev[i]).c_str());
+    out << line;
+  }
+  out << "  (std: HAC, for residuals correlated in time"
+      << (id.jackknife_std_dev.size() ? "; leave-one-run-out in the JSON" : "") << ")\n\n";
+  out << "residual of the fit:\n";
+  print_prediction_rows(out, model, id.fitted);
+  for (const auto& v : validation) {
+    out << "prediction of " << v.source << ":\n";
+    print_prediction_rows(out, model, v);
+  }
+  return out.str();
+}
+
+nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainModel& model,
+                           const sid::ChainIdentification& id,
+                           const std::vector<sid::ChainPrediction>& validation) {
+  nlohmann::json j;
+  j["robot"] = o.robot;
+  j["joint_names"] = model.joint_names();
+  j["parameter_names"] = id.parameter_names;
+  j["parameter_combinations"] = id.parameter_combinations;
+  j["theta"] = to_json_array(id.fit.theta);
+  j["std_dev"] = to_json_array(id.std_dev);
+  j["relative_std_dev_pct"] = to_json_array(id.relative_std_dev);
+  j["std_dev_uncorrelated"] = to_json_array(id.fit.std_dev);
+  if (id.jackknife_std_dev.size()) j["jackknife_std_dev"] = to_json_array(id.jackknife_std_dev);
+  j["condition_number"] = id.fit.condition_number;
+  j["rank"] = id.base.rank();
+  j["structural_rank"] = id.structural_rank;
+  j["rank_gap"] = id.base.rank_gap;
+  j["model_parameters"] = model.parameter_names();
+  j["coulomb_epsilon"] = model.coulomb_epsilon();
+  j["cutoff_hz"] = to_json_array(id.cutoff_hz);
+  j["cutoff_chosen"] = id.cutoff_chosen;
+  j["residual_rms"] = to_json_array(id.fitted.residual_rms);
+  j["relative_residual"] = id.fitted.relative_residual;
+  j["relative_residual_per_joint"] = to_json_array(id.fitted.relative_per_joint);
+  j["relative_residual_unfiltered"] = id.fitted.relative_residual_unfiltered;
+  j["estimator"] = o.estimator;
+  j["validation"] = nlohmann::json::array();
+  for (const auto& v : validation) j["validation"].push_back(prediction_json(v));
+  return j;
+}
+
+}  // namespace
+
+int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
+  require(!o.inputs.empty(), "no run given");
+  require(!o.validate_fraction || o.inputs.size() == 1,
+          "--validate-fraction splits one run; give one run (or use --validate)");
+  require(!o.validate_fraction || (*o.validate_fraction > 0.0 && *o.validate_fraction < 1.0),
+          "--validate-fraction must be in (0, 1)");
+  if (!o.json.empty()) ensure_writable(o.json, o.force);
+  const RobotDescription robot = read_robot_description(o.robot, o.base, o.tip);
+  const int n = robot.chain.joints();
+  const bool motor_side = !o.transmission.empty();
+  const sid::Transmission transmission =
+      motor_side ? read_transmission(o.transmission, robot.joint_names) : sid::Transmission(n);
+  std::vector<sid::DriveTermKind> kinds = sid::default_drive_term_kinds();
+  if (!o.effects.empty()) {
+    try {
+      kinds = sid::parse_drive_term_kinds(o.effects);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(std::string("--effects: ") + e.what());
+    }
+  }
+  if (o.coulomb_epsilon)
+    require(*o.coulomb_epsilon >= 0.0 && std::isfinite(*o.coulomb_epsilon),
+            "--coulomb-epsilon must be finite and >= 0");
+  const sid::ChainModel model(robot.chain, robot.joint_names, sid::drive_terms(kinds, transmission),
+                              transmission, o.coulomb_epsilon.value_or(0.01));
+  const sid::ChainIdentifyOptions options = make_options(o, n);
+
+  std::vector<LoadedRun> runs, held_out;
+  for (const auto& f : o.inputs) runs.push_back(load_run(f, transmission, motor_side));
+  for (const auto& f : o.validate) held_out.push_back(load_run(f, transmission, motor_side));
+  if (o.validate_fraction) {
+    try {
+      auto [first, last] = sid::split_run(runs.front().data, 1.0 - *o.validate_fraction);
+      held_out.insert(held_out.begin(), {runs.front().file + " (last " +
+                                             number("%.3g", 100.0 * *o.validate_fraction) + " %)",
+                                         std::move(last)});
+      runs.front().data = std::move(first);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(runs.front().file + ": " + e.what());
+    }
+  }
+  std::vector<sid::ChainTrajectory<double>> data;
+  for (const auto& r : runs) data.push_back(r.data);
+  sid::ChainIdentification id;
+  try {
+    id = sid::identify_chain(model, data, options);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
+  if (!id.fit.ok())
+    throw InputError("the base parameters cannot be identified from these runs: " + id.fit.message);
+  id.fitted.source = runs.size() == 1 ? runs.front().file : "all runs";
+  std::vector<sid::ChainPrediction> validation;
+  for (const auto& r : held_out) {
+    try {
+      validation.push_back(sid::predict_chain(model, id, r.data, options));
+    } catch (const std::invalid_argument& e) {
+      throw InputError(r.file + ": " + e.what());
+    }
+    validation.back().source = r.file;
+  }
+  (o.json == "-" ? std::cerr : std::cout) << report_text(o, model, id, validation) << std::flush;
+  if (id.fit.ill_conditioned) std::cerr << app_name << ": warning: " << id.fit.message << "\n";
+  if (!o.json.empty()) write_json(o.json, report_json(o, model, id, validation));
+  return kExitOk;
+}
+
+}  // namespace sid::app

@@ -1,0 +1,34 @@
+#pragma once
+/// @file
+/// @brief sid_identify --robot: identification of any serial chain from its robot description
+/// and its logs, with the text report and the JSON.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sid::app {
+
+/// @brief The options of sid_identify that apply to a chain.
+struct ChainIdentifyAppOptions {
+  std::string robot;         ///< URDF or DH table
+  std::string base, tip;     ///< URDF links (empty: the root and the one leaf)
+  std::string transmission;  ///< YAML; empty: the logs are joint-side
+  std::vector<std::string> inputs;
+  std::vector<std::string> validate;
+  std::optional<double> validate_fraction;  ///< fit the first 1 - f of one run, predict the rest
+  std::string cutoff;                       ///< one value or one per joint [Hz]; empty: chosen
+  std::string effects;                      ///< drive term kinds; empty: the default
+  std::optional<double> rest_fraction;
+  std::optional<double> coulomb_epsilon;
+  std::optional<double> skip;
+  std::string estimator = "ls";
+  std::string json;
+  bool force = false;
+};
+
+/// @brief Runs the identification and prints the report (the JSON too with --json).
+/// @return the exit code; bad input throws InputError.
+int identify_robot(const ChainIdentifyAppOptions& options, const char* app_name);
+
+}  // namespace sid::app

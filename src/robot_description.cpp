@@ -1,0 +1,242 @@
+#include "robot_description.hpp"
+
+#include <sid/detail/xml.hpp>
+#include <sid/model/urdf.hpp>
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <locale>
+#include <sstream>
+#include <stdexcept>
+
+namespace sid::app {
+namespace {
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open the file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+bool is_xml(const std::string& text) {
+  const auto first = text.find_first_not_of(" \t\r\n\xEF\xBB\xBF");
+  return first != std::string::npos && text[first] == '<';
+}
+
+/// The root link (no joint leads to it) and the leaves (no joint leaves them) of a URDF.
+void urdf_ends(const std::string& path, const std::string& text, std::string& base,
+               std::vector<std::string>& leaves) {
+  const sid::detail::XmlElement robot = sid::detail::XmlParser(text, path).parse_document();
+  std::vector<std::string> links, parents, children;
+  for (const auto& e : robot.children) {
+    if (e.name == "link" && e.attribute("name")) links.push_back(*e.attribute("name"));
+    if (e.name == "joint" && e.child("parent") && e.child("child") &&
+        e.child("parent")->attribute("link") && e.child("child")->attribute("link")) {
+      parents.push_back(*e.child("parent")->attribute("link"));
+      children.push_back(*e.child("child")->attribute("link"));
+    }
+  }
+  const auto has = [](const std::vector<std::string>& v, const std::string& s) {
+    return std::find(v.begin(), v.end(), s) != v.end();
+  };
+  std::vector<std::string> roots;
+  for (const auto& l : links) {
+    if (!has(children, l)) roots.push_back(l);
+    if (!has(parents, l)) leaves.push_back(l);
+  }
+  if (base.empty()) {
+    if (roots.size() != 1)
+      throw InputError(path + ": the description has " + std::to_string(roots.size()) +
+                       " root links; name the chain's first link with --base");
+    base = roots.front();
+  }
+}
+
+std::string join(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+/// A DH table: "convention standard|modified", optional "gravity gx gy gz", then one line per
+/// joint "name a alpha d offset" [m, rad]; '#' starts a comment.
+RobotDescription read_dh(const std::string& path, const std::string& text) {
+  std::istringstream lines(text);
+  std::string line;
+  int number = 0;
+  bool have_convention = false;
+  sid::DhConvention convention = sid::DhConvention::Standard;
+  sid::Vector3<double> gravity(0.0, 0.0, -9.81);
+  std::vector<sid::DhJoint<double>> rows;
+  std::vector<std::string> names;
+  while (std::getline(lines, line)) {
+    ++number;
+    line = line.substr(0, line.find('#'));
+    std::istringstream in(line);
+    in.imbue(std::locale::classic());
+    std::string word;
+    if (!(in >> word)) continue;
+    const std::string where = path + ", line " + std::to_string(number) + ": ";
+    if (word == "convention") {
+      std::string value;
+      in >> value;
+      if (value != "standard" && value != "modified")
+        throw InputError(where + "the convention is 'standard' or 'modified', not '" + value + "'");
+      convention = value == "standard" ? sid::DhConvention::Standard : sid::DhConvention::Modified;
+      have_convention = true;
+    } else if (word == "gravity") {
+      if (!(in >> gravity[0] >> gravity[1] >> gravity[2]) || !gravity.allFinite())
+        throw InputError(where + "gravity needs three finite numbers [m/s^2]");
+    } else {
+      sid::DhJoint<double> row;
+      if (!(in >> row.a >> row.alpha >> row.d >> row.offset) ||
+          !std::isfinite(row.a + row.alpha + row.d + row.offset))
+        throw InputError(where +
+                         "a joint line is 'name a alpha d offset' with four finite "
+                         "numbers [m, rad]");
+      if (std::find(names.begin(), names.end(), word) != names.end())
+        throw InputError(where + "joint '" + word + "' is given twice");
+      names.push_back(word);
+      rows.push_back(row);
+    }
+    std::string extra;
+    if (in >> extra) throw InputError(where + "unexpected '" + extra + "'");
+  }
+  if (!have_convention)
+    throw InputError(path +
+                     ": a DH table needs a line 'convention standard' or "
+                     "'convention modified'");
+  if (rows.empty()) throw InputError(path + ": the DH table has no joints");
+  try {
+    return {sid::SerialChain<double>(convention, rows, gravity), names, "", ""};
+  } catch (const std::invalid_argument& e) {
+    throw InputError(path + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+RobotDescription read_robot_description(const std::string& path, const std::string& base,
+                                        const std::string& tip) {
+  const std::string text = read_text(path);
+  if (!is_xml(text)) {
+    if (!base.empty() || !tip.empty())
+      throw InputError(path + ": --base and --tip apply to a URDF, not to a DH table");
+    return read_dh(path, text);
+  }
+  try {
+    std::string from = base, to = tip;
+    std::vector<std::string> leaves;
+    urdf_ends(path, text, from, leaves);
+    if (to.empty()) {
+      if (leaves.size() != 1)
+        throw InputError(path + ": the description has " + std::to_string(leaves.size()) +
+                         " end links (" + join(leaves) + "); name the chain's last with --tip");
+      to = leaves.front();
+    }
+    sid::UrdfChain urdf = sid::chain_from_urdf(text, from, to);
+    return {urdf.chain, urdf.joint_names, from, to};
+  } catch (const std::invalid_argument& e) {
+    throw InputError(path + ": " + e.what());
+  }
+}
+
+namespace {
+
+int joint_index(const YAML::Node& node, const std::vector<std::string>& names,
+                const std::string& where) {
+  const std::string text = node.as<std::string>();
+  const auto found = std::find(names.begin(), names.end(), text);
+  if (found != names.end()) return static_cast<int>(found - names.begin());
+  std::istringstream in(text);
+  int k = 0;
+  if (in >> k && (in >> std::ws).eof() && k >= 1 && k <= static_cast<int>(names.size()))
+    return k - 1;
+  throw InputError(where + ": '" + text + "' is neither a joint name (" + join(names) +
+                   ") nor a joint number 1.." + std::to_string(names.size()));
+}
+
+Eigen::VectorXd number_list(const YAML::Node& node, std::size_t count, const std::string& where) {
+  if (!node.IsSequence() || node.size() != count)
+    throw InputError(where + " needs a list of " + std::to_string(count) + " numbers");
+  Eigen::VectorXd v(static_cast<Eigen::Index>(count));
+  for (std::size_t i = 0; i < count; ++i) v[static_cast<Eigen::Index>(i)] = node[i].as<double>();
+  if (!v.allFinite()) throw InputError(where + " holds a value that is not finite");
+  return v;
+}
+
+}  // namespace
+
+sid::Transmission read_transmission(const std::string& path,
+                                    const std::vector<std::string>& joint_names) {
+  const std::size_t n = joint_names.size();
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw InputError(path + ": cannot open the file");
+  } catch (const YAML::Exception& e) {
+    throw InputError(path + ": not valid YAML: " + e.what());
+  }
+  try {
+    if (!root.IsMap())
+      throw InputError(path + ": expected keys gear_ratios, couplings, joint_zero");
+    for (const auto& entry : root) {
+      const std::string key = entry.first.as<std::string>();
+      if (key != "gear_ratios" && key != "couplings" && key != "joint_zero")
+        throw InputError(path + ": unknown key '" + key +
+                         "' (expected gear_ratios, couplings, joint_zero)");
+    }
+    if (!root["gear_ratios"]) throw InputError(path + ": gear_ratios is missing");
+    const Eigen::VectorXd ratios = number_list(root["gear_ratios"], n, path + ": gear_ratios");
+    Eigen::MatrixXd g = ratios.asDiagonal();
+    if (const YAML::Node couplings = root["couplings"]) {
+      if (!couplings.IsSequence()) throw InputError(path + ": couplings must be a list");
+      for (std::size_t c = 0; c < couplings.size(); ++c) {
+        const YAML::Node item = couplings[c];
+        const std::string where = path + ": couplings[" + std::to_string(c) + "]";
+        if (!item.IsMap() || !item["motor"] || !item["joint"] || !item["ratio"])
+          throw InputError(where + " needs motor, joint and ratio");
+        const int motor = joint_index(item["motor"], joint_names, where + ".motor");
+        const int joint = joint_index(item["joint"], joint_names, where + ".joint");
+        if (motor == joint)
+          throw InputError(where + ": a motor's own joint takes its ratio from gear_ratios");
+        const double ratio = item["ratio"].as<double>();
+        if (!std::isfinite(ratio)) throw InputError(where + ".ratio is not finite");
+        g(motor, joint) = ratio;
+      }
+    }
+    const Eigen::VectorXd zero = root["joint_zero"]
+                                     ? number_list(root["joint_zero"], n, path + ": joint_zero")
+                                     : Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n));
+    return sid::Transmission(g, zero);
+  } catch (const YAML::Exception& e) {
+    throw InputError(path + ": " + e.what());
+  } catch (const std::invalid_argument& e) {
+    throw InputError(path + ": " + e.what());
+  }
+}
+
+sid::ChainTrajectory<double> chain_trajectory_from_table(const CsvTable& table, int joints) {
+  const Eigen::VectorXd& t = table.column("t");
+  std::vector<const Eigen::VectorXd*> q, tau;
+  for (int j = 1; j <= joints; ++j) q.push_back(&table.column("q" + std::to_string(j)));
+  for (int j = 1; j <= joints; ++j) tau.push_back(&table.column("tau" + std::to_string(j)));
+  require_strictly_increasing(table, "t");
+  sid::ChainTrajectory<double> run;
+  run.t = t;
+  run.q.resize(t.size(), joints);
+  run.tau.resize(t.size(), joints);
+  for (int j = 0; j < joints; ++j) {
+    run.q.col(j) = *q[static_cast<std::size_t>(j)];
+    run.tau.col(j) = *tau[static_cast<std::size_t>(j)];
+  }
+  return run;
+}
+
+}  // namespace sid::app

@@ -1,0 +1,42 @@
+#pragma once
+/// @file
+/// @brief Robot descriptions and transmissions read from files for the apps: a URDF or a DH
+/// table gives the chain and its joint names, a YAML file the drives' gear ratios and coupling.
+
+#include <sid/model/serial_chain.hpp>
+#include <sid/model/transmission.hpp>
+#include <sid/trajectory.hpp>
+
+#include "csv.hpp"
+
+#include <string>
+#include <vector>
+
+namespace sid::app {
+
+/// @brief The chain of a robot description and what the reports call its parts.
+struct RobotDescription {
+  sid::SerialChain<double> chain;
+  std::vector<std::string> joint_names;
+  std::string base, tip;  ///< the links the chain runs between (URDF), or "" for a DH table
+};
+
+/// @brief Reads a URDF (a file whose first element is <robot>) or a DH table (see
+/// docs/serial-arms.md). base and tip name the URDF links the chain runs between; empty: the
+/// description's root, and its one leaf (an error naming the leaves when there are several).
+/// @throws InputError naming the file and the problem.
+RobotDescription read_robot_description(const std::string& path, const std::string& base,
+                                        const std::string& tip);
+
+/// @brief Reads a transmission file (YAML, see docs/serial-arms.md): gear_ratios (one per joint),
+/// optional couplings [{motor, joint, ratio}] with joints named or numbered from 1, optional
+/// joint_zero [rad].
+/// @throws InputError naming the file and the key.
+sid::Transmission read_transmission(const std::string& path,
+                                    const std::vector<std::string>& joint_names);
+
+/// @brief A chain log from a table with columns t, q1..qn, tau1..taun (any order).
+/// @throws InputError on a missing column or time that is not strictly increasing.
+sid::ChainTrajectory<double> chain_trajectory_from_table(const CsvTable& table, int joints);
+
+}  // namespace sid::app
