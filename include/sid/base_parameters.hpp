@@ -242,7 +242,7 @@ BaseParameters<typename Derived::Scalar> base_parameters_in_order(
 
 /// @brief Each base parameter written as the combination it stands for, e.g.
 /// "Izz_1 + Ia_1 + Iyy_2 + 0.05185*m_3 + ...": the kept column's name, then every regrouped
-/// column with its coefficient (4 significant digits; coefficients below 1e-9 of the largest are
+/// column with its coefficient (5 significant digits; coefficients below 1e-9 of the largest are
 /// left out), at most max_terms terms and "+ ..." after them (0: all).
 /// @throws std::invalid_argument if names does not have one entry per column.
 template <typename Scalar>
@@ -270,7 +270,7 @@ std::vector<std::string> base_parameter_names(const BaseParameters<Scalar>& base
       const Scalar magnitude = std::abs(k);
       if (std::abs(magnitude - Scalar(1)) > Scalar(1e-9)) {
         std::ostringstream number;
-        number.precision(4);
+        number.precision(5);
         number << magnitude;
         text << number.str() << "*";
       }

@@ -111,25 +111,6 @@ inline double uniform(std::mt19937& g, double lo, double hi) {
   return lo + (hi - lo) * (static_cast<double>(g()) + 0.5) / 4294967296.0;
 }
 
-inline BaseParameters<double> chain_base_parameters(const ChainModel& model,
-                                                    const ChainIdentifyOptions& o) {
-  const int n = model.joints();
-  std::mt19937 g(o.base_seed);
-  Eigen::MatrixXd w(static_cast<Eigen::Index>(o.base_samples) * n, model.parameters());
-  Eigen::MatrixXd y(n, model.parameters());
-  Eigen::VectorXd q(n), qd(n), qdd(n);
-  for (int s = 0; s < o.base_samples; ++s) {
-    for (int j = 0; j < n; ++j) {
-      q[j] = uniform(g, -3.14159265358979, 3.14159265358979);
-      qd[j] = uniform(g, -2.0, 2.0);
-      qdd[j] = uniform(g, -10.0, 10.0);
-    }
-    model.regressor(q, qd, qdd, y);
-    w.middleRows(static_cast<Eigen::Index>(s) * n, n) = y;
-  }
-  return base_parameters_in_order(w, o.base_tolerance);
-}
-
 /// The base parameters of the data: structural base columns that the runs' equations do not
 /// tell apart from the columns before them (relative distance below data_tolerance at unit
 /// norm, e.g. an asymmetric Coulomb level when no equation is at rest) regroup onto those, so
@@ -398,6 +379,26 @@ inline Eigen::VectorXd chain_hac_std_dev(const std::vector<ChainEquations>& equa
 
 }  // namespace detail
 
+SID_INLINE BaseParameters<double> chain_base_parameters(const ChainModel& model,
+                                                        const ChainIdentifyOptions& o) {
+  const int n = model.joints();
+  detail::check_chain_options(o, model.joints(), "sid::chain_base_parameters");
+  std::mt19937 g(o.base_seed);
+  Eigen::MatrixXd w(static_cast<Eigen::Index>(o.base_samples) * n, model.parameters());
+  Eigen::MatrixXd y(n, model.parameters());
+  Eigen::VectorXd q(n), qd(n), qdd(n);
+  for (int s = 0; s < o.base_samples; ++s) {
+    for (int j = 0; j < n; ++j) {
+      q[j] = detail::uniform(g, -3.14159265358979, 3.14159265358979);
+      qd[j] = detail::uniform(g, -2.0, 2.0);
+      qdd[j] = detail::uniform(g, -10.0, 10.0);
+    }
+    model.regressor(q, qd, qdd, y);
+    w.middleRows(static_cast<Eigen::Index>(s) * n, n) = y;
+  }
+  return base_parameters_in_order(w, o.base_tolerance);
+}
+
 SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
                                               const std::vector<ChainTrajectory<double>>& runs,
                                               const ChainIdentifyOptions& options) {
@@ -408,7 +409,7 @@ SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
   std::vector<detail::SmoothedChainRun> smoothed = detail::smoothed_runs(model, runs, options, who);
 
   ChainIdentification id;
-  const BaseParameters<double> structural = detail::chain_base_parameters(model, options);
+  const BaseParameters<double> structural = chain_base_parameters(model, options);
   {
     // Which structural parameters the runs leave undetermined does not hinge on the smoothing:
     // judged at one cutoff, the geometric middle of the search range unless given.

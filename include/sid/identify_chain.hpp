@@ -110,6 +110,14 @@ struct ChainIdentification {
   Eigen::VectorXd theta() const { return fit.theta; }
 };
 
+/// @brief The model's base parameters on options.base_samples random states (options.base_seed,
+/// options.base_tolerance): what no motion of the chain can tell apart, in the columns' order
+/// (sid::base_parameters_in_order), so a link's parameters are kept before the drive terms that
+/// repeat them.
+/// @throws std::invalid_argument on invalid options.
+SID_INLINE BaseParameters<double> chain_base_parameters(const ChainModel& model,
+                                                        const ChainIdentifyOptions& options = {});
+
 /// @brief Identifies the base parameters of model from runs (joint side, model.joints() columns).
 /// @throws std::invalid_argument on an empty run list, an invalid run, a run with another joint
 ///         count or too short for the skips and folds, or invalid options.
