@@ -1,8 +1,9 @@
 // Tests of sid/model/urdf.hpp (and the XML reader under it): the TX40 of the n-joint reference
 // set written as URDF must give Pinocchio's regressor and the reference's parameters; fixed
 // joints fold in; every body a chain carries (branches, bodies past the tip, held joints) is
-// lumped as Pinocchio lumps it (tests/data/urdf/); joint limits, dynamics and mimic are
-// reported; bad descriptions are refused with a message naming the problem.
+// lumped as Pinocchio lumps it (tests/data/urdf/), also in real descriptions (tests/data/urdf/
+// real/); joint limits, dynamics and mimic are reported; the XML of real files is read; bad
+// descriptions are refused with a message naming the problem.
 
 #include <sid/model/urdf.hpp>
 
@@ -197,6 +198,56 @@ TEST(Urdf, XmlParserOwnsItsText) {
   EXPECT_EQ(*root.children[0].attribute("name"), "a");
 }
 
+TEST(Urdf, ReadsTheXmlOfRealDescriptions) {
+  const std::string plain = R"(<robot name="r"><link name="base"/>
+    <joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+    <origin xyz="0 0 0.5"/><axis xyz="0 0 1"/></joint>
+    <link name="tip"><inertial><origin xyz="0.1 0 0"/><mass value="1.5"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.03"/></inertial></link></robot>)";
+  // A UTF-8 byte order mark, a DOCTYPE whose internal subset holds '>' and ']', character
+  // references, names beyond ASCII, namespaced elements, comments and CDATA inside elements.
+  std::string decorated =
+      "\xEF\xBB\xBF<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<!DOCTYPE robot [\n"
+      "  <!ELEMENT robot ANY> <!-- ] > --> <!ENTITY e \"]>\">\n]>\n" +
+      std::string(R"(<robot name='r&#x2014;&#233;' xmlns:xacro="http://ros.org/wiki/xacro">
+    <link name="base"/><GAZEBO/><xacro:property name="p" value="1"/>
+    <joint name="&#106;" type="revolute"><!-- <joint> --><parent link="base"/>
+    <child link="t&#105;p"/><![CDATA[ <link name="x"> ]]>
+    <origin xyz="0 0 +5e-1"/><axis xyz="0 0 1"/></joint><link name="t&#x69;p"><inertial>
+    <origin xyz=".1 0 0"/><mass value="&#49;.5"/><inertia ixx="1E-2" ixy="0" ixz="0"
+    iyy="0.02" iyz="0" izz="0.03"/></inertial></link></robot>)");
+  decorated.replace(decorated.find("GAZEBO"), 6,
+                    "gaz\xC3\xA9"
+                    "bo");  // e acute in UTF-8
+  const sid::UrdfChain reference = sid::chain_from_urdf(plain, "base", "tip");
+  const sid::UrdfChain arm = sid::chain_from_urdf(decorated, "base", "tip");
+  EXPECT_EQ(arm.joint_names, reference.joint_names);
+  EXPECT_EQ(arm.theta, reference.theta);
+  EXPECT_EQ(arm.chain.link_pose(0, 0.3).translation, reference.chain.link_pose(0, 0.3).translation);
+  // One, two, three and four bytes of UTF-8.
+  sid::detail::XmlParser parser("<a b='&#65;&#233;&#x2014;&#x1F916;'/>", "test");
+  EXPECT_EQ(*parser.parse_document().attribute("b"), "A\xC3\xA9\xE2\x80\x94\xF0\x9F\xA4\x96");
+  // What it cannot read is still refused by name.
+  const auto with_mass = [&](const std::string& mass) {
+    std::string text = plain;
+    return text.replace(text.find("1.5"), 3, mass);
+  };
+  const auto contains = [](const std::string& message, const std::string& part) {
+    return message.find(part) != std::string::npos;
+  };
+  EXPECT_PRED2(contains, message_of(with_mass("&m;")),
+               "line 4: unknown entity &m; in an attribute value (entities a DTD declares");
+  EXPECT_PRED2(contains, message_of(with_mass("&#0;")), "character reference &#0; is not a");
+  EXPECT_PRED2(contains, message_of(with_mass("&#xD800;")), "&#xD800; is not a character");
+  EXPECT_PRED2(contains, message_of(with_mass("&#x110000;")), "&#x110000; is not a character");
+  EXPECT_PRED2(contains, message_of(with_mass("&#1a;")), "&#1a; is not a character");
+  EXPECT_PRED2(contains, message_of(with_mass("1 & 2")), "'&' that starts no entity");
+  EXPECT_PRED2(contains, message_of(with_mass("0x1.8p0")), "value=\"0x1.8p0\" is not a finite");
+  EXPECT_PRED2(contains, message_of("<!DOCTYPE robot [ <!ENTITY e \"x\"> <robot/>"),
+               "line 1: unterminated DOCTYPE");
+  EXPECT_PRED2(contains, message_of("\xEF\xBB\xBF"), "no root element");
+}
+
 // A German-style locale: decimal comma, dots between groups of three digits.
 struct CommaDecimal : std::numpunct<char> {
   char do_decimal_point() const override { return ','; }
@@ -333,6 +384,104 @@ const PinocchioCase kMobileGripperHeld{"mobile_gripper_held",
 INSTANTIATE_TEST_SUITE_P(Urdf, CarriedBodies,
                          ::testing::Values(kArmTool0, kArmTool0Held, kArmLink2Held, kMobileGripper,
                                            kMobileGripperHeld),
+                         [](const auto& info) { return info.param.name; });
+
+// Real descriptions, copied unchanged from example-robot-data 6.0.0 into tests/data/urdf/real/
+// (origin and licences in tests/data/README.md; references by gen_real_reference.py). Each base
+// is its URDF's root, so Pinocchio's gravity is sid's default. They carry what hand-written
+// fixtures lack: <transmission>s whose <joint> children name joints again, <gazebo> blocks with
+// namespaced elements, comments everywhere, mimic joints, numbers such as "2.1E-06".
+const PinocchioCase kRealRobots[] = {
+    // 7 axes; the hand and its two prismatic fingers past the tip
+    {"panda_link8_held",
+     "panda.urdf",
+     "panda_link0",
+     "panda_link8",
+     {{"panda_finger_joint1", 0.035}, {"panda_finger_joint2", 0.01}}},
+    // a fixed world joint before the first axis
+    {"ur5_tool0", "ur5_robot.urdf", "world", "tool0", {}},
+    // prismatic torso lift, continuous rolls; the torso carries the head, a tilting laser and
+    // the whole left arm, all held
+    {"pr2_right_held",
+     "pr2.urdf",
+     "base_footprint",
+     "r_gripper_tool_frame",
+     {{"head_pan_joint", 0.4},
+      {"head_tilt_joint", -0.3},
+      {"laser_tilt_mount_joint", 0.2},
+      {"l_shoulder_pan_joint", 0.6},
+      {"l_shoulder_lift_joint", 0.3},
+      {"l_upper_arm_roll_joint", -0.5},
+      {"l_elbow_flex_joint", -1.2},
+      {"l_forearm_roll_joint", 0.8},
+      {"l_wrist_flex_joint", -0.4},
+      {"l_wrist_roll_joint", 1.5},
+      {"r_gripper_l_finger_joint", 0.3},
+      {"r_gripper_r_finger_joint", 0.3}}},
+    // a middle link as the tip: the forearm, wrist and gripper past it held
+    {"pr2_elbow_held",
+     "pr2.urdf",
+     "base_footprint",
+     "r_elbow_flex_link",
+     {{"r_forearm_roll_joint", 1.1},
+      {"r_wrist_flex_joint", -0.6},
+      {"r_wrist_roll_joint", 2.0},
+      {"l_elbow_flex_joint", -0.7}}},
+    // dual-arm: the left arm with its prismatic fingers held
+    {"baxter_left_held",
+     "baxter.urdf",
+     "base",
+     "left_gripper",
+     {{"l_gripper_l_finger_joint", 0.01}, {"l_gripper_r_finger_joint", -0.01}}},
+    // humanoid: waist and left arm from the pelvis; the torso carries the head and right arm
+    {"g1_left_hand_held",
+     "g1_29dof_rev_1_0.urdf",
+     "pelvis",
+     "left_rubber_hand",
+     {{"right_shoulder_pitch_joint", 0.4},
+      {"right_shoulder_roll_joint", -0.3},
+      {"right_elbow_joint", 1.0},
+      {"right_wrist_yaw_joint", 0.5}}},
+    // three continuous joints, fingers fixed past the tip
+    {"kinova_end_effector", "kinova.urdf", "base", "j2s6s200_end_effector", {}},
+};
+
+// Round-off only (the largest differences are ~1e-16 of max |theta| and max |tau|).
+constexpr double kRealParameterTol = 1e-12;  // relative to max |theta| (up to 81, the PR2's)
+constexpr double kRealTorqueTol = 1e-10;     // relative to max |tau| (up to 1450 N, the PR2's)
+
+class RealRobots : public ::testing::TestWithParam<PinocchioCase> {};
+
+TEST_P(RealRobots, GiveThePinocchioReducedModelsParametersAndTorques) {
+  const PinocchioCase& c = GetParam();
+  const sid::UrdfChain arm =
+      sid::chain_from_urdf(read_text("urdf/real/" + c.urdf), c.base, c.tip, c.held);
+  const int n = arm.chain.joints();
+  const sid_test::Table theta_table = sid_test::read_table("urdf/real/" + c.name + "_theta.csv");
+  ASSERT_FALSE(theta_table.comments.empty());  // "... joints j1 j2 ...; held ..."
+  const std::string& comment = theta_table.comments[0];
+  const std::size_t from = comment.find(", joints ") + 9;
+  std::string names;
+  for (const std::string& joint : arm.joint_names) names += (names.empty() ? "" : " ") + joint;
+  EXPECT_EQ(comment.substr(from, comment.find(';', from) - from), names);
+  const Eigen::VectorXd theta = theta_table.col("theta");
+  ASSERT_EQ(theta.size(), sid::kLinkParameters * n);
+  EXPECT_LT((arm.theta.head(theta.size()) - theta).cwiseAbs().maxCoeff(),
+            kRealParameterTol * theta.cwiseAbs().maxCoeff());
+  EXPECT_TRUE(arm.theta.tail(2 * n).isZero());
+  const sid_test::Table rnea = sid_test::read_table("urdf/real/" + c.name + "_rnea.csv");
+  ASSERT_EQ(rnea.data.cols(), 4 * n);
+  ASSERT_EQ(rnea.data.rows(), 20);
+  const double tau_scale = rnea.data.rightCols(n).cwiseAbs().maxCoeff();
+  for (Eigen::Index row = 0; row < rnea.data.rows(); ++row) {
+    const auto part = [&](int k) { return Eigen::VectorXd(rnea.data.row(row).segment(k * n, n)); };
+    const Eigen::VectorXd tau =
+        sid::chain_inverse_dynamics(arm.chain, arm.theta, part(0), part(1), part(2));
+    EXPECT_LT((tau - part(3)).cwiseAbs().maxCoeff(), kRealTorqueTol * tau_scale) << "state " << row;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Urdf, RealRobots, ::testing::ValuesIn(kRealRobots),
                          [](const auto& info) { return info.param.name; });
 
 TEST(Urdf, ReadsPrismaticJoints) {

@@ -1,9 +1,13 @@
 #pragma once
 /// @file
 /// @brief The little XML a robot description needs: elements, attributes and nesting. Text
-/// content, namespaces and DTDs are not interpreted; declarations, comments and DOCTYPE are
-/// skipped. Elements may nest at most kMaxXmlDepth deep, so that a hostile document cannot
-/// overflow the stack of the recursive reader.
+/// content, namespaces and DTDs are not interpreted (a prefixed name such as `xacro:include` is
+/// just a name); a UTF-8 byte order mark, declarations, comments, processing instructions, CDATA
+/// and a DOCTYPE with or without an internal subset are skipped. Attribute values may be quoted
+/// either way and hold the five predefined entities and character references (`&#233;`,
+/// `&#xE9;`, written as UTF-8); entities a DTD declares are refused by name. Elements may nest at
+/// most kMaxXmlDepth deep, so that a hostile document cannot overflow the stack of the recursive
+/// reader.
 
 #include <cctype>
 #include <cstddef>
@@ -42,6 +46,7 @@ class XmlParser {
 
   /// @throws std::invalid_argument naming the line of the first problem.
   XmlElement parse_document() {
+    if (starts_with("\xEF\xBB\xBF")) pos_ = 3;  // the UTF-8 byte order mark
     skip_misc();
     if (at_end() || text_[pos_] != '<') fail("no root element");
     XmlElement root = parse_element(1);
@@ -83,17 +88,46 @@ class XmlParser {
       else if (starts_with("<?"))
         skip_past("?>", "declaration");
       else if (starts_with("<!"))
-        skip_past(">", "DOCTYPE");
+        skip_doctype();
       else
         return;
     }
   }
 
+  // <!DOCTYPE ...>, whose internal subset [...] may hold '>' in declarations, quoted literals
+  // and comments.
+  void skip_doctype() {
+    const std::size_t start = pos_;
+    pos_ += 2;
+    int brackets = 0;
+    while (!at_end()) {
+      if (starts_with("<!--")) {
+        skip_past("-->", "comment");
+        continue;
+      }
+      const char c = text_[pos_++];
+      if (c == '"' || c == '\'') {
+        const std::size_t close = text_.find(c, pos_);
+        if (close == std::string::npos) break;
+        pos_ = close + 1;
+      } else if (c == '[') {
+        ++brackets;
+      } else if (c == ']') {
+        --brackets;
+      } else if (c == '>' && brackets <= 0) {
+        return;
+      }
+    }
+    pos_ = start;
+    fail("unterminated DOCTYPE");
+  }
+
   std::string parse_name() {
     const std::size_t start = pos_;
-    while (!at_end() &&
-           (std::isalnum(static_cast<unsigned char>(text_[pos_])) || text_[pos_] == '_' ||
-            text_[pos_] == '-' || text_[pos_] == '.' || text_[pos_] == ':'))
+    // Bytes from 0x80 are the UTF-8 of letters XML allows in names beyond ASCII.
+    while (!at_end() && (std::isalnum(static_cast<unsigned char>(text_[pos_])) ||
+                         text_[pos_] == '_' || text_[pos_] == '-' || text_[pos_] == '.' ||
+                         text_[pos_] == ':' || static_cast<unsigned char>(text_[pos_]) >= 0x80))
       ++pos_;
     if (pos_ == start) fail("expected a name");
     return text_.substr(start, pos_ - start);
@@ -105,17 +139,7 @@ class XmlParser {
     std::string value;
     while (!at_end() && text_[pos_] != quote) {
       if (text_[pos_] == '&') {
-        static const std::pair<const char*, char> entities[] = {
-            {"&amp;", '&'}, {"&lt;", '<'}, {"&gt;", '>'}, {"&quot;", '"'}, {"&apos;", '\''}};
-        bool known = false;
-        for (const auto& [entity, c] : entities)
-          if (starts_with(entity)) {
-            value += c;
-            pos_ += std::char_traits<char>::length(entity);
-            known = true;
-            break;
-          }
-        if (!known) fail("unknown entity in an attribute value");
+        parse_reference(value);
       } else {
         value += text_[pos_++];
       }
@@ -123,6 +147,63 @@ class XmlParser {
     if (at_end()) fail("unterminated attribute value");
     ++pos_;
     return value;
+  }
+
+  // An entity or character reference at '&', appended to value.
+  void parse_reference(std::string& value) {
+    const std::size_t semicolon = text_.find(';', pos_);
+    const std::size_t length = semicolon == std::string::npos ? 0 : semicolon + 1 - pos_;
+    if (length < 3 || length > 12) fail("'&' that starts no entity in an attribute value");
+    const std::string reference = text_.substr(pos_, length);
+    if (reference[1] == '#') {
+      const bool hex = reference[2] == 'x';
+      const std::string digits = reference.substr(hex ? 3 : 2, length - (hex ? 4 : 3));
+      unsigned long code = 0;  // at most 9 decimal or 8 hex digits: no overflow
+      for (const char d : digits) {
+        const auto u = static_cast<unsigned char>(d);
+        if (!(hex ? std::isxdigit(u) : std::isdigit(u))) {
+          code = 0;
+          break;
+        }
+        code = code * (hex ? 16 : 10) +
+               static_cast<unsigned long>(std::isdigit(u) ? d - '0' : std::tolower(u) - 'a' + 10);
+      }
+      if (digits.empty() || code == 0 || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF))
+        fail("character reference " + reference + " is not a character");
+      append_utf8(code, value);
+    } else {
+      static const std::pair<const char*, char> entities[] = {
+          {"&amp;", '&'}, {"&lt;", '<'}, {"&gt;", '>'}, {"&quot;", '"'}, {"&apos;", '\''}};
+      bool known = false;
+      for (const auto& [entity, c] : entities)
+        if (reference == entity) {
+          value += c;
+          known = true;
+        }
+      if (!known)
+        fail("unknown entity " + reference +
+             " in an attribute value (entities a DTD declares are not read)");
+    }
+    pos_ += length;
+  }
+
+  static void append_utf8(unsigned long code, std::string& out) {
+    const auto byte = [&](unsigned long b) { out += static_cast<char>(b); };
+    if (code < 0x80) {
+      byte(code);
+    } else if (code < 0x800) {
+      byte(0xC0 | (code >> 6));
+      byte(0x80 | (code & 0x3F));
+    } else if (code < 0x10000) {
+      byte(0xE0 | (code >> 12));
+      byte(0x80 | ((code >> 6) & 0x3F));
+      byte(0x80 | (code & 0x3F));
+    } else {
+      byte(0xF0 | (code >> 18));
+      byte(0x80 | ((code >> 12) & 0x3F));
+      byte(0x80 | ((code >> 6) & 0x3F));
+      byte(0x80 | (code & 0x3F));
+    }
   }
 
   XmlElement parse_element(int depth) {
