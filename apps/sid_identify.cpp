@@ -163,7 +163,8 @@ smoothing cutoff is chosen by held-out torque prediction (or --cutoff F or F1,..
 torque goes through its joint's smoother too, equations at rest are left out (--rest-fraction).
 The report names each base parameter by the combination it stands for, with its HAC standard
 deviation; --validate RUN and --validate-fraction F report how well held-out torques are
-predicted. The JSON has joint_names, parameter_names, theta, std_dev, residual_rms,
+predicted. Physically consistent links (each a real body, near the URDF's values where the data
+say nothing) are fitted too, and --write-urdf OUT.urdf writes them into a copy of the URDF. The JSON has joint_names, parameter_names, theta, std_dev, residual_rms,
 relative_residual and validation [{file, residual_rms, relative_residual}].
 
 Examples:
@@ -221,6 +222,9 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--rest-fraction", o.chain.rest_fraction,
                  "--robot: leave out joint j's equations where |qd_j| < F RMS(qd_j) "
                  "(default 0.1)");
+  cli.add_option("--write-urdf", o.chain.write_urdf,
+                 "--robot URDF: write a copy of it with the physically consistent link "
+                 "parameters (refuses to overwrite without --force)");
   cli.add_option("--coulomb-epsilon", o.chain.coulomb_epsilon,
                  "--robot: Coulomb friction as tanh(qd / EPS) [rad/s] (default 0.01; 0: sign)");
   cli.add_option("RUN", o.inputs,
@@ -720,9 +724,10 @@ int identify(Options o) {
     return sid::app::identify_robot(o.chain, kName);
   }
   require(o.chain.base.empty() && o.chain.tip.empty() && o.chain.transmission.empty() &&
-              !o.chain.validate_fraction && !o.chain.rest_fraction && !o.chain.coulomb_epsilon,
-          "--base, --tip, --transmission, --validate-fraction, --rest-fraction and "
-          "--coulomb-epsilon need --robot");
+              !o.chain.validate_fraction && !o.chain.rest_fraction && !o.chain.coulomb_epsilon &&
+              o.chain.write_urdf.empty(),
+          "--base, --tip, --transmission, --validate-fraction, --rest-fraction, "
+          "--coulomb-epsilon and --write-urdf need --robot");
   if (uses_torque_cv(o)) return identify_from_runs(o);
   require(o.inputs.size() == 1,
           "several runs are fitted together only with --smoothing torque-cv "

@@ -1,16 +1,19 @@
 #include "chain_identify_app.hpp"
 
+#include <sid/chain_consistency.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/model/chain_model.hpp>
 
 #include "app.hpp"
 #include "csv.hpp"
 #include "robot_description.hpp"
+#include "urdf_writer.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -86,7 +89,8 @@ void print_prediction_rows(std::ostream& out, const sid::ChainModel& model,
 
 std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel& model,
                         const sid::ChainIdentification& id,
-                        const std::vector<sid::ChainPrediction>& validation) {
+                        const std::vector<sid::ChainPrediction>& validation,
+                        const sid::ChainConsistentFit& consistent) {
   std::ostringstream out;
   out << "robot " << o.robot << ": " << model.joints() << " joints (" << [&] {
     std::string s;
@@ -127,12 +131,25 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
     out << "prediction of " << v.source << ":\n";
     print_prediction_rows(out, model, v);
   }
+  out << "\nphysically consistent links (each a real body, near the description's values where "
+         "the data say nothing): "
+      << number("%.2f", 100.0 * consistent.relative_residual) << " % of the torque (least squares "
+      << number("%.2f", 100.0 * consistent.least_squares_relative_residual) << " %)"
+      << (consistent.converged ? "" : ", not converged") << "\n";
+  for (int i = 0; i < model.joints(); ++i) {
+    const double m = consistent.theta[10 * i];
+    const Eigen::Vector3d c = consistent.theta.segment<3>(10 * i + 1) / m;
+    out << "  link " << i + 1 << ": mass " << number("%.4g", m) << " kg, centre of mass ("
+        << number("%.3g", c[0]) << ", " << number("%.3g", c[1]) << ", " << number("%.3g", c[2])
+        << ") m\n";
+  }
   return out.str();
 }
 
 nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainModel& model,
                            const sid::ChainIdentification& id,
-                           const std::vector<sid::ChainPrediction>& validation) {
+                           const std::vector<sid::ChainPrediction>& validation,
+                           const sid::ChainConsistentFit& consistent) {
   nlohmann::json j;
   j["robot"] = o.robot;
   j["joint_names"] = model.joint_names();
@@ -158,6 +175,14 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
   j["estimator"] = o.estimator;
   j["validation"] = nlohmann::json::array();
   for (const auto& v : validation) j["validation"].push_back(prediction_json(v));
+  nlohmann::json physical;
+  physical["theta"] = to_json_array(consistent.theta);
+  physical["beta"] = to_json_array(consistent.beta);
+  physical["relative_residual"] = consistent.relative_residual;
+  physical["least_squares_relative_residual"] = consistent.least_squares_relative_residual;
+  physical["converged"] = consistent.converged;
+  physical["iterations"] = consistent.iterations;
+  j["physically_consistent"] = physical;
   return j;
 }
 
@@ -170,7 +195,10 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
   require(!o.validate_fraction || (*o.validate_fraction > 0.0 && *o.validate_fraction < 1.0),
           "--validate-fraction must be in (0, 1)");
   if (!o.json.empty()) ensure_writable(o.json, o.force);
+  if (!o.write_urdf.empty()) ensure_writable(o.write_urdf, o.force);
   const RobotDescription robot = read_robot_description(o.robot, o.base, o.tip);
+  require(o.write_urdf.empty() || !robot.urdf.empty(),
+          "--write-urdf needs a URDF as --robot, not a DH table");
   const int n = robot.chain.joints();
   const bool motor_side = !o.transmission.empty();
   const sid::Transmission transmission =
@@ -224,9 +252,27 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
     }
     validation.back().source = r.file;
   }
-  (o.json == "-" ? std::cerr : std::cout) << report_text(o, model, id, validation) << std::flush;
+  Eigen::VectorXd prior;
+  if (robot.link_parameters.size()) {
+    prior = Eigen::VectorXd::Zero(model.parameters());
+    prior.head(robot.link_parameters.size()) = robot.link_parameters;
+  }
+  const sid::ChainConsistentFit consistent = sid::consistent_chain_parameters(model, id, prior);
+  std::string written;
+  if (!o.write_urdf.empty()) {
+    std::vector<sid::LinkParameters<double>> phi;
+    for (int i = 0; i < n; ++i) phi.push_back(consistent.theta.segment<10>(10 * i));
+    written = urdf_with_link_parameters(robot.urdf, robot.base, robot.tip, robot.link_names, phi);
+  }
+  (o.json == "-" ? std::cerr : std::cout)
+      << report_text(o, model, id, validation, consistent) << std::flush;
   if (id.fit.ill_conditioned) std::cerr << app_name << ": warning: " << id.fit.message << "\n";
-  if (!o.json.empty()) write_json(o.json, report_json(o, model, id, validation));
+  if (!o.json.empty()) write_json(o.json, report_json(o, model, id, validation, consistent));
+  if (!o.write_urdf.empty()) {
+    std::ofstream file(o.write_urdf, std::ios::binary);
+    file << written;
+    if (!file) throw std::runtime_error("cannot write '" + o.write_urdf + "'");
+  }
   return kExitOk;
 }
 

@@ -24,6 +24,7 @@ struct ChainIdentifyAppOptions {
   std::optional<double> skip;
   std::string estimator = "ls";
   std::string json;
+  std::string write_urdf;  ///< a copy of the URDF with the physically consistent links
   bool force = false;
 };
 

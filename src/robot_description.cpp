@@ -113,7 +113,7 @@ RobotDescription read_dh(const std::string& path, const std::string& text) {
                      "'convention modified'");
   if (rows.empty()) throw InputError(path + ": the DH table has no joints");
   try {
-    return {sid::SerialChain<double>(convention, rows, gravity), names, "", ""};
+    return {sid::SerialChain<double>(convention, rows, gravity), names, "", "", "", {}, {}};
   } catch (const std::invalid_argument& e) {
     throw InputError(path + ": " + e.what());
   }
@@ -140,7 +140,9 @@ RobotDescription read_robot_description(const std::string& path, const std::stri
       to = leaves.front();
     }
     sid::UrdfChain urdf = sid::chain_from_urdf(text, from, to);
-    return {urdf.chain, urdf.joint_names, from, to};
+    const Eigen::Index link_count = 10 * urdf.chain.joints();
+    return {urdf.chain,      urdf.joint_names,           from, to, text,
+            urdf.link_names, urdf.theta.head(link_count)};
   } catch (const std::invalid_argument& e) {
     throw InputError(path + ": " + e.what());
   }

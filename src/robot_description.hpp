@@ -19,6 +19,9 @@ struct RobotDescription {
   sid::SerialChain<double> chain;
   std::vector<std::string> joint_names;
   std::string base, tip;  ///< the links the chain runs between (URDF), or "" for a DH table
+  std::string urdf;       ///< the URDF's text ("" for a DH table)
+  std::vector<std::string> link_names;  ///< the link each joint moves (URDF)
+  Eigen::VectorXd link_parameters;      ///< the description's ten per link (URDF), else empty
 };
 
 /// @brief Reads a URDF (a file whose first element is <robot>) or a DH table (see

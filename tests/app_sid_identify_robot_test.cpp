@@ -61,10 +61,46 @@ TEST_F(IdentifyRobot, Tx40ExampleBeatsFigarohsResidualAndPredictsTheLastThirtyPe
   }
   EXPECT_EQ(fit["parameter_names"][0].get<std::string>().rfind("Izz_1 + Iyy_2 + ", 0), 0u);
   EXPECT_EQ(fit["residual_rms"].size(), 6u);
+  EXPECT_LE(fit["physically_consistent"]["relative_residual"].get<double>(), 0.053);
   // A second run refuses to overwrite what the first wrote.
   const sid_test::AppRun again = shell("PATH=\"" SID_APP_DIR ":$PATH\" bash '" SID_SOURCE_DIR
                                        "/examples/staubli_tx40.sh' out");
   EXPECT_NE(again.exit_code, 0);
+  EXPECT_NE(again.err.find("refusing to overwrite"), std::string::npos) << again.err;
+}
+
+TEST_F(IdentifyRobot, WritesThePhysicallyConsistentLinksIntoACopyOfTheUrdf) {
+  write_run("run.csv", 4.0, 4);
+  // The simulated arm as URDF: three revolute joints as the DH table below places them.
+  write("arm.urdf", R"(<robot name="arm">
+  <link name="base"/>
+  <joint name="a" type="revolute"><parent link="base"/><child link="l1"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="100" velocity="5"/></joint>
+  <link name="l1"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="b" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0 0 0.4" rpy="1.5707963267948966 0 0"/><axis xyz="0 0 1"/></joint>
+  <link name="l2"/>
+  <joint name="c" type="revolute"><parent link="l2"/><child link="l3"/>
+    <origin xyz="0.5 0 0"/><axis xyz="0 0 1"/></joint>
+  <link name="l3"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="tool" type="fixed"><parent link="l3"/><child link="flange"/><origin xyz="0.4 0 0"/></joint>
+  <link name="flange"/>
+</robot>
+)");
+  const sid_test::AppRun r =
+      shell(app("sid_identify") + " --robot arm.urdf --cutoff 8 --write-urdf out.urdf run.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("physically consistent links"), std::string::npos);
+  const std::string written = read(file("out.urdf"));
+  // Every moving link has an inertial now (l2 had none), the fixed flange keeps having none.
+  std::size_t inertials = 0;
+  for (std::size_t at = written.find("<inertial>"); at != std::string::npos;
+       at = written.find("<inertial>", at + 1))
+    ++inertials;
+  EXPECT_EQ(inertials, 3u);
+  const sid_test::AppRun again =
+      shell(app("sid_identify") + " --robot arm.urdf --cutoff 8 --write-urdf out.urdf run.csv");
+  EXPECT_EQ(again.exit_code, 2);
   EXPECT_NE(again.err.find("refusing to overwrite"), std::string::npos) << again.err;
 }
 
@@ -107,6 +143,7 @@ TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
   refused("--robot arm.dh --effects viscous,stiction run.csv", "stiction");
   refused("--robot arm.dh --method filtered run.csv", "two-link");
   refused("--robot arm.dh --base link0 run.csv", "DH table");
+  refused("--robot arm.dh --write-urdf out.urdf run.csv", "needs a URDF");
   write("t.yaml", "gear_ratios: [10, 10]\n");
   refused("--robot arm.dh --transmission t.yaml run.csv", "gear_ratios needs a list of 3");
   write("u.yaml", "gear_ratios: [10, 10, 10]\nratio: 3\n");

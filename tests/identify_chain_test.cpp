@@ -4,6 +4,7 @@
 // combinations FIGAROH published, and a simulated arm on a jittered grid is identified back.
 
 #include <sid/identify_chain.hpp>
+#include <sid/chain_consistency.hpp>
 #include <sid/model/urdf.hpp>
 
 #include "chain_simulation.hpp"
@@ -342,6 +343,48 @@ TEST(IdentifyChain, SplitRunKeepsEverySampleOnce) {
   EXPECT_LT(first.t[first.size() - 1], run.t[0] + 0.7 * (run.t[run.size() - 1] - run.t[0]));
   EXPECT_GE(last.t[0], run.t[0] + 0.7 * (run.t[run.size() - 1] - run.t[0]));
   EXPECT_EQ(last.q.row(0), run.q.row(first.size()));
+}
+
+TEST(ChainConsistency, LogCholeskyNumbersAreRealBodiesAndRoundTrip) {
+  sid::LinkInertia<double> body;
+  body.mass = 2.5;
+  body.com = sid::Vector3<double>(0.1, -0.05, 0.2);
+  body.inertia_com << 0.03, 0.002, -0.001, 0.002, 0.05, 0.004, -0.001, 0.004, 0.06;
+  const sid::LinkParameters<double> phi = sid::standard_parameters(body);
+  const sid::LinkParameters<double> back =
+      sid::link_parameters_from_log_cholesky(sid::log_cholesky_from_link_parameters(phi));
+  EXPECT_LT((back - phi).cwiseAbs().maxCoeff(), 1e-12);
+  std::mt19937 g(5);
+  std::normal_distribution<double> normal;
+  for (int k = 0; k < 50; ++k) {
+    const Eigen::Matrix<double, 10, 1> xi =
+        Eigen::Matrix<double, 10, 1>::NullaryExpr([&] { return normal(g); });
+    EXPECT_EQ(sid::link_inconsistency(sid::link_parameters_from_log_cholesky(xi), 1e-9), "");
+  }
+}
+
+TEST(ChainConsistency, ARealArmFitsAsWellAsLeastSquaresAndStaysARealBody) {
+  const sid_test::SimulatedArm arm;
+  sid::ChainIdentifyOptions options;
+  options.cutoff_hz = {16.0};
+  options.filter_torque = false;
+  const sid::ChainIdentification id =
+      sid::identify_chain(arm.model, {arm.run(8.0, 9, 0.0)}, options);
+  ASSERT_TRUE(id.fit.ok());
+  // The truth is a real body, so the consistent fit loses almost nothing; started from a prior
+  // far from it (every link 1 kg at its origin), it must find the data's base parameters.
+  const sid::ChainConsistentFit fit = sid::consistent_chain_parameters(arm.model, id);
+  EXPECT_TRUE(fit.converged) << fit.iterations << " steps";
+  EXPECT_LT(fit.relative_residual, id.fitted.relative_residual + 1e-4);
+  for (int i = 0; i < 3; ++i)
+    EXPECT_EQ(
+        sid::link_inconsistency(sid::LinkParameters<double>(fit.theta.segment<10>(10 * i)), 1e-9),
+        "")
+        << "link " << i + 1;
+  const Eigen::VectorXd beta = id.base.beta(arm.theta);
+  EXPECT_LT((fit.beta - beta).cwiseAbs().maxCoeff(), 1e-2 * beta.cwiseAbs().maxCoeff());
+  EXPECT_THROW((void)sid::consistent_chain_parameters(arm.model, id, Eigen::VectorXd::Zero(3)),
+               std::invalid_argument);
 }
 
 }  // namespace

@@ -1,0 +1,83 @@
+#pragma once
+/// @file
+/// @brief Physically consistent link parameters for an identified chain: the standard parameters
+/// of every link (mass, centre of mass, inertia) that reproduce the identified base parameters
+/// as closely as the data allow while each link is a real body, and stay near a prior (the
+/// description's CAD values) where the data say nothing.
+///
+/// A link's ten parameters are a real body exactly when its pseudo-inertia
+/// J = [[Σ, h], [hᵀ, m]] (Σ = tr(I)/2 · 1 − I about the frame's origin, h = m c) is positive
+/// semidefinite (Wensing, Kim & Slotine 2018). The log-Cholesky parametrisation (Rucker &
+/// Wensing 2022) writes J = U Uᵀ with U upper triangular, U = e^α [[e^d1, s12, s13, t1],
+/// [0, e^d2, s23, t2], [0, 0, e^d3, t3], [0, 0, 0, 1]]: every one of its ten unconstrained
+/// numbers gives a real body (J positive definite), and every real body with J positive definite
+/// has one. The fit is then an unconstrained nonlinear least-squares problem, solved by
+/// Levenberg–Marquardt:
+///   minimise ‖R S (β(θ(ξ, d)) − β̂)‖² + γ ‖(θ(ξ, d) − θ₀) / (|θ₀| + s₀)‖²
+/// with R S the triangular factor of the identification's column-scaled base regressor (so the
+/// first term is the growth of the residual sum of squares over the least-squares fit), ξ the
+/// links' log-Cholesky numbers and d the drive terms, free. The second term is tiny (γ = 1e-6)
+/// and only decides the directions the data do not see.
+
+#include <sid/config.hpp>
+#include <sid/identify_chain.hpp>
+#include <sid/model/chain_model.hpp>
+#include <sid/model/link_inertia.hpp>
+
+#include <Eigen/Core>
+
+#include <string>
+#include <vector>
+
+namespace sid {
+
+/// @brief Options of consistent_chain_parameters.
+struct ChainConsistencyOptions {
+  double prior_weight = 1e-6;  ///< γ, > 0
+  int max_iterations = 500;    ///< Levenberg–Marquardt steps, >= 1
+  /// Stop when ten steps together lower the cost by less than this fraction of it.
+  double tolerance = 1e-4;
+};
+
+/// @brief What consistent_chain_parameters found.
+struct ChainConsistentFit {
+  /// Every parameter of the model: ten per link (each a real body), then the drive terms.
+  Eigen::VectorXd theta;
+  Eigen::VectorXd beta;  ///< the base parameters they give
+  /// The relative residual ‖τ − Yθ‖ / ‖τ‖ over the identification's equations, and the
+  /// least-squares fit's beside it: how much worse a real body fits.
+  double relative_residual = 0.0;
+  double least_squares_relative_residual = 0.0;
+  int iterations = 0;
+  bool converged = false;
+  /// Per link: why the prior's parameters are not a real body ("" when they are); such a link
+  /// starts from the nearest one that is.
+  std::vector<std::string> prior_inconsistency;
+};
+
+/// @brief The link parameters of a pseudo-inertia's log-Cholesky numbers
+/// [α, d1, d2, d3, s12, s23, s13, t1, t2, t3].
+SID_INLINE LinkParameters<double> link_parameters_from_log_cholesky(
+    const Eigen::Ref<const Eigen::Matrix<double, 10, 1>>& xi);
+
+/// @brief The log-Cholesky numbers of a link whose pseudo-inertia is positive definite; one that
+/// is not (a massless or flat CAD link) is first moved inside by the smallest multiple of the
+/// identity that makes it so (1e-6 of its trace, at least 1e-9).
+SID_INLINE Eigen::Matrix<double, 10, 1> log_cholesky_from_link_parameters(
+    const LinkParameters<double>& phi);
+
+/// @brief Physically consistent parameters for an identification of model (see the file comment).
+/// @param prior the model's full parameter vector to stay near where the data say nothing (e.g.
+///        the URDF's CAD values, drive terms 0); empty: every link 1 kg at its origin with
+///        0.01 kg m² about each axis.
+/// @throws std::invalid_argument if the identification failed or does not belong to model, the
+///         prior has the wrong size or is not finite, or the options are invalid.
+SID_INLINE ChainConsistentFit consistent_chain_parameters(
+    const ChainModel& model, const ChainIdentification& identification,
+    const Eigen::VectorXd& prior = {}, const ChainConsistencyOptions& options = {});
+
+}  // namespace sid
+
+#ifdef SID_HEADER_ONLY
+#include <sid/chain_consistency-inl.hpp>
+#endif

@@ -1,0 +1,26 @@
+#pragma once
+/// @file
+/// @brief Writing identified link parameters into a copy of a URDF, so that Pinocchio, MuJoCo and
+/// Gazebo load the identified model.
+
+#include <sid/model/link_inertia.hpp>
+
+#include <string>
+#include <vector>
+
+namespace sid::app {
+
+/// @brief The URDF text with the <inertial> of each named link replaced (or added) so that the
+/// chain read from it between base and tip has the given link parameters. A moving link that
+/// carries other bodies in the description (links fixed to it, bodies past the tip) keeps them:
+/// its own <inertial> becomes the identified parameters less what they carry.
+/// @param links the moving links, base first; phi their identified parameters (lumped, in the
+///        link's frame, as sid::chain_from_urdf gives them).
+/// @throws InputError when a link's own part would not be a real body (the identified link is
+///         lighter than what it carries in the description), or the result does not read back
+///         to the given parameters.
+std::string urdf_with_link_parameters(const std::string& urdf, const std::string& base,
+                                      const std::string& tip, const std::vector<std::string>& links,
+                                      const std::vector<sid::LinkParameters<double>>& phi);
+
+}  // namespace sid::app
