@@ -252,10 +252,20 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
     }
     validation.back().source = r.file;
   }
+  // The consistent fit stays near the description where the data say nothing: its links, and
+  // its joints' <dynamics> damping and friction for the viscous and Coulomb terms.
   Eigen::VectorXd prior;
   if (robot.link_parameters.size()) {
     prior = Eigen::VectorXd::Zero(model.parameters());
     prior.head(robot.link_parameters.size()) = robot.link_parameters;
+    Eigen::Index column = model.rigid_body_parameters();
+    for (const sid::DriveTerm& t : model.terms()) {
+      if (!t.on_motor && t.kind == sid::DriveTermKind::Viscous)
+        prior[column] = robot.damping[t.index];
+      if (!t.on_motor && t.kind == sid::DriveTermKind::Coulomb)
+        prior[column] = robot.friction[t.index];
+      ++column;
+    }
   }
   const sid::ChainConsistentFit consistent = sid::consistent_chain_parameters(model, id, prior);
   std::string written;

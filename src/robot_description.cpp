@@ -113,7 +113,16 @@ RobotDescription read_dh(const std::string& path, const std::string& text) {
                      "'convention modified'");
   if (rows.empty()) throw InputError(path + ": the DH table has no joints");
   try {
-    return {sid::SerialChain<double>(convention, rows, gravity), names, "", "", "", {}, {}};
+    const auto n = static_cast<Eigen::Index>(rows.size());
+    return {sid::SerialChain<double>(convention, rows, gravity),
+            names,
+            "",
+            "",
+            "",
+            {},
+            {},
+            Eigen::VectorXd::Zero(n),
+            Eigen::VectorXd::Zero(n)};
   } catch (const std::invalid_argument& e) {
     throw InputError(path + ": " + e.what());
   }
@@ -140,9 +149,14 @@ RobotDescription read_robot_description(const std::string& path, const std::stri
       to = leaves.front();
     }
     sid::UrdfChain urdf = sid::chain_from_urdf(text, from, to);
-    const Eigen::Index link_count = 10 * urdf.chain.joints();
-    return {urdf.chain,      urdf.joint_names,           from, to, text,
-            urdf.link_names, urdf.theta.head(link_count)};
+    const Eigen::Index n = urdf.chain.joints();
+    Eigen::VectorXd damping = Eigen::VectorXd::Zero(n), friction = Eigen::VectorXd::Zero(n);
+    for (Eigen::Index j = 0; j < n && j < static_cast<Eigen::Index>(urdf.joints.size()); ++j) {
+      damping[j] = urdf.joints[static_cast<std::size_t>(j)].damping;
+      friction[j] = urdf.joints[static_cast<std::size_t>(j)].friction;
+    }
+    return {urdf.chain,      urdf.joint_names,        from,    to,      text,
+            urdf.link_names, urdf.theta.head(10 * n), damping, friction};
   } catch (const std::invalid_argument& e) {
     throw InputError(path + ": " + e.what());
   }

@@ -22,6 +22,8 @@ struct RobotDescription {
   std::string urdf;       ///< the URDF's text ("" for a DH table)
   std::vector<std::string> link_names;  ///< the link each joint moves (URDF)
   Eigen::VectorXd link_parameters;      ///< the description's ten per link (URDF), else empty
+  /// Per joint, the URDF's <dynamics> damping and friction (0 where absent or for a DH table).
+  Eigen::VectorXd damping, friction;
 };
 
 /// @brief Reads a URDF (a file whose first element is <robot>) or a DH table (see

@@ -4,6 +4,7 @@
 #include <sid/model/two_link_arm.hpp>
 
 #include <sid/detail/sincos.hpp>
+#include <sid/model/two_link_chain.hpp>
 
 #include "allocation_counter.hpp"
 #include "test_support.hpp"
@@ -245,3 +246,51 @@ TEST(SinCos, FallsBackToStdOutsideFastRange) {
 }
 
 }  // namespace
+
+// The paper's model is the two-joint chain's, read through a one-way map of its link parameters.
+TEST(TwoLinkChain, PaperRegressorTimesMappedParametersIsTheChainsTorque) {
+  const double l1 = sid::paper_arm_physical().l1;
+  const sid::SerialChain<double> chain = sid::two_link_chain(l1);
+  std::mt19937 g(29);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::MatrixXd y(2, sid::chain_parameter_count(2));
+  for (int trial = 0; trial < 20; ++trial) {
+    // Any link parameters with no first moment across the link and no Coulomb friction; the
+    // parameters off the plane (Ixx, Ixy, ...) move nothing here and are drawn too.
+    Eigen::VectorXd phi =
+        Eigen::VectorXd::NullaryExpr(sid::chain_parameter_count(2), [&] { return u(g); });
+    phi[2] = phi[12] = 0.0;  // my_1, my_2
+    phi.tail(2).setZero();   // Fc_1, Fc_2
+    const sid::TwoLinkParameters<double> theta =
+        sid::two_link_parameters_from_links<double>(phi, l1);
+    const sid::Vector2<double> q(3 * u(g), 3 * u(g)), qd(2 * u(g), 2 * u(g)),
+        qdd(5 * u(g), 5 * u(g));
+    sid::chain_regressor(chain, Eigen::VectorXd(q), Eigen::VectorXd(qd), Eigen::VectorXd(qdd), y);
+    const sid::Vector2<double> paper =
+        sid::two_link_regressor(q, qd, qdd, sid::kPaperGravity) * theta;
+    EXPECT_LT((paper - y * phi).cwiseAbs().maxCoeff(), 1e-13) << "trial " << trial;
+  }
+  // The paper's physical arm, as links, gives the paper's θ.
+  const sid::TwoLinkPhysical<double> p = sid::paper_arm_physical();
+  Eigen::VectorXd phi = Eigen::VectorXd::Zero(sid::chain_parameter_count(2));
+  phi[0] = p.m1;
+  phi[1] = p.m1 * p.lc1;
+  phi[9] = p.I1 + p.m1 * p.lc1 * p.lc1;
+  phi[10] = p.m2;
+  phi[11] = p.m2 * p.lc2;
+  phi[19] = p.I2 + p.m2 * p.lc2 * p.lc2;
+  phi[20] = p.mu1;
+  phi[21] = p.mu2;
+  EXPECT_LT((sid::two_link_parameters_from_links<double>(phi, p.l1) - sid::two_link_parameters(p))
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-15);
+  // my_2 moves the chain but no column of the paper's model: the map is one way.
+  phi.setZero();
+  phi[12] = 1.0;
+  const sid::Vector2<double> q(0.3, 0.7), zero(0.0, 0.0);
+  sid::chain_regressor(chain, Eigen::VectorXd(q), Eigen::VectorXd(zero), Eigen::VectorXd(zero), y);
+  EXPECT_GT((y * phi).cwiseAbs().maxCoeff(), 1.0);
+  EXPECT_EQ(sid::two_link_parameters_from_links<double>(phi, l1),
+            sid::TwoLinkParameters<double>::Zero());
+}
