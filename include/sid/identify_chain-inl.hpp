@@ -40,7 +40,7 @@ struct SmoothedChainRun {
     k.qdd.resize(n, joints);
     k.tau = r.tau;
     const auto stride = static_cast<Eigen::Index>(
-        std::max(1.0, std::floor(1.0 / (mean_period * o.regression_rate_hz))));
+        std::max(1.0, std::round(1.0 / (mean_period * o.regression_rate_hz))));
     for (Eigen::Index i = 0; i < n; i += stride)
       if (r.t[i] >= r.t[0] + o.skip && r.t[i] <= r.t[n - 1] - o.skip_end) samples.push_back(i);
   }
@@ -227,7 +227,9 @@ inline double chain_cross_validation(const std::vector<ChainEquations>& equation
         xw.row(r) *= w;
         yw[r] *= w;
       }
-      gram.push_back(xw.transpose() * xw);
+      Eigen::MatrixXd g = Eigen::MatrixXd::Zero(p, p);  // half the work of xwᵀ xw
+      g.selfadjointView<Eigen::Lower>().rankUpdate(xw.transpose());
+      gram.push_back(g.selfadjointView<Eigen::Lower>());
       moment.push_back(xw.transpose() * yw);
       fold_yy.push_back(yw.squaredNorm());
       begin = end;
