@@ -131,6 +131,7 @@ SID_INLINE ChainConsistentFit consistent_chain_parameters(const ChainModel& mode
   double cost = res.squaredNorm(), mu = 1e-3;
   Eigen::MatrixXd jac(r + p, z.size());
   std::vector<double> history;
+  const double least_squares_rss = id.fit.residual.squaredNorm();
   for (out.iterations = 0; out.iterations < options.max_iterations; ++out.iterations) {
     for (Eigen::Index k = 0; k < z.size(); ++k) {  // central differences
       const double h = 1e-6 * (1.0 + std::abs(z[k]));
@@ -161,16 +162,20 @@ SID_INLINE ChainConsistentFit consistent_chain_parameters(const ChainModel& mode
     }
     // The best real body often lies on the boundary (a link flat along an axis), which the
     // log-Cholesky numbers reach only asymptotically: the cost then keeps falling, ever more
-    // slowly. Stop once ten steps together gain less than the tolerance.
+    // slowly. Stop once ten steps together gain less than the tolerance of the residual sum of
+    // squares (nothing a user would see) or 1e-4 of the cost itself.
     history.push_back(cost);
-    if (history.size() > 10 && history[history.size() - 11] - cost <= options.tolerance * cost)
-      out.converged = true;
+    if (history.size() > 10) {
+      const double gain = history[history.size() - 11] - cost;
+      if (gain <= options.tolerance * (least_squares_rss + cost) || gain <= 1e-4 * cost)
+        out.converged = true;
+    }
     if (!improved) out.converged = true;  // no step lowers the cost: a minimum to round-off
     if (out.converged) break;
   }
   out.theta = theta_of(z);
   out.beta = id.base.beta(out.theta);
-  const double rss = id.fit.residual.squaredNorm();
+  const double rss = least_squares_rss;
   out.least_squares_relative_residual = id.fitted.relative_residual;
   const double yy =
       rss / std::max(id.fitted.relative_residual * id.fitted.relative_residual, 1e-300);

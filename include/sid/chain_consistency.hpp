@@ -35,8 +35,10 @@ namespace sid {
 struct ChainConsistencyOptions {
   double prior_weight = 1e-6;  ///< γ, > 0
   int max_iterations = 500;    ///< Levenberg–Marquardt steps, >= 1
-  /// Stop when ten steps together lower the cost by less than this fraction of it.
-  double tolerance = 1e-4;
+  /// Stop when ten steps together lower the cost by less than this fraction of the residual
+  /// sum of squares (so the relative residual no longer moves in its sixth digit), or by less
+  /// than 1e-4 of the cost.
+  double tolerance = 1e-6;
 };
 
 /// @brief What consistent_chain_parameters found.
