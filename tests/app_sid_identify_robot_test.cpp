@@ -144,6 +144,11 @@ TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
   refused("--robot arm.dh --method filtered run.csv", "two-link");
   refused("--robot arm.dh --base link0 run.csv", "DH table");
   refused("--robot arm.dh --write-urdf out.urdf run.csv", "needs a URDF");
+  // A tree with several end links: the chain's last link must be named.
+  refused("--robot '" SID_TEST_DATA_DIR "/urdf/mobile_manipulator.urdf' run.csv",
+          "name the chain's last with --tip");
+  refused("--robot '" SID_TEST_DATA_DIR "/urdf/mobile_manipulator.urdf' --tip nowhere run.csv",
+          "nowhere");
   write("t.yaml", "gear_ratios: [10, 10]\n");
   refused("--robot arm.dh --transmission t.yaml run.csv", "gear_ratios needs a list of 3");
   write("u.yaml", "gear_ratios: [10, 10, 10]\nratio: 3\n");
