@@ -71,6 +71,8 @@ nlohmann::json prediction_json(const sid::ChainPrediction& p) {
   j["relative_residual"] = p.relative_residual;
   j["relative_residual_per_joint"] = to_json_array(p.relative_per_joint);
   j["relative_residual_unfiltered"] = p.relative_residual_unfiltered;
+  j["residual_rms_measured"] = to_json_array(p.measured_residual_rms);
+  j["relative_residual_measured"] = p.measured_relative_residual;
   j["equations"] = to_json_array(p.equations.cast<double>());
   return j;
 }
@@ -81,10 +83,13 @@ void print_prediction_rows(std::ostream& out, const sid::ChainModel& model,
     out << "  " << model.joint_names()[static_cast<std::size_t>(j)] << ": RMS "
         << number("%.4g", p.residual_rms[j]) << " N m, "
         << number("%.2f", 100.0 * p.relative_per_joint[j]) << " %, " << p.equations[j]
-        << " equations\n";
+        << " equations; the log as recorded: RMS " << number("%.4g", p.measured_residual_rms[j])
+        << " N m\n";
   out << "  all joints: " << number("%.2f", 100.0 * p.relative_residual)
       << " % of the torque (against the unfiltered torque: "
-      << number("%.2f", 100.0 * p.relative_residual_unfiltered) << " %)\n";
+      << number("%.2f", 100.0 * p.relative_residual_unfiltered)
+      << " %; the log as recorded, at rest too: "
+      << number("%.2f", 100.0 * p.measured_relative_residual) << " %)\n";
 }
 
 std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel& model,
@@ -172,6 +177,8 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
   j["relative_residual"] = id.fitted.relative_residual;
   j["relative_residual_per_joint"] = to_json_array(id.fitted.relative_per_joint);
   j["relative_residual_unfiltered"] = id.fitted.relative_residual_unfiltered;
+  j["residual_rms_measured"] = to_json_array(id.fitted.measured_residual_rms);
+  j["relative_residual_measured"] = id.fitted.measured_relative_residual;
   j["estimator"] = o.estimator;
   j["validation"] = nlohmann::json::array();
   for (const auto& v : validation) j["validation"].push_back(prediction_json(v));

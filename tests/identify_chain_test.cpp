@@ -283,6 +283,8 @@ TEST(IdentifyChain, ChoosesCutoffsAndItsStdDevsCoverTheErrorWithNoisyTorques) {
     EXPECT_LE(id.cutoff_hz[j], 64.0 * (1.0 + 1e-9));
   }
   ASSERT_EQ(id.jackknife_std_dev.size(), id.fit.theta.size());
+  // Against the log as recorded, what is left is the torque noise the runs were given.
+  for (int j = 0; j < 3; ++j) EXPECT_NEAR(id.fitted.measured_residual_rms[j], 0.2, 0.01);
   const Eigen::VectorXd beta = id.base.beta(arm.theta);
   for (Eigen::Index i = 0; i < beta.size(); ++i) {
     ASSERT_TRUE(std::isfinite(id.std_dev[i]));

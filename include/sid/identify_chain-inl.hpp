@@ -341,6 +341,26 @@ inline ChainPrediction chain_prediction(const std::vector<ChainEquations>& equat
   return p;
 }
 
+/// The same prediction against the measured torque at every sample of the window, at rest too
+/// and unfiltered: what a model predicts of the log as it was recorded.
+inline void add_measured(ChainPrediction& p, const std::vector<ChainEquations>& every_sample,
+                         int joints, const Eigen::VectorXd& theta) {
+  Eigen::VectorXd rss = Eigen::VectorXd::Zero(joints), yy = rss;
+  Eigen::VectorXd count = Eigen::VectorXd::Zero(joints);
+  for (const auto& e : every_sample) {
+    const Eigen::VectorXd fitted = e.x * theta;
+    for (Eigen::Index r = 0; r < e.y.size(); ++r) {
+      const int j = e.joint[static_cast<std::size_t>(r)];
+      const double residual = e.y_unfiltered[r] - fitted[r];
+      rss[j] += residual * residual;
+      yy[j] += e.y_unfiltered[r] * e.y_unfiltered[r];
+      count[j] += 1.0;
+    }
+  }
+  p.measured_residual_rms = (rss.array() / count.array().max(1.0)).sqrt();
+  p.measured_relative_residual = std::sqrt(rss.sum() / yy.sum());
+}
+
 inline std::vector<SmoothedChainRun> smoothed_runs(const ChainModel& model,
                                                    const std::vector<ChainTrajectory<double>>& runs,
                                                    const ChainIdentifyOptions& o, const char* who) {
@@ -476,8 +496,14 @@ SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
   id.std_dev = detail::chain_hac_std_dev(equations, id.fit, weight);
   id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
   id.fitted = detail::chain_prediction(equations, n, id.fit.theta);
-  for (const auto& e : equations)
-    id.per_run.push_back(detail::chain_prediction({e}, n, id.fit.theta));
+  for (std::size_t r = 0; r < equations.size(); ++r) {
+    id.per_run.push_back(detail::chain_prediction({equations[r]}, n, id.fit.theta));
+    detail::add_measured(id.per_run.back(),
+                         {detail::chain_equations(model, smoothed[r], columns, 0.0)}, n,
+                         id.fit.theta);
+  }
+  detail::add_measured(id.fitted, detail::all_equations(model, smoothed, columns, 0.0), n,
+                       id.fit.theta);
 
   if (runs.size() >= 3 && id.fit.ok()) {
     const auto r_count = static_cast<double>(runs.size());
@@ -527,9 +553,13 @@ SID_INLINE ChainPrediction predict_chain(const ChainModel& model,
     throw std::invalid_argument(std::string(who) + ": the run has no samples after the skips");
   for (int j = 0; j < model.joints(); ++j)
     s.smooth_joint(j, identification.cutoff_hz[j], options.filter_torque);
-  return detail::chain_prediction(
-      {detail::chain_equations(model, s, identification.base.independent, options.rest_fraction)},
-      model.joints(), identification.fit.theta);
+  const std::vector<Eigen::Index>& columns = identification.base.independent;
+  ChainPrediction p =
+      detail::chain_prediction({detail::chain_equations(model, s, columns, options.rest_fraction)},
+                               model.joints(), identification.fit.theta);
+  detail::add_measured(p, {detail::chain_equations(model, s, columns, 0.0)}, model.joints(),
+                       identification.fit.theta);
+  return p;
 }
 
 SID_INLINE std::pair<ChainTrajectory<double>, ChainTrajectory<double>> split_run(

@@ -69,7 +69,8 @@ struct ChainIdentifyOptions {
   LeastSquaresOptions least_squares;
 };
 
-/// @brief How well a parameter set predicts a run's torques, over the equations used.
+/// @brief How well a parameter set predicts a run's torques: over the equations used (the
+/// torque filtered, equations at rest left out, as the fit), and over the log as recorded.
 struct ChainPrediction {
   std::string source;                  ///< a label (the file name, for the apps)
   Eigen::VectorXd residual_rms;        ///< RMS of τ − Yθ per joint [N m]
@@ -77,6 +78,11 @@ struct ChainPrediction {
   double relative_residual = 0.0;      ///< ‖τ − Yθ‖ / ‖τ‖ over all joints
   /// The same against the measured torque without its filtering (its noise included).
   double relative_residual_unfiltered = 0.0;
+  /// Against the measured torque at every sample of the window (at rest too, unfiltered): the
+  /// prediction of the log as recorded, noise and stiction included. Comparable with any
+  /// model's prediction of the same samples.
+  Eigen::VectorXd measured_residual_rms;
+  double measured_relative_residual = 0.0;
   Eigen::VectorXi equations;  ///< equations used per joint
 };
 
