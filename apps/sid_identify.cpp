@@ -155,17 +155,20 @@ error.
 
 Any serial chain (--robot FILE): a URDF (the chain from --base to --tip, defaults the root
 and the one end link) or a DH table (docs/serial-arms.md). Runs have columns t, q1..qn,
-tau1..taun (joint order of the description). The model is the links' rigid-body parameters plus,
-per joint, the drive terms of --effects (default viscous,coulomb,offset,armature; also
-coulomb_asymmetry, or none); a --transmission file (YAML: gear_ratios, couplings, joint_zero)
-makes the runs motor-side and adds the coupled motors' friction and inertia. Each joint's
-smoothing cutoff is chosen by held-out torque prediction (or --cutoff F or F1,...,Fn), the
-torque goes through its joint's smoother too, equations at rest are left out (--rest-fraction).
-The report names each base parameter by the combination it stands for, with its HAC standard
-deviation; --validate RUN and --validate-fraction F report how well held-out torques are
-predicted. Physically consistent links (each a real body, near the URDF's values where the data
-say nothing) are fitted too, and --write-urdf OUT.urdf writes them into a copy of the URDF. The JSON has joint_names, parameter_names, theta, std_dev, residual_rms,
-relative_residual and validation [{file, residual_rms, relative_residual}].
+tau1..taun in the joint order of the description (--columns renames them, e.g.
+t=time,q1=pos_1,tau1=effort_1). The model is the links' rigid-body parameters plus, per joint,
+the drive terms of --effects (default viscous,coulomb,offset,armature; also coulomb_asymmetry,
+or none); a --transmission file (YAML: gear_ratios, couplings, joint_zero) makes the runs
+motor-side and adds the coupled motors' friction and inertia. Each joint's smoothing cutoff is
+chosen by held-out torque prediction (or --cutoff F for all), the torque goes through its
+joint's smoother too, and equations at rest are left out (--rest-fraction). The report names
+each base parameter by the combination it stands for, with its HAC standard deviation;
+--validate RUN and --validate-fraction F report how well held-out torques are predicted, over
+the fit's equations and over the log as recorded. Physically consistent links (each a real
+body, near the URDF's values where the data say nothing) are fitted too, and --write-urdf
+OUT.urdf writes them into a copy of the URDF. The JSON has joint_names, parameter_names, theta,
+std_dev, residual_rms, relative_residual, their *_measured counterparts and validation [{file,
+residual_rms, relative_residual, ...}].
 
 Examples:
   sid_identify log.csv
@@ -708,12 +711,12 @@ int identify(Options o) {
   using sid::app::require;
   if (!o.chain.robot.empty()) {
     require(o.method == "css" && o.sigma_q.empty() && !o.S && o.smoothing.empty() && !o.lambda &&
-                o.truth.empty() && o.reference_theta.empty() && o.gear_ratio.empty() &&
-                o.columns.empty(),
+                o.truth.empty() && o.reference_theta.empty() && o.gear_ratio.empty(),
             "with --robot the smoothing is chosen per joint by held-out torque prediction; "
-            "--method, --sigma-q, --S, --smoothing, --lambda, --true, --reference-theta, "
-            "--gear-ratio and --columns apply to the two-link arm");
+            "--method, --sigma-q, --S, --smoothing, --lambda, --true, --reference-theta "
+            "and --gear-ratio apply to the two-link arm");
     o.chain.inputs = o.inputs;
+    o.chain.columns = o.columns;
     o.chain.validate = o.validate;
     if (o.cutoff) o.chain.cutoff = std::to_string(*o.cutoff);
     o.chain.effects = o.effects;

@@ -25,10 +25,11 @@ struct LoadedRun {
   sid::ChainTrajectory<double> data;
 };
 
-LoadedRun load_run(const std::string& path, const sid::Transmission& transmission,
-                   bool motor_side) {
+LoadedRun load_run(const std::string& path, const sid::Transmission& transmission, bool motor_side,
+                   const std::vector<std::string>& columns) {
   const CsvTable table = read_csv(path);
-  sid::ChainTrajectory<double> run = chain_trajectory_from_table(table, transmission.joints());
+  sid::ChainTrajectory<double> run =
+      chain_trajectory_from_table(table, transmission.joints(), columns);
   if (run.size() < 4)
     throw InputError(table.source + ": identification needs at least 4 data rows, got " +
                      std::to_string(run.size()));
@@ -225,9 +226,11 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
                               transmission, o.coulomb_epsilon.value_or(0.01));
   const sid::ChainIdentifyOptions options = make_options(o, n);
 
+  const std::vector<std::string> columns = chain_columns(o.columns, n, "--columns");
   std::vector<LoadedRun> runs, held_out;
-  for (const auto& f : o.inputs) runs.push_back(load_run(f, transmission, motor_side));
-  for (const auto& f : o.validate) held_out.push_back(load_run(f, transmission, motor_side));
+  for (const auto& f : o.inputs) runs.push_back(load_run(f, transmission, motor_side, columns));
+  for (const auto& f : o.validate)
+    held_out.push_back(load_run(f, transmission, motor_side, columns));
   if (o.validate_fraction) {
     try {
       auto [first, last] = sid::split_run(runs.front().data, 1.0 - *o.validate_fraction);

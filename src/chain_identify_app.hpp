@@ -15,6 +15,7 @@ struct ChainIdentifyAppOptions {
   std::string base, tip;     ///< URDF links (empty: the root and the one leaf)
   std::string transmission;  ///< YAML; empty: the logs are joint-side
   std::vector<std::string> inputs;
+  std::string columns;  ///< "t=time,q1=...,tau1=..." renames the log's columns
   std::vector<std::string> validate;
   std::optional<double> validate_fraction;  ///< fit the first 1 - f of one run, predict the rest
   std::string cutoff;                       ///< one value or one per joint [Hz]; empty: chosen

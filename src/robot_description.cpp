@@ -238,19 +238,51 @@ sid::Transmission read_transmission(const std::string& path,
   }
 }
 
-sid::ChainTrajectory<double> chain_trajectory_from_table(const CsvTable& table, int joints) {
-  const Eigen::VectorXd& t = table.column("t");
-  std::vector<const Eigen::VectorXd*> q, tau;
-  for (int j = 1; j <= joints; ++j) q.push_back(&table.column("q" + std::to_string(j)));
-  for (int j = 1; j <= joints; ++j) tau.push_back(&table.column("tau" + std::to_string(j)));
-  require_strictly_increasing(table, "t");
+std::vector<std::string> chain_columns(const std::string& map, int joints,
+                                       const std::string& option) {
+  std::vector<std::string> keys = {"t"};
+  for (const char* stem : {"q", "tau"})
+    for (int j = 1; j <= joints; ++j) keys.push_back(stem + std::to_string(j));
+  std::vector<std::string> names = keys;
+  std::vector<bool> given(keys.size(), false);
+  std::istringstream in(map);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    const auto trim = [](std::string v) {
+      const auto b = v.find_first_not_of(" \t"), e = v.find_last_not_of(" \t");
+      return b == std::string::npos ? std::string() : v.substr(b, e - b + 1);
+    };
+    const auto eq = item.find('=');
+    if (eq == std::string::npos)
+      throw InputError(option + ": '" + trim(item) + "' is not KEY=NAME");
+    const std::string key = trim(item.substr(0, eq)), name = trim(item.substr(eq + 1));
+    const auto at = std::find(keys.begin(), keys.end(), key);
+    if (at == keys.end())
+      throw InputError(option + ": unknown key '" + key + "' (expected t, q1..q" +
+                       std::to_string(joints) + ", tau1..tau" + std::to_string(joints) + ")");
+    const auto k = static_cast<std::size_t>(at - keys.begin());
+    if (given[k]) throw InputError(option + ": '" + key + "' is given twice");
+    if (name.empty()) throw InputError(option + ": '" + key + "' maps to an empty name");
+    given[k] = true;
+    names[k] = name;
+  }
+  return names;
+}
+
+sid::ChainTrajectory<double> chain_trajectory_from_table(const CsvTable& table, int joints,
+                                                         const std::vector<std::string>& names) {
+  // Every column is looked up first, so a missing one is reported before any row problem.
+  const Eigen::VectorXd& t = table.column(names[0]);
+  std::vector<const Eigen::VectorXd*> columns;
+  for (std::size_t k = 1; k < names.size(); ++k) columns.push_back(&table.column(names[k]));
+  require_strictly_increasing(table, names[0]);
   sid::ChainTrajectory<double> run;
   run.t = t;
   run.q.resize(t.size(), joints);
   run.tau.resize(t.size(), joints);
   for (int j = 0; j < joints; ++j) {
-    run.q.col(j) = *q[static_cast<std::size_t>(j)];
-    run.tau.col(j) = *tau[static_cast<std::size_t>(j)];
+    run.q.col(j) = *columns[static_cast<std::size_t>(j)];
+    run.tau.col(j) = *columns[static_cast<std::size_t>(joints + j)];
   }
   return run;
 }

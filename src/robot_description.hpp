@@ -40,8 +40,17 @@ RobotDescription read_robot_description(const std::string& path, const std::stri
 sid::Transmission read_transmission(const std::string& path,
                                     const std::vector<std::string>& joint_names);
 
-/// @brief A chain log from a table with columns t, q1..qn, tau1..taun (any order).
+/// @brief The column names of a chain log: "t", "q1".."qn", "tau1".."taun" unless a map
+/// "t=time,q1=pos_1,...,tau7=effort_7" (any subset, any order) renames some.
+/// @throws InputError on a key that is not one of those, a key given twice, a missing '=' or an
+///         empty name; option names the option in the message.
+std::vector<std::string> chain_columns(const std::string& map, int joints,
+                                       const std::string& option);
+
+/// @brief A chain log from a table with the columns named by chain_columns (any order; other
+/// columns ignored).
 /// @throws InputError on a missing column or time that is not strictly increasing.
-sid::ChainTrajectory<double> chain_trajectory_from_table(const CsvTable& table, int joints);
+sid::ChainTrajectory<double> chain_trajectory_from_table(const CsvTable& table, int joints,
+                                                         const std::vector<std::string>& names);
 
 }  // namespace sid::app

@@ -112,9 +112,15 @@ TEST_F(IdentifyRobot, DhTableWithJointSideRunsAndValidation) {
   write_dh();
   write_run("run1.csv", 6.0, 1);
   write_run("run2.csv", 4.0, 2);
-  const sid_test::AppRun r =
-      shell(app("sid_identify") +
-            " --robot arm.dh --cutoff 8 --validate run2.csv --json fit.json run1.csv");
+  // The runs' columns under other names, mapped back by --columns.
+  for (const char* name : {"run1.csv", "run2.csv"}) {
+    const std::string text = read(file(name));
+    write(name, "time,pos_1,pos_2,pos_3,effort_1,effort_2,effort_3" + text.substr(text.find('\n')));
+  }
+  const sid_test::AppRun r = shell(
+      app("sid_identify") +
+      " --robot arm.dh --cutoff 8 --columns t=time,q1=pos_1,q2=pos_2,q3=pos_3,"
+      "tau1=effort_1,tau2=effort_2,tau3=effort_3 --validate run2.csv --json fit.json run1.csv");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("a: RMS"), std::string::npos) << r.out;  // joint names from the table
   const nlohmann::json fit = nlohmann::json::parse(read(file("fit.json")));
@@ -145,6 +151,8 @@ TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
   refused("--transmission arm.dh run.csv", "need --robot");
   refused("--robot arm.dh --validate-fraction 0.3 run.csv run.csv", "one run");
   refused("--robot arm.dh --effects viscous,stiction run.csv", "stiction");
+  refused("--robot arm.dh --columns q4=x run.csv", "unknown key 'q4'");
+  refused("--robot arm.dh --columns t=time run.csv", "no column 'time'");
   refused("--robot arm.dh --method filtered run.csv", "two-link");
   refused("--robot arm.dh --base link0 run.csv", "DH table");
   refused("--robot arm.dh --write-urdf out.urdf run.csv", "needs a URDF");
