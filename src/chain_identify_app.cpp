@@ -96,7 +96,8 @@ void print_prediction_rows(std::ostream& out, const sid::ChainModel& model,
 std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel& model,
                         const sid::ChainIdentification& id,
                         const std::vector<sid::ChainPrediction>& validation,
-                        const sid::ChainConsistentFit& consistent) {
+                        const sid::ChainConsistentFit& consistent,
+                        const std::vector<std::string>& link_names) {
   std::ostringstream out;
   out << "robot " << o.robot << ": " << model.joints() << " joints (" << [&] {
     std::string s;
@@ -145,9 +146,10 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
   for (int i = 0; i < model.joints(); ++i) {
     const double m = consistent.theta[10 * i];
     const Eigen::Vector3d c = consistent.theta.segment<3>(10 * i + 1) / m;
-    out << "  link " << i + 1 << ": mass " << number("%.4g", m) << " kg, centre of mass ("
-        << number("%.3g", c[0]) << ", " << number("%.3g", c[1]) << ", " << number("%.3g", c[2])
-        << ") m\n";
+    const auto k = static_cast<std::size_t>(i);
+    out << "  " << (k < link_names.size() ? link_names[k] : "link " + std::to_string(i + 1))
+        << ": mass " << number("%.4g", m) << " kg, centre of mass (" << number("%.3g", c[0]) << ", "
+        << number("%.3g", c[1]) << ", " << number("%.3g", c[2]) << ") m\n";
   }
   return out.str();
 }
@@ -285,7 +287,7 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
     written = urdf_with_link_parameters(robot.urdf, robot.base, robot.tip, robot.link_names, phi);
   }
   (o.json == "-" ? std::cerr : std::cout)
-      << report_text(o, model, id, validation, consistent) << std::flush;
+      << report_text(o, model, id, validation, consistent, robot.link_names) << std::flush;
   if (id.fit.ill_conditioned) std::cerr << app_name << ": warning: " << id.fit.message << "\n";
   if (!o.json.empty()) write_json(o.json, report_json(o, model, id, validation, consistent));
   if (!o.write_urdf.empty()) {

@@ -7,7 +7,9 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
+#include <array>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -99,81 +101,112 @@ SID_INLINE ChainConsistentFit consistent_chain_parameters(const ChainModel& mode
                                 std::to_string(p) + " parameters");
 
   ChainConsistentFit out;
-  Eigen::VectorXd z(links + drives);
+  // A strictly feasible start: the prior, each link moved just inside the set of real bodies.
+  Eigen::VectorXd theta = prior;
   for (int i = 0; i < n; ++i) {
     const LinkParameters<double> phi = prior.segment<10>(10 * i);
     out.prior_inconsistency.push_back(link_inconsistency(phi));
-    z.segment<10>(10 * i) = log_cholesky_from_link_parameters(phi);
+    theta.segment<10>(10 * i) =
+        link_parameters_from_log_cholesky(log_cholesky_from_link_parameters(phi));
   }
-  z.tail(drives) = prior.tail(drives);
 
   // r is upper triangular (the QR's factor): below its diagonal it holds zeros.
   const Eigen::MatrixXd a = id.fit.r * id.fit.column_scale.asDiagonal();
-  const Eigen::VectorXd weight =
-      std::sqrt(options.prior_weight) * (prior.cwiseAbs().array() + 0.01).inverse().matrix();
-  const auto theta_of = [&](const Eigen::VectorXd& zz) {
-    Eigen::VectorXd theta(p);
-    for (int i = 0; i < n; ++i)
-      theta.segment<10>(10 * i) = link_parameters_from_log_cholesky(zz.segment<10>(10 * i));
-    theta.tail(drives) = zz.tail(drives);
-    return theta;
-  };
-  const Eigen::Index r = id.base.rank();
-  const auto residual = [&](const Eigen::VectorXd& zz) {
-    const Eigen::VectorXd theta = theta_of(zz);
-    Eigen::VectorXd res(r + p);
-    res.head(r) = a * (id.base.beta(theta) - id.fit.theta);
-    res.tail(p) = weight.cwiseProduct(theta - prior);
-    return res;
-  };
-
-  Eigen::VectorXd res = residual(z);
-  double cost = res.squaredNorm(), mu = 1e-3;
-  Eigen::MatrixXd jac(r + p, z.size());
-  std::vector<double> history;
+  // The prior's distance in each link's own scale: its mass m0 and radius of gyration r0
+  // about its origin, so that a change of mass, of first moment (m0 r0) and of inertia
+  // (m0 r0²) by the same fraction cost the same, whatever the link's size.
+  Eigen::VectorXd scale(p);
+  for (int i = 0; i < n; ++i) {
+    const LinkParameters<double> phi = prior.segment<10>(10 * i);
+    const double m0 = std::max(phi[0], 1e-3);
+    const double r2 = std::max((phi[4] + phi[6] + phi[9]) / (2.0 * m0), 1e-4);
+    scale.segment<10>(10 * i) << m0, Eigen::Vector3d::Constant(m0 * std::sqrt(r2)),
+        Eigen::Matrix<double, 6, 1>::Constant(m0 * r2);
+  }
+  scale.tail(drives) = prior.tail(drives).cwiseAbs().array() + 1.0;
+  // γ in units of the fit's residual sum of squares: a unit relative change of a parameter the
+  // data do not see costs prior_weight of it, whatever the log's length and units.
   const double least_squares_rss = id.fit.residual.squaredNorm();
-  for (out.iterations = 0; out.iterations < options.max_iterations; ++out.iterations) {
-    for (Eigen::Index k = 0; k < z.size(); ++k) {  // central differences
-      const double h = 1e-6 * (1.0 + std::abs(z[k]));
-      Eigen::VectorXd up = z, down = z;
-      up[k] += h;
-      down[k] -= h;
-      jac.col(k) = (residual(up) - residual(down)) / (2.0 * h);
-    }
-    const Eigen::MatrixXd normal = jac.transpose() * jac;
-    const Eigen::VectorXd gradient = jac.transpose() * res;
-    bool improved = false;
-    for (int attempt = 0; attempt < 30 && !improved; ++attempt) {
-      Eigen::MatrixXd damped = normal;
-      damped.diagonal() += mu * normal.diagonal().cwiseMax(1e-12);
-      const Eigen::VectorXd step = damped.ldlt().solve(-gradient);
-      const Eigen::VectorXd trial = z + step;
-      const Eigen::VectorXd trial_res = residual(trial);
-      const double trial_cost = trial_res.squaredNorm();
-      if (std::isfinite(trial_cost) && trial_cost < cost) {
-        z = trial;
-        res = trial_res;
-        cost = trial_cost;
-        mu = std::max(mu / 3.0, 1e-12);
-        improved = true;
-      } else {
-        mu *= 4.0;
+  const Eigen::VectorXd w2 = (options.prior_weight * std::max(least_squares_rss, 1e-300)) *
+                             scale.cwiseAbs2().cwiseInverse();
+
+  // F(θ) = ‖A (P θ − β̂)‖² + Σ w2 (θ − θ₀)², with β = P θ the base parameters: a quadratic.
+  const Eigen::Index r = id.base.rank();
+  Eigen::MatrixXd pm = Eigen::MatrixXd::Zero(r, p);
+  for (Eigen::Index c = 0; c < r; ++c)
+    pm(c, id.base.independent[static_cast<std::size_t>(c)]) = 1.0;
+  for (Eigen::Index c = 0; c < id.base.K.cols(); ++c)
+    pm.col(id.base.dependent[static_cast<std::size_t>(c)]) = id.base.K.col(c);
+  const Eigen::MatrixXd ap = a * pm;
+  const Eigen::VectorXd ab = a * id.fit.theta;
+  Eigen::MatrixXd hessian_f = 2.0 * ap.transpose() * ap;
+  hessian_f.diagonal() += 2.0 * w2;
+  const auto cost_f = [&](const Eigen::VectorXd& t) {
+    return (ap * t - ab).squaredNorm() + w2.dot((t - prior).cwiseAbs2());
+  };
+  const auto gradient_f = [&](const Eigen::VectorXd& t) {
+    return Eigen::VectorXd(2.0 * ap.transpose() * (ap * t - ab) + 2.0 * w2.cwiseProduct(t - prior));
+  };
+  // The pseudo-inertia is linear in a link's ten parameters: J = Σ_k φ_k E_k.
+  std::array<Eigen::Matrix4d, 10> basis;
+  for (int c = 0; c < 10; ++c)
+    basis[static_cast<std::size_t>(c)] = detail::pseudo_inertia(LinkParameters<double>::Unit(c));
+  // The barrier −Σ log det J_i, its gradient and Hessian; +∞ outside the real bodies.
+  const auto barrier = [&](const Eigen::VectorXd& t, Eigen::VectorXd* g, Eigen::MatrixXd* h) {
+    double value = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const Eigen::Matrix4d j = detail::pseudo_inertia(t.segment<10>(10 * i));
+      const Eigen::LLT<Eigen::Matrix4d> llt(j);
+      if (llt.info() != Eigen::Success || !(llt.matrixLLT().diagonal().minCoeff() > 0.0))
+        return std::numeric_limits<double>::infinity();
+      value -= 2.0 * llt.matrixLLT().diagonal().array().log().sum();
+      if (!g) continue;
+      const Eigen::Matrix4d inverse = llt.solve(Eigen::Matrix4d::Identity());
+      std::array<Eigen::Matrix4d, 10> ie;
+      for (std::size_t c = 0; c < 10; ++c) ie[c] = inverse * basis[c];
+      for (int c = 0; c < 10; ++c) {
+        (*g)[10 * i + c] -= ie[static_cast<std::size_t>(c)].trace();
+        for (int e = 0; e < 10; ++e)
+          (*h)(10 * i + c, 10 * i + e) +=
+              (ie[static_cast<std::size_t>(c)] * ie[static_cast<std::size_t>(e)]).trace();
       }
     }
-    // The best real body often lies on the boundary (a link flat along an axis), which the
-    // log-Cholesky numbers reach only asymptotically: the cost then keeps falling, ever more
-    // slowly. Stop once ten steps together gain less than the tolerance of the residual sum of
-    // squares (nothing a user would see) or 1e-4 of the cost itself.
-    history.push_back(cost);
-    if (history.size() > 10) {
-      const double gain = history[history.size() - 11] - cost;
-      if (gain <= options.tolerance * (least_squares_rss + cost) || gain <= 1e-4 * cost)
-        out.converged = true;
+    return value;
+  };
+
+  // Interior point: Newton's method on t F − Σ log det J_i for growing t; the answer is within
+  // 4n / t of the optimum of F over the real bodies.
+  const double barrier_size = 4.0 * n;
+  const double target_gap = options.tolerance * std::max(least_squares_rss, 1e-300);
+  double weight_t = barrier_size / std::max(cost_f(theta), 1e-300);
+  out.iterations = 0;
+  while (out.iterations < options.max_iterations) {
+    for (; out.iterations < options.max_iterations; ++out.iterations) {
+      Eigen::VectorXd g = weight_t * gradient_f(theta);
+      Eigen::MatrixXd h = weight_t * hessian_f;
+      const double value = weight_t * cost_f(theta) + barrier(theta, &g, &h);
+      const Eigen::VectorXd step = h.ldlt().solve(-g);
+      const double decrement = -g.dot(step);
+      if (!(decrement > 2e-10)) break;
+      double length = 1.0;
+      bool descended = false;
+      for (int halving = 0; halving < 60 && !descended; ++halving) {
+        const Eigen::VectorXd trial = theta + length * step;
+        const double b = barrier(trial, nullptr, nullptr);
+        descended =
+            std::isfinite(b) && weight_t * cost_f(trial) + b <= value - 0.25 * length * decrement;
+        if (!descended) length *= 0.5;
+      }
+      if (!descended) break;  // round-off: Newton's step no longer descends, t's centre is here
+      theta += length * step;
     }
-    if (!improved) out.converged = true;  // no step lowers the cost: a minimum to round-off
-    if (out.converged) break;
+    if (barrier_size / weight_t <= target_gap) {
+      out.converged = true;
+      break;
+    }
+    weight_t *= 10.0;
   }
-  out.theta = theta_of(z);
+  out.theta = theta;
   out.beta = id.base.beta(out.theta);
   const double rss = least_squares_rss;
   out.least_squares_relative_residual = id.fitted.relative_residual;

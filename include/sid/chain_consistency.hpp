@@ -11,13 +11,18 @@
 /// Wensing 2022) writes J = U Uᵀ with U upper triangular, U = e^α [[e^d1, s12, s13, t1],
 /// [0, e^d2, s23, t2], [0, 0, e^d3, t3], [0, 0, 0, 1]]: every one of its ten unconstrained
 /// numbers gives a real body (J positive definite), and every real body with J positive definite
-/// has one. The fit is then an unconstrained nonlinear least-squares problem, solved by
-/// Levenberg–Marquardt:
-///   minimise ‖R S (β(θ(ξ, d)) − β̂)‖² + γ ‖(θ(ξ, d) − θ₀) / (|θ₀| + s₀)‖²
-/// with R S the triangular factor of the identification's column-scaled base regressor (so the
-/// first term is the growth of the residual sum of squares over the least-squares fit), ξ the
-/// links' log-Cholesky numbers and d the drive terms, free. The second term is tiny (γ = 1e-6)
-/// and only decides the directions the data do not see.
+/// has one. The fit minimises
+///   F(θ) = ‖R S (β(θ) − β̂)‖² + γ RSS ‖(θ − θ₀) / s‖²
+/// over the parameters whose links are all real bodies: R S the triangular factor of the
+/// identification's column-scaled base regressor, so the first term is the growth of the residual
+/// sum of squares over the least-squares fit; the second is small (γ = 1e-4 of the least-squares
+/// RSS per unit relative change) and decides the directions the data do not see, with s scaling
+/// each link's parameters by its prior mass m0 and radius of gyration r0 (m0; m0 r0 for first
+/// moments; m0 r0² for inertias) and each drive term by 1 + |its prior|. F is quadratic and the
+/// set is convex (linear matrix inequalities J_i(θ) ⪰ 0), so the problem is convex with one
+/// answer: it is solved by an interior-point method (Newton on t F − Σ log det J_i, t growing
+/// tenfold) to within tolerance · RSS of the optimum. The log-Cholesky numbers give it a start
+/// strictly inside.
 
 #include <sid/config.hpp>
 #include <sid/identify_chain.hpp>
@@ -33,12 +38,11 @@ namespace sid {
 
 /// @brief Options of consistent_chain_parameters.
 struct ChainConsistencyOptions {
-  double prior_weight = 1e-6;  ///< γ, > 0
-  int max_iterations = 500;    ///< Levenberg–Marquardt steps, >= 1
-  /// Stop when ten steps together lower the cost by less than this fraction of the residual
-  /// sum of squares (so the relative residual no longer moves in its sixth digit), or by less
-  /// than 1e-4 of the cost.
-  double tolerance = 1e-6;
+  /// γ, > 0, relative to the least-squares fit's residual sum of squares.
+  double prior_weight = 1e-4;
+  int max_iterations = 500;  ///< Newton steps in all, >= 1
+  /// The answer's cost is within tolerance times the least-squares RSS of the optimum.
+  double tolerance = 1e-7;
 };
 
 /// @brief What consistent_chain_parameters found.
