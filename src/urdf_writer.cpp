@@ -83,13 +83,7 @@ std::string urdf_with_link_parameters(const std::string& urdf, const std::string
     const sid::LinkParameters<double> own = phi[k] - carried;
     // A real body has a positive semidefinite pseudo-inertia (Wensing et al. 2018); the fit's
     // links may lie at its boundary (a body flat along one axis), so round-off is allowed for.
-    Eigen::Matrix3d inertia;
-    inertia << own[4], own[5], own[7], own[5], own[6], own[8], own[7], own[8], own[9];
-    Eigen::Matrix4d pseudo;
-    pseudo.topLeftCorner<3, 3>() = 0.5 * inertia.trace() * Eigen::Matrix3d::Identity() - inertia;
-    pseudo.topRightCorner<3, 1>() = own.segment<3>(1);
-    pseudo.bottomLeftCorner<1, 3>() = own.segment<3>(1).transpose();
-    pseudo(3, 3) = own[0];
+    const Eigen::Matrix4d pseudo = sid::pseudo_inertia(own);
     const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d>(pseudo).eigenvalues()[0];
     if (!(own[0] > 0.0) || smallest < -1e-12 * pseudo.trace())
       throw InputError("--write-urdf: link '" + links[k] +

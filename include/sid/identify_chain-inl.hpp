@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <random>
@@ -111,6 +112,28 @@ inline double uniform(std::mt19937& g, double lo, double hi) {
   return lo + (hi - lo) * (static_cast<double>(g()) + 0.5) / 4294967296.0;
 }
 
+/// The equations of several runs stacked, leaving out run `skip` (none when negative).
+struct StackedChainEquations {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y;
+};
+
+inline StackedChainEquations stack_equations(const std::vector<ChainEquations>& equations,
+                                             std::ptrdiff_t skip = -1) {
+  Eigen::Index rows = 0, columns = equations.empty() ? 0 : equations.front().x.cols();
+  for (std::size_t r = 0; r < equations.size(); ++r)
+    if (static_cast<std::ptrdiff_t>(r) != skip) rows += equations[r].y.size();
+  StackedChainEquations out{Eigen::MatrixXd(rows, columns), Eigen::VectorXd(rows)};
+  Eigen::Index at = 0;
+  for (std::size_t r = 0; r < equations.size(); ++r) {
+    if (static_cast<std::ptrdiff_t>(r) == skip) continue;
+    out.x.middleRows(at, equations[r].y.size()) = equations[r].x;
+    out.y.segment(at, equations[r].y.size()) = equations[r].y;
+    at += equations[r].y.size();
+  }
+  return out;
+}
+
 /// The base parameters of the data: structural base columns that the runs' equations do not
 /// tell apart from the columns before them (relative distance below data_tolerance at unit
 /// norm, e.g. an asymmetric Coulomb level when no equation is at rest) regroup onto those, so
@@ -119,16 +142,9 @@ inline BaseParameters<double> data_base_parameters(const ChainModel& model,
                                                    const BaseParameters<double>& structural,
                                                    const std::vector<ChainEquations>& equations,
                                                    double data_tolerance) {
-  Eigen::Index rows = 0;
-  for (const auto& e : equations) rows += e.y.size();
   const Eigen::Index r = structural.rank();
-  Eigen::MatrixXd x(rows, r);
-  Eigen::Index at = 0;
-  for (const auto& e : equations) {
-    x.middleRows(at, e.y.size()) = e.x;
-    at += e.y.size();
-  }
-  if (rows < r) return structural;
+  const Eigen::MatrixXd x = stack_equations(equations).x;
+  if (x.rows() < r) return structural;
   const BaseParameters<double> in_data = base_parameters_in_order(x, data_tolerance);
   if (in_data.rank() == r) return structural;
   // beta_data = E beta_structural, beta_structural = M theta: compose E M.
@@ -399,6 +415,44 @@ inline Eigen::VectorXd chain_hac_std_dev(const std::vector<ChainEquations>& equa
   return (bread * long_run * bread).diagonal().cwiseMax(0.0).cwiseSqrt();
 }
 
+/// Least squares on the stacked equations, or Gautier's weighted least squares: each joint's
+/// equations weighted by the inverse of its residual variance in a first unweighted fit. weight
+/// receives the row weights used (ones for least squares).
+inline LeastSquaresResult<double> chain_fit(const std::vector<ChainEquations>& equations,
+                                            const StackedChainEquations& stacked, int joints,
+                                            bool weighted, const LeastSquaresOptions& ls,
+                                            Eigen::VectorXd& weight) {
+  LeastSquaresResult<double> fit = least_squares(stacked.x, stacked.y, 1, ls);
+  weight = Eigen::VectorXd::Ones(stacked.y.size());
+  if (!weighted || !fit.ok()) return fit;
+  const ChainPrediction first = chain_prediction(equations, joints, fit.theta);
+  Eigen::Index at = 0;
+  for (const auto& e : equations)
+    for (Eigen::Index r = 0; r < e.y.size(); ++r, ++at) {
+      const double rms = first.residual_rms[e.joint[static_cast<std::size_t>(r)]];
+      weight[at] = 1.0 / std::max(rms * rms, 1e-300);
+    }
+  return weighted_least_squares(stacked.x, stacked.y, weight, 1, ls);
+}
+
+/// The jackknife standard deviations over the fits that leave one run out in turn (empty if
+/// one of them fails).
+inline Eigen::VectorXd chain_jackknife_std_dev(const std::vector<ChainEquations>& equations,
+                                               const LeastSquaresOptions& ls) {
+  const auto runs = static_cast<double>(equations.size());
+  std::vector<Eigen::VectorXd> left_out;
+  for (std::size_t r = 0; r < equations.size(); ++r) {
+    const StackedChainEquations others = stack_equations(equations, static_cast<std::ptrdiff_t>(r));
+    const LeastSquaresResult<double> fit = least_squares(others.x, others.y, 1, ls);
+    if (!fit.ok()) return {};
+    left_out.push_back(fit.theta);
+  }
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(left_out.front().size()), sum2 = mean;
+  for (const auto& t : left_out) mean += t / runs;
+  for (const auto& t : left_out) sum2 += (t - mean).cwiseAbs2();
+  return ((runs - 1.0) / runs * sum2).cwiseSqrt();
+}
+
 }  // namespace detail
 
 SID_INLINE BaseParameters<double> chain_base_parameters(const ChainModel& model,
@@ -464,35 +518,16 @@ SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
 
   const std::vector<detail::ChainEquations> equations =
       detail::all_equations(model, smoothed, columns, options.rest_fraction);
-  Eigen::Index rows = 0;
-  for (const auto& e : equations) rows += e.y.size();
-  Eigen::MatrixXd x(rows, static_cast<Eigen::Index>(columns.size()));
-  Eigen::VectorXd y(rows);
-  Eigen::Index at = 0;
-  for (const auto& e : equations) {
-    x.middleRows(at, e.y.size()) = e.x;
-    y.segment(at, e.y.size()) = e.y;
-    at += e.y.size();
-  }
-  if (rows <= x.cols())
+  const detail::StackedChainEquations stacked = detail::stack_equations(equations);
+  const Eigen::Index rows = stacked.x.rows();
+  if (rows <= static_cast<Eigen::Index>(columns.size()))
     throw std::invalid_argument(std::string(who) + ": " + std::to_string(rows) + " equations for " +
-                                std::to_string(x.cols()) +
+                                std::to_string(columns.size()) +
                                 " base parameters; give longer or more runs");
   LeastSquaresOptions ls = options.least_squares;
   ls.column_names = id.parameter_names;
-  id.fit = least_squares(x, y, 1, ls);
-  Eigen::VectorXd weight = Eigen::VectorXd::Ones(rows);
-  if (options.weighted && id.fit.ok()) {
-    // Gautier: each joint's equations weighted by the inverse of its residual variance.
-    const ChainPrediction first = detail::chain_prediction(equations, n, id.fit.theta);
-    at = 0;
-    for (const auto& e : equations)
-      for (Eigen::Index r = 0; r < e.y.size(); ++r, ++at) {
-        const double rms = first.residual_rms[e.joint[static_cast<std::size_t>(r)]];
-        weight[at] = 1.0 / std::max(rms * rms, 1e-300);
-      }
-    id.fit = weighted_least_squares(x, y, weight, 1, ls);
-  }
+  Eigen::VectorXd weight;
+  id.fit = detail::chain_fit(equations, stacked, n, options.weighted, ls, weight);
   id.std_dev = detail::chain_hac_std_dev(equations, id.fit, weight);
   id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
   id.fitted = detail::chain_prediction(equations, n, id.fit.theta);
@@ -505,33 +540,8 @@ SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
   detail::add_measured(id.fitted, detail::all_equations(model, smoothed, columns, 0.0), n,
                        id.fit.theta);
 
-  if (runs.size() >= 3 && id.fit.ok()) {
-    const auto r_count = static_cast<double>(runs.size());
-    std::vector<Eigen::VectorXd> left_out;
-    for (std::size_t r = 0; r < runs.size(); ++r) {
-      std::vector<detail::ChainEquations> others;
-      for (std::size_t s = 0; s < runs.size(); ++s)
-        if (s != r) others.push_back(equations[s]);
-      Eigen::Index m = 0;
-      for (const auto& e : others) m += e.y.size();
-      Eigen::MatrixXd xo(m, x.cols());
-      Eigen::VectorXd yo(m);
-      Eigen::Index k = 0;
-      for (const auto& e : others) {
-        xo.middleRows(k, e.y.size()) = e.x;
-        yo.segment(k, e.y.size()) = e.y;
-        k += e.y.size();
-      }
-      const LeastSquaresResult<double> fit = least_squares(xo, yo, 1, ls);
-      if (fit.ok()) left_out.push_back(fit.theta);
-    }
-    if (left_out.size() == runs.size()) {
-      Eigen::VectorXd mean = Eigen::VectorXd::Zero(x.cols()), sum2 = mean;
-      for (const auto& t : left_out) mean += t / r_count;
-      for (const auto& t : left_out) sum2 += (t - mean).cwiseAbs2();
-      id.jackknife_std_dev = ((r_count - 1.0) / r_count * sum2).cwiseSqrt();
-    }
-  }
+  if (runs.size() >= 3 && id.fit.ok())
+    id.jackknife_std_dev = detail::chain_jackknife_std_dev(equations, ls);
   return id;
 }
 

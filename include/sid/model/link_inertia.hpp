@@ -40,6 +40,21 @@ LinkParameters<Scalar> standard_parameters(const LinkInertia<Scalar>& link) {
   return phi;
 }
 
+/// @brief The pseudo-inertia [[tr(I)/2 · 1 − I, m c], [m cᵀ, m]] (I about the frame's origin),
+/// linear in the ten parameters; they are a real body exactly when it is positive semidefinite
+/// (Wensing, Kim & Slotine 2018).
+template <typename Scalar>
+Eigen::Matrix<Scalar, 4, 4> pseudo_inertia(const LinkParameters<Scalar>& phi) {
+  Matrix3<Scalar> i;
+  i << phi[4], phi[5], phi[7], phi[5], phi[6], phi[8], phi[7], phi[8], phi[9];
+  Eigen::Matrix<Scalar, 4, 4> j;
+  j.template topLeftCorner<3, 3>() = Scalar(0.5) * i.trace() * Matrix3<Scalar>::Identity() - i;
+  j.template topRightCorner<3, 1>() = phi.template segment<3>(1);
+  j.template bottomLeftCorner<1, 3>() = phi.template segment<3>(1).transpose();
+  j(3, 3) = phi[0];
+  return j;
+}
+
 /// @brief Why ten parameters cannot be a real body, or an empty string if they can: the mass
 /// must be positive and the inertia about the centre of mass positive definite with principal
 /// moments that satisfy the triangle inequality (each at most the sum of the other two).
