@@ -216,6 +216,9 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--base", o.chain.base, "--robot URDF: the chain's first link (default: root)");
   cli.add_option("--tip", o.chain.tip,
                  "--robot URDF: the chain's last link (default: the one end link)");
+  cli.add_option("--hold", o.chain.hold,
+                 "--robot URDF: JOINT=VALUE,... holds joints off the chain (a gripper past the "
+                 "tip, a head on a branch) at VALUE [rad or m] instead of 0");
   cli.add_option("--transmission", o.chain.transmission,
                  "--robot: YAML with gear_ratios, couplings and joint_zero; the runs are then "
                  "motor-side (angles and torques as the drives log them)")
@@ -726,10 +729,10 @@ int identify(Options o) {
     o.chain.force = o.force;
     return sid::app::identify_robot(o.chain, kName);
   }
-  require(o.chain.base.empty() && o.chain.tip.empty() && o.chain.transmission.empty() &&
-              !o.chain.validate_fraction && !o.chain.rest_fraction && !o.chain.coulomb_epsilon &&
-              o.chain.write_urdf.empty(),
-          "--base, --tip, --transmission, --validate-fraction, --rest-fraction, "
+  require(o.chain.base.empty() && o.chain.tip.empty() && o.chain.hold.empty() &&
+              o.chain.transmission.empty() && !o.chain.validate_fraction &&
+              !o.chain.rest_fraction && !o.chain.coulomb_epsilon && o.chain.write_urdf.empty(),
+          "--base, --tip, --hold, --transmission, --validate-fraction, --rest-fraction, "
           "--coulomb-epsilon and --write-urdf need --robot");
   if (uses_torque_cv(o)) return identify_from_runs(o);
   require(o.inputs.size() == 1,

@@ -206,7 +206,8 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
           "--validate-fraction must be in (0, 1)");
   if (!o.json.empty()) ensure_writable(o.json, o.force);
   if (!o.write_urdf.empty()) ensure_writable(o.write_urdf, o.force);
-  const RobotDescription robot = read_robot_description(o.robot, o.base, o.tip);
+  const RobotDescription robot =
+      read_robot_description(o.robot, o.base, o.tip, parse_held_joints(o.hold, "--hold"));
   require(o.write_urdf.empty() || !robot.urdf.empty(),
           "--write-urdf needs a URDF as --robot, not a DH table");
   const int n = robot.chain.joints();

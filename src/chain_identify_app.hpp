@@ -13,6 +13,7 @@ namespace sid::app {
 struct ChainIdentifyAppOptions {
   std::string robot;         ///< URDF or DH table
   std::string base, tip;     ///< URDF links (empty: the root and the one leaf)
+  std::string hold;          ///< "joint=value,...": joints off the chain held there (URDF)
   std::string transmission;  ///< YAML; empty: the logs are joint-side
   std::vector<std::string> inputs;
   std::string columns;  ///< "t=time,q1=...,tau1=..." renames the log's columns

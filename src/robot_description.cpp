@@ -130,12 +130,38 @@ RobotDescription read_dh(const std::string& path, const std::string& text) {
 
 }  // namespace
 
+std::map<std::string, double> parse_held_joints(const std::string& text,
+                                                const std::string& option) {
+  std::map<std::string, double> held;
+  std::istringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    const auto eq = item.find('=');
+    const auto trim = [](const std::string& v) {
+      const auto b = v.find_first_not_of(" \t"), e = v.find_last_not_of(" \t");
+      return b == std::string::npos ? std::string() : v.substr(b, e - b + 1);
+    };
+    if (eq == std::string::npos || trim(item.substr(0, eq)).empty())
+      throw InputError(option + ": '" + trim(item) + "' is not JOINT=VALUE");
+    const std::string name = trim(item.substr(0, eq)), value = trim(item.substr(eq + 1));
+    std::istringstream number(value);
+    number.imbue(std::locale::classic());
+    double v = 0.0;
+    if (!(number >> v) || !(number >> std::ws).eof() || !std::isfinite(v))
+      throw InputError(option + ": the value of '" + name + "' ('" + value +
+                       "') is not a finite number");
+    if (!held.emplace(name, v).second) throw InputError(option + ": '" + name + "' is given twice");
+  }
+  return held;
+}
+
 RobotDescription read_robot_description(const std::string& path, const std::string& base,
-                                        const std::string& tip) {
+                                        const std::string& tip,
+                                        const std::map<std::string, double>& held) {
   const std::string text = read_text(path);
   if (!is_xml(text)) {
-    if (!base.empty() || !tip.empty())
-      throw InputError(path + ": --base and --tip apply to a URDF, not to a DH table");
+    if (!base.empty() || !tip.empty() || !held.empty())
+      throw InputError(path + ": --base, --tip and --hold apply to a URDF, not to a DH table");
     return read_dh(path, text);
   }
   try {
@@ -148,7 +174,7 @@ RobotDescription read_robot_description(const std::string& path, const std::stri
                          " end links (" + join(leaves) + "); name the chain's last with --tip");
       to = leaves.front();
     }
-    sid::UrdfChain urdf = sid::chain_from_urdf(text, from, to);
+    sid::UrdfChain urdf = sid::chain_from_urdf(text, from, to, held);
     const Eigen::Index n = urdf.chain.joints();
     Eigen::VectorXd damping = Eigen::VectorXd::Zero(n), friction = Eigen::VectorXd::Zero(n);
     for (Eigen::Index j = 0; j < n && j < static_cast<Eigen::Index>(urdf.joints.size()); ++j) {

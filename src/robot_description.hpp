@@ -9,6 +9,7 @@
 
 #include "csv.hpp"
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -30,8 +31,16 @@ struct RobotDescription {
 /// docs/serial-arms.md). base and tip name the URDF links the chain runs between; empty: the
 /// description's root, and its one leaf (an error naming the leaves when there are several).
 /// @throws InputError naming the file and the problem.
+/// @param held the values [rad or m] at which joints off the chain (branches, bodies past the
+///        tip) are held, by joint name; the others are held at 0.
 RobotDescription read_robot_description(const std::string& path, const std::string& base,
-                                        const std::string& tip);
+                                        const std::string& tip,
+                                        const std::map<std::string, double>& held = {});
+
+/// @brief Parses "joint=value,joint=value" (the held joints of --hold).
+/// @throws InputError on a missing '=', an empty name, a value that is not a finite number or a
+///         joint given twice; option names the option in the message.
+std::map<std::string, double> parse_held_joints(const std::string& text, const std::string& option);
 
 /// @brief Reads a transmission file (YAML, see docs/serial-arms.md): gear_ratios (one per joint),
 /// optional couplings [{motor, joint, ratio}] with joints named or numbered from 1, optional

@@ -161,6 +161,16 @@ TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
           "name the chain's last with --tip");
   refused("--robot '" SID_TEST_DATA_DIR "/urdf/mobile_manipulator.urdf' --tip nowhere run.csv",
           "nowhere");
+  refused("--robot arm.dh --hold finger=0.01 run.csv", "apply to a URDF");
+  refused("--robot '" SID_TEST_DATA_DIR
+          "/urdf/mobile_manipulator.urdf' --tip gripper_link "
+          "--hold l_gripper_finger=wide run.csv",
+          "not a finite number");
+  // A held joint must be off the chain: the library names the one that is on it.
+  refused("--robot '" SID_TEST_DATA_DIR
+          "/urdf/mobile_manipulator.urdf' --tip gripper_link "
+          "--hold shoulder_pan=0.3 run.csv",
+          "shoulder_pan");
   write("t.yaml", "gear_ratios: [10, 10]\n");
   refused("--robot arm.dh --transmission t.yaml run.csv", "gear_ratios needs a list of 3");
   write("u.yaml", "gear_ratios: [10, 10, 10]\nratio: 3\n");
