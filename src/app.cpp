@@ -238,6 +238,21 @@ void write_json(const std::string& path, const nlohmann::json& value) {
   if (!out) throw std::runtime_error("error while writing '" + path + "' (disk full?)");
 }
 
+std::vector<std::pair<std::string, std::string>> parse_assignments(const std::string& text,
+                                                                   const std::string& option,
+                                                                   const std::string& form) {
+  std::vector<std::pair<std::string, std::string>> pairs;
+  for (const std::string& item : parse_name_list(text, option, "entry", "entries", form)) {
+    const auto eq = item.find('=');
+    if (eq == std::string::npos) throw InputError(option + ": '" + item + "' is not " + form);
+    const std::string key = trim(item.substr(0, eq)), value = trim(item.substr(eq + 1));
+    for (const auto& seen : pairs)
+      if (seen.first == key) throw InputError(option + ": key '" + key + "' is given twice");
+    pairs.emplace_back(key, value);
+  }
+  return pairs;
+}
+
 TrajectoryColumns parse_trajectory_columns(const std::string& text, const std::string& option) {
   TrajectoryColumns columns;
   const std::vector<std::pair<const char*, std::string*>> keys{{"t", &columns.t},
@@ -245,22 +260,14 @@ TrajectoryColumns parse_trajectory_columns(const std::string& text, const std::s
                                                                {"q2", &columns.q2},
                                                                {"tau1", &columns.tau1},
                                                                {"tau2", &columns.tau2}};
-  std::vector<std::string> seen;
-  for (const std::string& item :
-       parse_name_list(text, option, "entry", "columns", "KEY=NAME,...")) {
-    const auto eq = item.find('=');
-    if (eq == std::string::npos)
-      throw InputError(option + ": '" + item + "' is not KEY=NAME (keys: t, q1, q2, tau1, tau2)");
-    const std::string key = item.substr(0, eq), name = item.substr(eq + 1);
+  for (const auto& [key, name] :
+       parse_assignments(text, option, "KEY=NAME (keys: t, q1, q2, tau1, tau2)")) {
     const auto hit =
         std::find_if(keys.begin(), keys.end(), [&](const auto& k) { return key == k.first; });
     if (hit == keys.end())
-      throw InputError(option + ": unknown key '" + key + "' in '" + item +
+      throw InputError(option + ": unknown key '" + key + "' in '" + key + "=" + name +
                        "' (keys: t, q1, q2, tau1, tau2)");
     if (name.empty()) throw InputError(option + ": no column name after '" + key + "='");
-    if (std::find(seen.begin(), seen.end(), key) != seen.end())
-      throw InputError(option + ": key '" + key + "' is given twice");
-    seen.push_back(key);
     *hit->second = name;
   }
   return columns;

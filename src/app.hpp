@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sid/model/effect.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "csv.hpp"  // InputError
@@ -84,6 +85,14 @@ std::vector<double> parse_doubles(const std::string& text, const std::string& wh
 std::vector<std::string> parse_name_list(const std::string& text, const std::string& option,
                                          const std::string& item, const std::string& items,
                                          const std::string& expected = "");
+
+/// @brief Parses "key=value, key=value" (each key and value trimmed, each key once) for the
+/// option named option; form describes one entry in the message for a missing '='.
+/// @throws InputError "--columns: 'time' is not KEY=NAME (...)", "--columns: key 't' is given
+///         twice", and the errors of parse_name_list.
+std::vector<std::pair<std::string, std::string>> parse_assignments(const std::string& text,
+                                                                   const std::string& option,
+                                                                   const std::string& form);
 
 /// @brief A comma-separated list of effect ids, e.g. "coulomb_j1, armature_j2".
 /// @throws InputError "--effects: unknown effect 'x' (expected coulomb_j1, ...)" and the errors

@@ -1,5 +1,7 @@
 #include "robot_description.hpp"
 
+#include "app.hpp"
+
 #include <sid/detail/xml.hpp>
 #include <sid/model/urdf.hpp>
 
@@ -133,24 +135,16 @@ RobotDescription read_dh(const std::string& path, const std::string& text) {
 std::map<std::string, double> parse_held_joints(const std::string& text,
                                                 const std::string& option) {
   std::map<std::string, double> held;
-  std::istringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    const auto eq = item.find('=');
-    const auto trim = [](const std::string& v) {
-      const auto b = v.find_first_not_of(" \t"), e = v.find_last_not_of(" \t");
-      return b == std::string::npos ? std::string() : v.substr(b, e - b + 1);
-    };
-    if (eq == std::string::npos || trim(item.substr(0, eq)).empty())
-      throw InputError(option + ": '" + trim(item) + "' is not JOINT=VALUE");
-    const std::string name = trim(item.substr(0, eq)), value = trim(item.substr(eq + 1));
+  if (text.empty()) return held;
+  for (const auto& [name, value] : parse_assignments(text, option, "JOINT=VALUE")) {
     std::istringstream number(value);
     number.imbue(std::locale::classic());
     double v = 0.0;
+    if (name.empty()) throw InputError(option + ": '=" + value + "' is not JOINT=VALUE");
     if (!(number >> v) || !(number >> std::ws).eof() || !std::isfinite(v))
       throw InputError(option + ": the value of '" + name + "' ('" + value +
                        "') is not a finite number");
-    if (!held.emplace(name, v).second) throw InputError(option + ": '" + name + "' is given twice");
+    held.emplace(name, v);
   }
   return held;
 }
@@ -270,27 +264,14 @@ std::vector<std::string> chain_columns(const std::string& map, int joints,
   for (const char* stem : {"q", "tau"})
     for (int j = 1; j <= joints; ++j) keys.push_back(stem + std::to_string(j));
   std::vector<std::string> names = keys;
-  std::vector<bool> given(keys.size(), false);
-  std::istringstream in(map);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    const auto trim = [](std::string v) {
-      const auto b = v.find_first_not_of(" \t"), e = v.find_last_not_of(" \t");
-      return b == std::string::npos ? std::string() : v.substr(b, e - b + 1);
-    };
-    const auto eq = item.find('=');
-    if (eq == std::string::npos)
-      throw InputError(option + ": '" + trim(item) + "' is not KEY=NAME");
-    const std::string key = trim(item.substr(0, eq)), name = trim(item.substr(eq + 1));
+  if (map.empty()) return names;
+  for (const auto& [key, name] : parse_assignments(map, option, "KEY=NAME")) {
     const auto at = std::find(keys.begin(), keys.end(), key);
     if (at == keys.end())
       throw InputError(option + ": unknown key '" + key + "' (expected t, q1..q" +
                        std::to_string(joints) + ", tau1..tau" + std::to_string(joints) + ")");
-    const auto k = static_cast<std::size_t>(at - keys.begin());
-    if (given[k]) throw InputError(option + ": '" + key + "' is given twice");
     if (name.empty()) throw InputError(option + ": '" + key + "' maps to an empty name");
-    given[k] = true;
-    names[k] = name;
+    names[static_cast<std::size_t>(at - keys.begin())] = name;
   }
   return names;
 }

@@ -22,12 +22,10 @@ std::string number(double v) {
 /// The <inertial> element of a link's own ten parameters: its centre of mass as the origin, the
 /// inertia about it in the link's axes.
 std::string inertial_element(const sid::LinkParameters<double>& phi, const std::string& indent) {
-  const double m = phi[0];
-  const Eigen::Vector3d c = phi.segment<3>(1) / m;
-  Eigen::Matrix3d i;
-  i << phi[4], phi[5], phi[7], phi[5], phi[6], phi[8], phi[7], phi[8], phi[9];
-  const Eigen::Matrix3d ic =
-      i - m * (c.squaredNorm() * Eigen::Matrix3d::Identity() - c * c.transpose());
+  const sid::LinkInertia<double> body = sid::link_inertia(phi);
+  const double m = body.mass;
+  const Eigen::Vector3d& c = body.com;
+  const Eigen::Matrix3d& ic = body.inertia_com;
   return "<inertial>\n" + indent + "  <origin xyz=\"" + number(c[0]) + " " + number(c[1]) + " " +
          number(c[2]) + "\" rpy=\"0 0 0\"/>\n" + indent + "  <mass value=\"" + number(m) +
          "\"/>\n" + indent + "  <inertia ixx=\"" + number(ic(0, 0)) + "\" ixy=\"" +

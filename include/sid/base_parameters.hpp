@@ -229,6 +229,15 @@ BaseParameters<typename Derived::Scalar> base_parameters_in_order(
     }
   }
   if (kept.empty()) throw std::invalid_argument(std::string(who) + ": every column of W is zero");
+  if (static_cast<Eigen::Index>(kept.size()) == w.cols()) {
+    // Every column is its own base parameter: nothing to regroup, and no second factorization
+    // (the data's own pass meets this case on matrices of 1e5 rows).
+    BaseParameters<Scalar> base;
+    base.independent = std::move(kept);
+    base.K.resize(w.cols(), 0);
+    base.rank_gap = std::numeric_limits<Scalar>::infinity();
+    return base;
+  }
   BaseParameters<Scalar> base =
       detail::regroup<Scalar>(who, scaled, std::move(kept), relative_tolerance);
   for (Eigen::Index a = 0; a < base.K.rows(); ++a)  // back from unit-norm columns

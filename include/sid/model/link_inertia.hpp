@@ -40,13 +40,34 @@ LinkParameters<Scalar> standard_parameters(const LinkInertia<Scalar>& link) {
   return phi;
 }
 
+/// @brief The inertia about the frame's origin, I = I_c + m (|c|² 1 − c cᵀ), as a matrix.
+template <typename Scalar>
+Matrix3<Scalar> inertia_about_origin(const LinkParameters<Scalar>& phi) {
+  Matrix3<Scalar> i;
+  i << phi[4], phi[5], phi[7], phi[5], phi[6], phi[8], phi[7], phi[8], phi[9];
+  return i;
+}
+
+/// @brief The body of ten parameters: the inverse of standard_parameters.
+/// @pre phi[0] (the mass) > 0.
+template <typename Scalar>
+LinkInertia<Scalar> link_inertia(const LinkParameters<Scalar>& phi) {
+  LinkInertia<Scalar> link;
+  link.mass = phi[0];
+  link.com = phi.template segment<3>(1) / phi[0];
+  const Vector3<Scalar>& c = link.com;
+  link.inertia_com =
+      inertia_about_origin(phi) -
+      link.mass * (c.squaredNorm() * Matrix3<Scalar>::Identity() - c * c.transpose());
+  return link;
+}
+
 /// @brief The pseudo-inertia [[tr(I)/2 · 1 − I, m c], [m cᵀ, m]] (I about the frame's origin),
 /// linear in the ten parameters; they are a real body exactly when it is positive semidefinite
 /// (Wensing, Kim & Slotine 2018).
 template <typename Scalar>
 Eigen::Matrix<Scalar, 4, 4> pseudo_inertia(const LinkParameters<Scalar>& phi) {
-  Matrix3<Scalar> i;
-  i << phi[4], phi[5], phi[7], phi[5], phi[6], phi[8], phi[7], phi[8], phi[9];
+  const Matrix3<Scalar> i = inertia_about_origin(phi);
   Eigen::Matrix<Scalar, 4, 4> j;
   j.template topLeftCorner<3, 3>() = Scalar(0.5) * i.trace() * Matrix3<Scalar>::Identity() - i;
   j.template topRightCorner<3, 1>() = phi.template segment<3>(1);
@@ -64,13 +85,8 @@ std::string link_inconsistency(const LinkParameters<Scalar>& phi,
                                Scalar tolerance = Scalar(1e-12)) {
   if (!phi.allFinite()) return "a parameter is not finite";
   if (!(phi[0] > Scalar(0))) return "the mass is not positive";
-  const Vector3<Scalar> c = phi.template segment<3>(1) / phi[0];
-  Matrix3<Scalar> i;
-  i << phi[4], phi[5], phi[7], phi[5], phi[6], phi[8], phi[7], phi[8], phi[9];
-  const Matrix3<Scalar> i_com =
-      i - phi[0] * (c.squaredNorm() * Matrix3<Scalar>::Identity() - c * c.transpose());
   const Vector3<Scalar> moments =
-      Eigen::SelfAdjointEigenSolver<Matrix3<Scalar>>(i_com).eigenvalues();
+      Eigen::SelfAdjointEigenSolver<Matrix3<Scalar>>(link_inertia(phi).inertia_com).eigenvalues();
   const Scalar slack = tolerance * moments.cwiseAbs().maxCoeff();
   if (!(moments[0] > slack)) return "the inertia about the centre of mass is not positive definite";
   if (moments[2] > moments[0] + moments[1] + slack)
