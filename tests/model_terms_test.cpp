@@ -201,7 +201,7 @@ TEST(Model, ThrowsOnWrongRegressorStorage) {
   Eigen::Matrix<double, 2, 6> z;
   const V2 v = V2::Zero();
   sid_test::expect_invalid_argument([&] { model.regressor(v, v, v, z); }, "sid::Model::regressor",
-                                    "out has 6 columns");
+                                    "out is 2 x 6");
 }
 
 TEST(Model, RejectsInvalidTerms) {

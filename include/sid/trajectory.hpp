@@ -18,6 +18,24 @@ using MatrixX2 = Eigen::Matrix<Scalar, Eigen::Dynamic, 2>;
 template <typename Scalar>
 using Vector2 = Eigen::Matrix<Scalar, 2, 1>;
 
+/// @brief The joint count a chain may have; per-sample vectors and the recursions' link states
+/// live on the stack up to this size, so models run without heap memory in a control loop.
+inline constexpr int kMaxChainJoints = 12;
+
+namespace detail {
+/// The storage bound of a joint-indexed vector: the count itself when it is known at compile
+/// time, kMaxChainJoints when it is Eigen::Dynamic.
+constexpr int max_joints(int joints) noexcept {
+  return joints == Eigen::Dynamic ? kMaxChainJoints : joints;
+}
+}  // namespace detail
+
+/// @brief One value per joint (angles, rates, torques of one sample), on the stack: Vector2 for
+/// the paper's arm, a vector of at most kMaxChainJoints entries for a chain known at run time.
+template <typename Scalar, int Joints = 2>
+using JointVector =
+    Eigen::Matrix<Scalar, Joints, 1, Eigen::ColMajor, detail::max_joints(Joints), 1>;
+
 /// @brief Joint samples: one row per sample, one column per joint (fixed at compile time where
 /// the arm is known, e.g. 2 for the paper's arm; Eigen::Dynamic for a chain read at run time).
 template <typename Scalar, int Joints>

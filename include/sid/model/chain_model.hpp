@@ -7,9 +7,11 @@
 ///
 /// tau = Y(q, qd, qdd) theta with theta = [link parameters (ten per link, in
 /// chain_parameter_names order), drive terms (in the order given)]. Every term is linear in its
-/// parameter; a joint term writes only its own joint's row.
+/// parameter; a joint term writes only its own joint's row. The model is a sid::Model of the
+/// chain's joint count, so the mass matrix and forward dynamics come with it.
 
 #include <sid/model/chain_regressor.hpp>
+#include <sid/model/model.hpp>
 #include <sid/model/serial_chain.hpp>
 #include <sid/model/transmission.hpp>
 
@@ -106,11 +108,15 @@ inline std::vector<DriveTermKind> default_drive_term_kinds() {
           DriveTermKind::Armature};
 }
 
-/// @brief A chain, its drives and the names of its joints. Immutable; holds no parameter values.
+/// @brief A chain, its drives and the names of its joints, as one sid::Model: a rigid-body term
+/// (the links' ten parameters each, by the chain's Newton-Euler regressor) and one term per
+/// drive term. Immutable; holds no parameter values.
 /// Class invariant: joint_names, the transmission and the chain agree on the joint count; every
 /// term's index is a joint (or motor); coulomb_epsilon >= 0.
 class ChainModel {
  public:
+  using Vector = JointVector<double, Eigen::Dynamic>;
+
   /// @param joint_names one per joint, for reports; empty: "1".."n".
   /// @param coulomb_epsilon the Coulomb terms' tanh velocity [rad/s, or m/s]; 0 takes sign(v).
   /// @throws std::invalid_argument if the sizes disagree, an index is out of range or the same
@@ -121,7 +127,8 @@ class ChainModel {
         joint_names_(std::move(joint_names)),
         terms_(std::move(terms)),
         transmission_(std::move(transmission)),
-        epsilon_(coulomb_epsilon) {
+        epsilon_(coulomb_epsilon),
+        model_(chain_.joints()) {
     const std::string who = "sid::ChainModel: ";
     const int n = chain_.joints();
     if (joint_names_.empty())
@@ -143,15 +150,13 @@ class ChainModel {
           throw std::invalid_argument(who + "the " + drive_term_keyword(t.kind) + " term of " +
                                       term_place(t) + " is given twice");
     }
-    names_ = chain_parameter_names(n);
-    names_.resize(static_cast<std::size_t>(kLinkParameters * n));
-    for (const DriveTerm& t : terms_) names_.push_back(term_name(t));
-    directions_.resize(n, n);
-    for (int m = 0; m < n; ++m) directions_.row(m) = transmission_.motor_direction(m);
+    model_.add(rigid_body_term());
+    for (const DriveTerm& t : terms_) model_.add(drive_term(t));
+    names_ = model_.parameter_names();
   }
 
   int joints() const noexcept { return chain_.joints(); }
-  Eigen::Index parameters() const noexcept { return static_cast<Eigen::Index>(names_.size()); }
+  Eigen::Index parameters() const noexcept { return model_.num_parameters(); }
   Eigen::Index rigid_body_parameters() const noexcept { return kLinkParameters * joints(); }
   const SerialChain<double>& chain() const noexcept { return chain_; }
   const std::vector<std::string>& joint_names() const noexcept { return joint_names_; }
@@ -160,6 +165,8 @@ class ChainModel {
   double coulomb_epsilon() const noexcept { return epsilon_; }
   /// @brief m_1, mx_1, ..., Izz_n, then per term fv_j, fc_j, fa_j, off_j, Ia_j (motors: fv_mj ...).
   const std::vector<std::string>& parameter_names() const noexcept { return names_; }
+  /// @brief The model itself: its terms, inverse and forward dynamics, mass matrix.
+  const Model<double, Eigen::Dynamic>& model() const noexcept { return model_; }
 
   /// @brief Y(q, qd, qdd) into out (joints() x parameters()); allocates nothing.
   /// @throws std::invalid_argument if a size does not match.
@@ -171,39 +178,55 @@ class ChainModel {
       throw std::invalid_argument("sid::ChainModel::regressor: sizes do not match the model's " +
                                   std::to_string(joints()) + " joints and " +
                                   std::to_string(parameters()) + " parameters");
-    ChainRegressor<double> y(joints(), chain_parameter_count(joints()));
-    detail::chain_regressor_unchecked(chain_, q, qd, qdd, y);
-    out.leftCols(rigid_body_parameters()) = y.leftCols(rigid_body_parameters());
-    Eigen::Index column = rigid_body_parameters();
-    for (const DriveTerm& t : terms_) {
-      auto col = out.col(column++);
-      col.setZero();
-      if (!t.on_motor) {
-        col[t.index] = term_value(t.kind, qd[t.index], qdd[t.index]);
-      } else {
-        double v = 0.0, a = 0.0;
-        for (int j = 0; j < joints(); ++j) {
-          v += directions_(t.index, j) * qd[j];
-          a += directions_(t.index, j) * qdd[j];
-        }
-        col = directions_.row(t.index).transpose() * term_value(t.kind, v, a);
-      }
-    }
+    const Vector qv = q, qdv = qd, qddv = qdd;  // a row or a column of samples
+    model_.regressor(qv, qdv, qddv, RegressorView<double, Eigen::Dynamic>(out.derived()));
   }
 
  private:
-  double coulomb(double v) const {
-    return epsilon_ > 0.0 ? std::tanh(v / epsilon_) : double((v > 0.0) - (v < 0.0));
+  using ModelTerm = Term<double, Eigen::Dynamic>;
+
+  ModelTerm rigid_body_term() const {
+    std::vector<std::string> names = chain_parameter_names(joints());
+    names.resize(static_cast<std::size_t>(rigid_body_parameters()));
+    return {"rigid_body", std::move(names),
+            [chain = chain_](const Vector& q, const Vector& qd, const Vector& qdd,
+                             RegressorView<double, Eigen::Dynamic> out) {
+              detail::chain_link_columns_unchecked(chain, q, qd, qdd, out);
+            }};
   }
 
-  double term_value(DriveTermKind kind, double v, double a) const {
+  ModelTerm drive_term(const DriveTerm& t) const {
+    const std::string name = term_name(t);
+    if (!t.on_motor)
+      return {name,
+              {name},
+              [t, epsilon = epsilon_](const Vector&, const Vector& qd, const Vector& qdd,
+                                      RegressorView<double, Eigen::Dynamic> out) {
+                out.setZero();
+                out(t.index, 0) = term_value(t.kind, epsilon, qd[t.index], qdd[t.index]);
+              }};
+    // The motor turns with direction . qd; its torque reaches every joint it turns.
+    const Eigen::VectorXd direction = transmission_.motor_direction(t.index).transpose();
+    return {name,
+            {name},
+            [t, epsilon = epsilon_, direction](const Vector&, const Vector& qd, const Vector& qdd,
+                                               RegressorView<double, Eigen::Dynamic> out) {
+              out.col(0) =
+                  direction * term_value(t.kind, epsilon, direction.dot(qd), direction.dot(qdd));
+            }};
+  }
+
+  static double term_value(DriveTermKind kind, double epsilon, double v, double a) {
+    const auto coulomb = [&] {
+      return epsilon > 0.0 ? std::tanh(v / epsilon) : double((v > 0.0) - (v < 0.0));
+    };
     switch (kind) {
       case DriveTermKind::Viscous:
         return v;
       case DriveTermKind::Coulomb:
-        return coulomb(v);
+        return coulomb();
       case DriveTermKind::CoulombAsymmetry:
-        return std::abs(coulomb(v));
+        return std::abs(coulomb());
       case DriveTermKind::Offset:
         return 1.0;
       case DriveTermKind::Armature:
@@ -227,8 +250,8 @@ class ChainModel {
   std::vector<DriveTerm> terms_;
   Transmission transmission_;
   double epsilon_;
+  Model<double, Eigen::Dynamic> model_;
   std::vector<std::string> names_;
-  Eigen::MatrixXd directions_;
 };
 
 }  // namespace sid

@@ -156,16 +156,17 @@ void chain_motion(const SerialChain<Scalar>& chain, const Joints& q, const Joint
   }
 }
 
+/// The links' columns, the first kLinkParameters * joints() of out (the rest is not touched).
 template <typename Scalar, typename Joints, typename Out>
-void chain_regressor_unchecked(const SerialChain<Scalar>& chain, const Joints& q, const Joints& qd,
-                               const Joints& qdd, Out& out) {
+void chain_link_columns_unchecked(const SerialChain<Scalar>& chain, const Joints& q,
+                                  const Joints& qd, const Joints& qdd, Out&& out) {
   ChainMotion<Scalar> m;
   chain_motion(chain, q, qd, qdd, m);
   const int n = chain.joints();
   std::array<Eigen::Matrix<Scalar, 6, kLinkParameters>, kMaxChainJoints> wrench;
   for (std::size_t k = 0; k < static_cast<std::size_t>(n); ++k)
     wrench[k] = link_wrench_columns(m.w[k], m.wd[k], m.a[k]);
-  out.setZero();
+  out.leftCols(kLinkParameters * n).setZero();
   for (int i = 0; i < n; ++i) {
     // Joint i carries the wrenches of links i..n-1; its torque (or force) is the power of their
     // wrench per unit joint rate. Rather than carry each link's ten wrench columns in to joint i,
@@ -184,6 +185,16 @@ void chain_regressor_unchecked(const SerialChain<Scalar>& chain, const Joints& q
           w.transpose() * wrench[k].template topRows<3>() +
           v.transpose() * wrench[k].template bottomRows<3>();
     }
+  }
+}
+
+template <typename Scalar, typename Joints, typename Out>
+void chain_regressor_unchecked(const SerialChain<Scalar>& chain, const Joints& q, const Joints& qd,
+                               const Joints& qdd, Out& out) {
+  chain_link_columns_unchecked(chain, q, qd, qdd, out);
+  const int n = chain.joints();
+  out.rightCols(2 * n).setZero();
+  for (int i = 0; i < n; ++i) {
     out(i, kLinkParameters * n + i) = qd[i];
     out(i, (kLinkParameters + 1) * n + i) = sign(qd[i]);
   }

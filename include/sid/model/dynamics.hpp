@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief Everything that follows from an inverse-dynamics function of a two-joint arm: mass
+/// @brief Everything that follows from an inverse-dynamics function of an arm: mass
 /// matrix, bias torque, forward dynamics, the state-space right-hand side, and the regressor.
 ///
 /// For a model D(q) qdd + h(q, qd) = tau that is linear in qdd and in theta (paper eq. 38, 9):
@@ -11,16 +11,36 @@
 #include <sid/model/terms.hpp>
 #include <sid/trajectory.hpp>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
+
+#include <limits>
 
 namespace sid {
 
 template <typename Scalar>
 using Matrix2 = Eigen::Matrix<Scalar, 2, 2>;
 
+/// @brief A joints x joints matrix on the stack (Matrix2 for the paper's arm).
+template <typename Scalar, int Joints = 2>
+using JointMatrix = Eigen::Matrix<Scalar, Joints, Joints, Eigen::ColMajor,
+                                  detail::max_joints(Joints), detail::max_joints(Joints)>;
+
+/// @brief State x = (q, qd) of an arm [rad, rad/s], on the stack: (q1, q2, qd1, qd2) for the
+/// paper's arm.
+template <typename Scalar, int Joints = 2>
+using JointState = Eigen::Matrix<Scalar, Joints == Eigen::Dynamic ? Eigen::Dynamic : 2 * Joints, 1,
+                                 Eigen::ColMajor, 2 * detail::max_joints(Joints), 1>;
+
 /// @brief State of a two-joint arm, x = (q1, q2, qd1, qd2) [rad, rad, rad/s, rad/s].
 template <typename Scalar>
-using ArmState = Eigen::Matrix<Scalar, 4, 1>;
+using ArmState = JointState<Scalar, 2>;
+
+namespace detail {
+/// A parameter that takes its type from the other arguments, so that it may be an expression.
+template <typename Scalar, int Joints>
+using JointVectorArgument = NoDeduce<JointVector<Scalar, Joints>>;
+}  // namespace detail
 
 /// @brief Solves D x = rhs for a 2 x 2 matrix by Cramer's rule (no pivoting needed: D is
 /// symmetric positive definite for a physical arm).
@@ -34,38 +54,50 @@ Vector2<Scalar> solve_2x2(const Matrix2<Scalar>& d,
 }
 
 /// @brief D(q) from an inverse-dynamics function: column j = ID(q, 0, e_j) - ID(q, 0, 0).
-/// @param inverse_dynamics callable (q, qd, qdd) -> tau [N m], each a Vector2<Scalar>.
+/// @param inverse_dynamics callable (q, qd, qdd) -> tau [N m], each a JointVector.
 /// @param q joint angles [rad].
 /// @return D(q) [kg m^2].
-template <typename Scalar, typename InverseDynamics>
-Matrix2<Scalar> mass_matrix_from_inverse_dynamics(const InverseDynamics& inverse_dynamics,
-                                                  const Vector2<Scalar>& q) {
-  const Vector2<Scalar> zero = Vector2<Scalar>::Zero();
-  const Vector2<Scalar> h0 = inverse_dynamics(q, zero, zero);
-  Matrix2<Scalar> d;
-  d.col(0) = inverse_dynamics(q, zero, Vector2<Scalar>::UnitX()) - h0;
-  d.col(1) = inverse_dynamics(q, zero, Vector2<Scalar>::UnitY()) - h0;
+template <typename Scalar, int Joints, typename InverseDynamics>
+JointMatrix<Scalar, Joints> mass_matrix_from_inverse_dynamics(
+    const InverseDynamics& inverse_dynamics, const JointVector<Scalar, Joints>& q) {
+  const auto n = q.size();
+  const JointVector<Scalar, Joints> zero = JointVector<Scalar, Joints>::Zero(n);
+  const JointVector<Scalar, Joints> h0 = inverse_dynamics(q, zero, zero);
+  JointMatrix<Scalar, Joints> d(n, n);
+  for (Eigen::Index j = 0; j < n; ++j)
+    d.col(j) = inverse_dynamics(q, zero, JointVector<Scalar, Joints>::Unit(n, j)) - h0;
   return d;
 }
 
 /// @brief Bias torque h(q, qd) = ID(q, qd, 0): Coriolis, centrifugal, gravity, friction [N m].
-template <typename Scalar, typename InverseDynamics>
-Vector2<Scalar> bias_torque_from_inverse_dynamics(const InverseDynamics& inverse_dynamics,
-                                                  const Vector2<Scalar>& q,
-                                                  const Vector2<detail::NoDeduce<Scalar>>& qd) {
-  return inverse_dynamics(q, qd, Vector2<Scalar>::Zero());
+template <typename Scalar, int Joints, typename InverseDynamics>
+JointVector<Scalar, Joints> bias_torque_from_inverse_dynamics(
+    const InverseDynamics& inverse_dynamics, const JointVector<Scalar, Joints>& q,
+    const detail::JointVectorArgument<Scalar, Joints>& qd) {
+  return inverse_dynamics(q, qd, JointVector<Scalar, Joints>::Zero(q.size()));
 }
 
-/// @brief Forward dynamics qdd = D(q)^-1 (tau - h(q, qd)) from an inverse-dynamics function.
+/// @brief Forward dynamics qdd = D(q)^-1 (tau - h(q, qd)) from an inverse-dynamics function;
+/// NaN where D(q) is not positive definite (beyond two joints; two joints: inf/NaN where it is
+/// singular).
 /// @param q [rad], qd [rad/s], tau applied joint torques [N m].
 /// @return qdd [rad/s^2].
-template <typename Scalar, typename InverseDynamics>
-Vector2<Scalar> forward_dynamics_from_inverse_dynamics(
-    const InverseDynamics& inverse_dynamics, const Vector2<Scalar>& q,
-    const Vector2<detail::NoDeduce<Scalar>>& qd, const Vector2<detail::NoDeduce<Scalar>>& tau) {
-  const Matrix2<Scalar> d = mass_matrix_from_inverse_dynamics(inverse_dynamics, q);
-  const Vector2<Scalar> h = bias_torque_from_inverse_dynamics(inverse_dynamics, q, qd);
-  return solve_2x2<Scalar>(d, tau - h);
+template <typename Scalar, int Joints, typename InverseDynamics>
+JointVector<Scalar, Joints> forward_dynamics_from_inverse_dynamics(
+    const InverseDynamics& inverse_dynamics, const JointVector<Scalar, Joints>& q,
+    const detail::JointVectorArgument<Scalar, Joints>& qd,
+    const detail::JointVectorArgument<Scalar, Joints>& tau) {
+  const JointMatrix<Scalar, Joints> d = mass_matrix_from_inverse_dynamics(inverse_dynamics, q);
+  const JointVector<Scalar, Joints> h = bias_torque_from_inverse_dynamics(inverse_dynamics, q, qd);
+  if constexpr (Joints == 2) {
+    return solve_2x2<Scalar>(d, tau - h);
+  } else {
+    const Eigen::LLT<JointMatrix<Scalar, Joints>> llt(d);
+    if (llt.info() != Eigen::Success)
+      return JointVector<Scalar, Joints>::Constant(
+          q.size(), Scalar(std::numeric_limits<double>::quiet_NaN()));
+    return llt.solve(tau - h);
+  }
 }
 
 /// @brief Regressor by unit parameter vectors: column j of Z is ID evaluated at theta = e_j.
@@ -89,15 +121,17 @@ void regressor_from_inverse_dynamics(const InverseDynamics& inverse_dynamics,
 
 /// @brief State-space right-hand side xdot = (qd, qdd) for x = (q, qd) under torque tau [N m].
 /// @param forward_dynamics callable (q, qd, tau) -> qdd [rad/s^2].
-template <typename Scalar, typename ForwardDynamics>
-ArmState<Scalar> state_derivative_from_forward_dynamics(
-    const ForwardDynamics& forward_dynamics, const ArmState<Scalar>& x,
-    const Vector2<detail::NoDeduce<Scalar>>& tau) {
-  const Vector2<Scalar> q = x.template head<2>();
-  const Vector2<Scalar> qd = x.template tail<2>();
-  ArmState<Scalar> xdot;
-  xdot.template head<2>() = qd;
-  xdot.template tail<2>() = forward_dynamics(q, qd, tau);
+/// @tparam Joints not deducible from the state's type: give it beyond two joints.
+template <typename Scalar, int Joints = 2, typename ForwardDynamics>
+JointState<Scalar, Joints> state_derivative_from_forward_dynamics(
+    const ForwardDynamics& forward_dynamics, const JointState<Scalar, Joints>& x,
+    const detail::JointVectorArgument<Scalar, Joints>& tau) {
+  const Eigen::Index n = x.size() / 2;
+  const JointVector<Scalar, Joints> q = x.head(n);
+  const JointVector<Scalar, Joints> qd = x.tail(n);
+  JointState<Scalar, Joints> xdot(2 * n);
+  xdot.head(n) = qd;
+  xdot.tail(n) = forward_dynamics(q, qd, tau);
   return xdot;
 }
 

@@ -31,37 +31,53 @@ template <typename T>
 using NoDeduce = typename NoDeduceImpl<T>::type;
 }  // namespace detail
 
-/// Most parameters one model may have; lets regressors and parameter vectors live on the stack.
+/// Most parameters a two-joint model may have; lets regressors and parameter vectors live on the
+/// stack.
 inline constexpr Eigen::Index kMaxModelParameters = 32;
 
-/// @brief A writable 2 x p view with arbitrary strides into which a term writes its columns.
-/// Row 0 is joint 1, row 1 joint 2. Arbitrary strides let the stacker write rows i and n + i of a
-/// stacked regressor (paper eq. 10) in place, without a temporary.
-template <typename Scalar>
-using RegressorView = Eigen::Ref<Eigen::Matrix<Scalar, 2, Eigen::Dynamic>, 0,
+/// Most parameters a model of any other joint count may have: ten per link and the drive terms of
+/// a kMaxChainJoints chain, with room to spare.
+inline constexpr Eigen::Index kMaxChainModelParameters = 256;
+
+namespace detail {
+constexpr Eigen::Index max_model_parameters(int joints) noexcept {
+  return joints == 2 ? kMaxModelParameters : kMaxChainModelParameters;
+}
+}  // namespace detail
+
+/// @brief A writable joints x p view with arbitrary strides into which a term writes its columns.
+/// Row j is joint j + 1. Arbitrary strides let the stacker write rows i and n + i of a stacked
+/// regressor (paper eq. 10) in place, without a temporary.
+template <typename Scalar, int Joints = 2>
+using RegressorView = Eigen::Ref<Eigen::Matrix<Scalar, Joints, Eigen::Dynamic>, 0,
                                  Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>>;
 
-/// @brief A 2 x p regressor of at most kMaxModelParameters columns, stored without heap memory.
-template <typename Scalar>
+/// @brief A joints x p regressor stored without heap memory (p at most kMaxModelParameters for
+/// two joints, kMaxChainModelParameters otherwise).
+template <typename Scalar, int Joints = 2>
 using ModelRegressor =
-    Eigen::Matrix<Scalar, 2, Eigen::Dynamic, Eigen::ColMajor, 2, kMaxModelParameters>;
+    Eigen::Matrix<Scalar, Joints, Eigen::Dynamic, Eigen::ColMajor, detail::max_joints(Joints),
+                  detail::max_model_parameters(Joints)>;
 
-/// @brief A parameter vector of at most kMaxModelParameters entries, stored without heap memory.
-template <typename Scalar>
-using ModelParameters =
-    Eigen::Matrix<Scalar, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxModelParameters, 1>;
+/// @brief A parameter vector stored without heap memory, bounded as ModelRegressor.
+template <typename Scalar, int Joints = 2>
+using ModelParameters = Eigen::Matrix<Scalar, Eigen::Dynamic, 1, Eigen::ColMajor,
+                                      detail::max_model_parameters(Joints), 1>;
 
-/// @brief One term of a model: tau_k = Z_k(q, qd, qdd) theta_k with Z_k of size 2 x size().
+/// @brief One term of a model: tau_k = Z_k(q, qd, qdd) theta_k with Z_k of size joints x size().
 ///
 /// Class invariant (checked by validate()): name not empty, at least one parameter, no empty
 /// parameter name, columns callable.
 /// @tparam Scalar float, double or an autodiff scalar.
-template <typename Scalar>
+/// @tparam Joints 2 for the paper's arm, Eigen::Dynamic for a chain known at run time.
+template <typename Scalar, int Joints = 2>
 struct Term {
-  /// Fills out (2 x size(), already sized) with Z_k at angles q [rad], velocities qd [rad/s] and
-  /// accelerations qdd [rad/s^2]. Must not allocate if the model is to be used in a control loop.
-  using ColumnFunction = std::function<void(const Vector2<Scalar>& q, const Vector2<Scalar>& qd,
-                                            const Vector2<Scalar>& qdd, RegressorView<Scalar> out)>;
+  using Vector = JointVector<Scalar, Joints>;
+  /// Fills out (joints x size(), already sized) with Z_k at angles q [rad], velocities qd [rad/s]
+  /// and accelerations qdd [rad/s^2]. Must not allocate if the model is to be used in a control
+  /// loop.
+  using ColumnFunction = std::function<void(const Vector& q, const Vector& qd, const Vector& qdd,
+                                            RegressorView<Scalar, Joints> out)>;
 
   std::string name;                          ///< e.g. "rigid_body", "coulomb_friction"
   std::vector<std::string> parameter_names;  ///< one per column, e.g. {"theta6", "theta7"}
