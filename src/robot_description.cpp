@@ -4,10 +4,12 @@
 
 #include <sid/detail/xml.hpp>
 #include <sid/model/urdf.hpp>
+#include <sid/model/urdf_transmission.hpp>
 
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <locale>
@@ -59,6 +61,15 @@ void urdf_ends(const std::string& path, const std::string& text, std::string& ba
   }
 }
 
+/// A file named *.urdf or *.xml (any case) is read as XML whatever its first character.
+bool has_xml_extension(const std::string& path) {
+  const auto dot = path.find_last_of('.');
+  if (dot == std::string::npos || path.find_first_of("/\\", dot) != std::string::npos) return false;
+  std::string extension = path.substr(dot + 1);
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension == "urdf" || extension == "xml";
+}
+
 std::string join(const std::vector<std::string>& names) {
   std::string out;
   for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
@@ -66,7 +77,8 @@ std::string join(const std::vector<std::string>& names) {
 }
 
 /// A DH table: "convention standard|modified", optional "gravity gx gy gz", then one line per
-/// joint "name a alpha d offset" [m, rad]; '#' starts a comment.
+/// joint "name a alpha d offset [revolute|prismatic]" [m, rad]; '#' starts a comment. A
+/// prismatic row slides along z by q + d at the constant angle offset (sid::dh_placement).
 RobotDescription read_dh(const std::string& path, const std::string& text) {
   std::istringstream lines(text);
   std::string line;
@@ -99,8 +111,15 @@ RobotDescription read_dh(const std::string& path, const std::string& text) {
       if (!(in >> row.a >> row.alpha >> row.d >> row.offset) ||
           !std::isfinite(row.a + row.alpha + row.d + row.offset))
         throw InputError(where +
-                         "a joint line is 'name a alpha d offset' with four finite "
-                         "numbers [m, rad]");
+                         "a joint line is 'name a alpha d offset [revolute|prismatic]' with "
+                         "four finite numbers [m, rad]");
+      std::string type;
+      if (in >> type) {
+        if (type != "revolute" && type != "prismatic")
+          throw InputError(where + "joint '" + word +
+                           "': the type is 'revolute' or 'prismatic', not '" + type + "'");
+        if (type == "prismatic") row.type = sid::JointType::Prismatic;
+      }
       if (std::find(names.begin(), names.end(), word) != names.end())
         throw InputError(where + "joint '" + word + "' is given twice");
       names.push_back(word);
@@ -211,11 +230,17 @@ Eigen::VectorXd number_list(const YAML::Node& node, std::size_t count, const std
 sid::Transmission read_transmission(const std::string& path,
                                     const std::vector<std::string>& joint_names) {
   const std::size_t n = joint_names.size();
+  const std::string text = read_text(path);
+  if (is_xml(text) || has_xml_extension(path)) {
+    try {
+      return sid::transmission_from_urdf(text, joint_names);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(path + ": " + e.what());
+    }
+  }
   YAML::Node root;
   try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw InputError(path + ": cannot open the file");
+    root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     throw InputError(path + ": not valid YAML: " + e.what());
   }

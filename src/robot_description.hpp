@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// @brief Robot descriptions and transmissions read from files for the apps: a URDF or a DH
-/// table gives the chain and its joint names, a YAML file the drives' gear ratios and coupling.
+/// table gives the chain and its joint names, a YAML file or a URDF's <transmission> elements the
+/// drives' gear ratios and coupling.
 
 #include <sid/model/serial_chain.hpp>
 #include <sid/model/transmission.hpp>
@@ -42,10 +43,12 @@ RobotDescription read_robot_description(const std::string& path, const std::stri
 ///         joint given twice; option names the option in the message.
 std::map<std::string, double> parse_held_joints(const std::string& text, const std::string& option);
 
-/// @brief Reads a transmission file (YAML, see docs/serial-arms.md): gear_ratios (one per joint),
-/// optional couplings [{motor, joint, ratio}] with joints named or numbered from 1, optional
-/// joint_zero [rad].
-/// @throws InputError naming the file and the key.
+/// @brief Reads a transmission file (see docs/serial-arms.md): YAML with gear_ratios (one per
+/// joint), optional couplings [{motor, joint, ratio}] with joints named or numbered from 1,
+/// optional joint_zero [rad]; or XML (text starting with '<', or a .urdf or .xml file, e.g. the
+/// robot's own URDF) whose ros_control / ros2_control <transmission> elements give them
+/// (sid::transmission_from_urdf).
+/// @throws InputError naming the file and the key or element.
 sid::Transmission read_transmission(const std::string& path,
                                     const std::vector<std::string>& joint_names);
 

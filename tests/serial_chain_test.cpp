@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -28,9 +30,10 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 // Both sides evaluate the same recursion in double: differences are round-off, ~1e-13.
-constexpr double kTorqueTol = 1e-9;    // [N m]; |tau| reaches 77 N m
-constexpr double kBaseRelTol = 1e-10;  // relative to |beta|
-constexpr double kIdentRelTol = 1e-8;  // least squares on exact kinematics, relative to |beta|
+constexpr double kTorqueTol = 1e-9;       // [N m]; |tau| reaches 77 N m
+constexpr double kSlideForceTol = 1e-12;  // [N]; |f| reaches 30 N
+constexpr double kBaseRelTol = 1e-10;     // relative to |beta|
+constexpr double kIdentRelTol = 1e-8;     // least squares on exact kinematics, relative to |beta|
 
 struct Arm {
   std::string name;  // of its reference files
@@ -373,6 +376,71 @@ TEST(ChainRegressor, ForwardKinematicsComposesTheTable) {
   EXPECT_NEAR((poses[5].rotation - Eigen::Matrix3d::Identity()).norm(), 0.0, 1e-12);
 }
 
+TEST(ChainRegressor, VerticalSlideCarriesItsWeight) {
+  // One prismatic DH row carrying a body of mass m, gravity 9.81 along -z. In the standard
+  // convention the row slides along the base's z whatever a, alpha and the constant angle:
+  // f = m (qdd + g). In the modified one it slides along Rx(alpha) z: f = m (qdd + g cos(alpha)).
+  // Neither depends on where the centre of mass is or on the inertia (no rotation).
+  const double m = 2.5, g = 9.81, alpha = 0.6;
+  const sid::LinkInertia<double> body{
+      m, {0.1, -0.2, 0.3}, Eigen::Vector3d(0.02, 0.03, 0.04).asDiagonal().toDenseMatrix()};
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(12);
+  theta.head<10>() = sid::standard_parameters(body);
+  const auto slide = sid::JointType::Prismatic;
+  const sid::SerialChain<double> standard(sid::DhConvention::Standard,
+                                          {{0.3, alpha, 0.2, 0.7, slide}});
+  const sid::SerialChain<double> modified(sid::DhConvention::Modified,
+                                          {{0.3, alpha, 0.2, 0.7, slide}});
+  ASSERT_EQ(standard.joint_type(0), sid::JointType::Prismatic);
+  for (const double q : {-0.4, 0.0, 0.25})
+    for (const double qd : {-1.0, 0.0, 0.5})
+      for (const double qdd : {-3.0, 0.0, 2.0}) {
+        const auto one = [](double v) { return Eigen::VectorXd::Constant(1, v); };
+        EXPECT_NEAR(sid::chain_inverse_dynamics(standard, theta, one(q), one(qd), one(qdd))[0],
+                    m * (qdd + g), kSlideForceTol);
+        EXPECT_NEAR(sid::chain_inverse_dynamics(modified, theta, one(q), one(qd), one(qdd))[0],
+                    m * (qdd + g * std::cos(alpha)), kSlideForceTol);
+      }
+}
+
+TEST(ChainRegressor, PrismaticDhRowsComposeTheirTransforms) {
+  // T = Rz(offset) Tz(q + d) Tx(a) Rx(alpha) (standard), Rx(alpha) Tx(a) Rz(offset) Tz(q + d)
+  // (modified), composed here as 4 x 4 matrices.
+  const auto rx = [](double t) {
+    Eigen::Matrix4d h = Eigen::Matrix4d::Identity();
+    h.topLeftCorner<3, 3>() = Eigen::AngleAxisd(t, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    return h;
+  };
+  const auto rz = [](double t) {
+    Eigen::Matrix4d h = Eigen::Matrix4d::Identity();
+    h.topLeftCorner<3, 3>() = Eigen::AngleAxisd(t, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    return h;
+  };
+  const auto shift = [](double x, double z) {
+    Eigen::Matrix4d h = Eigen::Matrix4d::Identity();
+    h(0, 3) = x;
+    h(2, 3) = z;
+    return h;
+  };
+  const double a = 0.3, alpha = -0.8, d = 0.15, offset = 1.1, q = 0.42;
+  const sid::DhJoint<double> row{a, alpha, d, offset, sid::JointType::Prismatic};
+  const Eigen::Matrix4d standard = rz(offset) * shift(0.0, q + d) * shift(a, 0.0) * rx(alpha);
+  const Eigen::Matrix4d modified = rx(alpha) * shift(a, 0.0) * rz(offset) * shift(0.0, q + d);
+  for (const auto& [convention, expected] : {std::pair{sid::DhConvention::Standard, standard},
+                                             std::pair{sid::DhConvention::Modified, modified}}) {
+    const sid::FramePose<double> pose = sid::SerialChain<double>(convention, {row}).link_pose(0, q);
+    EXPECT_LT((pose.rotation - expected.topLeftCorner<3, 3>()).cwiseAbs().maxCoeff(), 1e-15);
+    EXPECT_LT((pose.translation - expected.topRightCorner<3, 1>()).cwiseAbs().maxCoeff(), 1e-15);
+  }
+  // A revolute row (the default type) is what it was: its angle q + offset, its slide d.
+  const sid::DhJoint<double> turning{a, alpha, d, offset};
+  const sid::FramePose<double> turned =
+      sid::SerialChain<double>(sid::DhConvention::Standard, {turning}).link_pose(0, q);
+  const Eigen::Matrix4d expected = rz(q + offset) * shift(0.0, d) * shift(a, 0.0) * rx(alpha);
+  EXPECT_LT((turned.rotation - expected.topLeftCorner<3, 3>()).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT((turned.translation - expected.topRightCorner<3, 1>()).cwiseAbs().maxCoeff(), 1e-15);
+}
+
 TEST(ChainRegressor, RejectsBadInput) {
   using Table = std::vector<sid::DhJoint<double>>;
   EXPECT_THROW(sid::SerialChain<double>(sid::DhConvention::Standard, Table{}),
@@ -383,6 +451,10 @@ TEST(ChainRegressor, RejectsBadInput) {
   Table nan_row(2);
   nan_row[1].d = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(sid::SerialChain<double>(sid::DhConvention::Modified, nan_row),
+               std::invalid_argument);
+  Table unknown_type(1);
+  unknown_type[0].type = static_cast<sid::JointType>(7);
+  EXPECT_THROW(sid::SerialChain<double>(sid::DhConvention::Standard, unknown_type),
                std::invalid_argument);
   std::vector<sid::JointPlacement<double>> zero_axis(1);
   zero_axis[0].axis.setZero();

@@ -19,6 +19,7 @@
 #include <locale>
 #include <map>
 #include <ostream>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -30,6 +31,9 @@ namespace {
 // differences are round-off.
 constexpr double kPinocchioParameterTol = 1e-12;  // entries of theta reach 11
 constexpr double kPinocchioTorqueTol = 1e-12;     // [N m or N]; |tau| reaches 221 N
+// The same chain written as DH rows and as URDF placements (an rpy round trip): round-off.
+constexpr double kDhUrdfRegressorTol = 1e-12;  // entries of Y reach about 50
+constexpr double kMimicMomentTol = 1e-15;      // [kg m]; first moments of about 0.01
 
 std::string read_text(const std::string& name) {
   std::ifstream in(sid_test::data_path(name));
@@ -401,7 +405,9 @@ const PinocchioCase kRealRobots[] = {
     // a fixed world joint before the first axis
     {"ur5_tool0", "ur5_robot.urdf", "world", "tool0", {}},
     // prismatic torso lift, continuous rolls; the torso carries the head, a tilting laser and
-    // the whole left arm, all held
+    // the whole left arm, all held. The gripper's four <mimic> joints of r_gripper_l_finger_joint
+    // are given at 0, where Pinocchio (which ignores <mimic>) held them for the reference;
+    // otherwise they would follow it.
     {"pr2_right_held",
      "pr2.urdf",
      "base_footprint",
@@ -417,7 +423,11 @@ const PinocchioCase kRealRobots[] = {
       {"l_wrist_flex_joint", -0.4},
       {"l_wrist_roll_joint", 1.5},
       {"r_gripper_l_finger_joint", 0.3},
-      {"r_gripper_r_finger_joint", 0.3}}},
+      {"r_gripper_r_finger_joint", 0.3},
+      {"r_gripper_l_parallel_root_joint", 0.0},
+      {"r_gripper_r_parallel_root_joint", 0.0},
+      {"r_gripper_l_finger_tip_joint", 0.0},
+      {"r_gripper_r_finger_tip_joint", 0.0}}},
     // a middle link as the tip: the forearm, wrist and gripper past it held
     {"pr2_elbow_held",
      "pr2.urdf",
@@ -507,6 +517,113 @@ TEST(Urdf, ReadsPrismaticJoints) {
   const Eigen::Vector3d along = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()) *
                                 Eigen::Vector3d(1.0, 0.0, 0.2).normalized();
   EXPECT_LT((slide - 0.2 * along).norm(), 1e-15);
+}
+
+TEST(Urdf, HeldMimicJointsFollowAGivenMaster) {
+  // A hand past the tip: finger_right mimics finger_left (-1, +5 mm), the right pad mimics
+  // finger_right (x2), the thumb mimics the chain's own joint.
+  const std::string urdf = R"(<robot name="gripper">
+    <link name="base"/><link name="hand"><inertial><mass value="0.5"/>
+      <inertia ixx="1e-3" ixy="0" ixz="0" iyy="1e-3" iyz="0" izz="1e-3"/></inertial></link>
+    <joint name="wrist" type="revolute"><parent link="base"/><child link="hand"/>
+      <axis xyz="0 0 1"/></joint>
+    <link name="left"><inertial><origin xyz="0 0 0.05"/><mass value="0.2"/>
+      <inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial></link>
+    <link name="right"><inertial><origin xyz="0 0 0.05"/><mass value="0.3"/>
+      <inertia ixx="1e-4" ixy="0" ixz="0" iyy="1e-4" iyz="0" izz="1e-4"/></inertial></link>
+    <link name="pad"><inertial><origin xyz="0 0 0.02"/><mass value="0.1"/>
+      <inertia ixx="1e-5" ixy="0" ixz="0" iyy="1e-5" iyz="0" izz="1e-5"/></inertial></link>
+    <link name="thumb"><inertial><origin xyz="0.03 0 0"/><mass value="0.1"/>
+      <inertia ixx="1e-5" ixy="0" ixz="0" iyy="1e-5" iyz="0" izz="1e-5"/></inertial></link>
+    <joint name="finger_left" type="prismatic"><parent link="hand"/><child link="left"/>
+      <origin xyz="0 0.02 0.1"/><axis xyz="0 1 0"/></joint>
+    <joint name="finger_right" type="prismatic"><parent link="hand"/><child link="right"/>
+      <origin xyz="0 -0.02 0.1"/><axis xyz="0 1 0"/>
+      <mimic joint="finger_left" multiplier="-1" offset="0.005"/></joint>
+    <joint name="right_pad" type="revolute"><parent link="right"/><child link="pad"/>
+      <origin xyz="0 0 0.1"/><axis xyz="1 0 0"/><mimic joint="finger_right" multiplier="2"/>
+    </joint>
+    <joint name="thumb_joint" type="revolute"><parent link="hand"/><child link="thumb"/>
+      <axis xyz="0 1 0"/><mimic joint="wrist" multiplier="3" offset="0.2"/></joint>
+  </robot>)";
+  using Held = std::map<std::string, double>;
+  // Nothing given: every held joint at 0, mimic or not (Pinocchio's reduced model at 0).
+  const sid::UrdfChain at_zero = sid::chain_from_urdf(urdf, "base", "hand");
+  EXPECT_EQ(
+      at_zero.held_joints,
+      (Held{
+          {"finger_left", 0.0}, {"finger_right", 0.0}, {"right_pad", 0.0}, {"thumb_joint", 0.0}}));
+  // The master given: the right finger at -0.03 + 0.005, its pad at twice that; the thumb,
+  // whose master is on the chain, stays at 0.
+  const sid::UrdfChain opened = sid::chain_from_urdf(urdf, "base", "hand", {{"finger_left", 0.03}});
+  EXPECT_EQ(opened.held_joints.size(), 4u);
+  EXPECT_EQ(opened.held_joints.at("finger_left"), 0.03);
+  EXPECT_DOUBLE_EQ(opened.held_joints.at("finger_right"), -0.025);
+  EXPECT_DOUBLE_EQ(opened.held_joints.at("right_pad"), -0.05);
+  EXPECT_EQ(opened.held_joints.at("thumb_joint"), 0.0);
+  // The bodies sit where those values put them: the same as giving every value by hand.
+  EXPECT_EQ(opened.theta, sid::chain_from_urdf(urdf, "base", "hand", opened.held_joints).theta);
+  // The link's first moment along y [kg m]: the left finger (0.2 kg) at 0.02 + q_l, the right
+  // one (0.3 kg) at -0.02 + q_r, the pad (0.1 kg) 0.02 m along the right finger's z turned
+  // about x by q_p, at -0.02 + q_r - 0.02 sin(q_p); the hand and the thumb add nothing.
+  EXPECT_NEAR(
+      opened.theta[2],
+      0.2 * (0.02 + 0.03) + 0.3 * (-0.02 - 0.025) + 0.1 * (-0.02 - 0.025 - 0.02 * std::sin(-0.05)),
+      kMimicMomentTol);
+  EXPECT_NEAR(at_zero.theta[2], 0.2 * 0.02 + 0.3 * -0.02 + 0.1 * -0.02, kMimicMomentTol);
+  // A value given for the mimic joint itself wins; its own mimic follows it.
+  const sid::UrdfChain given =
+      sid::chain_from_urdf(urdf, "base", "hand", {{"finger_left", 0.03}, {"finger_right", 0.01}});
+  EXPECT_EQ(given.held_joints.at("finger_right"), 0.01);
+  EXPECT_DOUBLE_EQ(given.held_joints.at("right_pad"), 0.02);
+}
+
+TEST(Urdf, PrismaticDhRowsGiveTheRegressorOfTheirUrdf) {
+  // Modified DH rows {a, alpha, d, offset, type}; each is the URDF joint with
+  // <origin> = Rx(alpha) Tx(a) Rz(offset) Tz(d) and axis z, whose link frame is the DH frame.
+  using Row = sid::DhJoint<double>;
+  const auto prismatic = sid::JointType::Prismatic;
+  const std::vector<Row> table = {{0.0, 0.0, 0.3, 0.4, prismatic},
+                                  {0.1, -1.2, 0.05, 0.7, sid::JointType::Revolute},
+                                  {0.25, 0.9, -0.1, -0.6, prismatic},
+                                  {0.0, 1.5707963267948966, 0.2, 0.0, sid::JointType::Revolute},
+                                  {0.05, -0.4, 0.0, 2.0, prismatic}};
+  const sid::SerialChain<double> dh(sid::DhConvention::Modified, table);
+  std::ostringstream urdf;
+  urdf.imbue(std::locale::classic());
+  urdf.precision(17);
+  urdf << "<robot name=\"dh\"><link name=\"l0\"/>";
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    const Row& r = table[i];
+    const Eigen::Matrix3d rot = (Eigen::AngleAxisd(r.alpha, Eigen::Vector3d::UnitX()) *
+                                 Eigen::AngleAxisd(r.offset, Eigen::Vector3d::UnitZ()))
+                                    .toRotationMatrix();
+    const Eigen::Vector3d xyz = Eigen::Vector3d(r.a, 0.0, 0.0) + rot * Eigen::Vector3d(0, 0, r.d);
+    // URDF's R = Rz(yaw) Ry(pitch) Rx(roll).
+    const double roll = std::atan2(rot(2, 1), rot(2, 2)), pitch = -std::asin(rot(2, 0)),
+                 yaw = std::atan2(rot(1, 0), rot(0, 0));
+    urdf << "<link name=\"l" << i + 1 << "\"/><joint name=\"j" << i + 1 << "\" type=\""
+         << (r.type == prismatic ? "prismatic" : "revolute") << "\"><parent link=\"l" << i
+         << "\"/><child link=\"l" << i + 1 << "\"/><origin xyz=\"" << xyz.transpose() << "\" rpy=\""
+         << roll << " " << pitch << " " << yaw << "\"/><axis xyz=\"0 0 1\"/>"
+         << "</joint>";
+  }
+  urdf << "</robot>";
+  const sid::UrdfChain from_urdf = sid::chain_from_urdf(urdf.str(), "l0", "l5");
+  ASSERT_EQ(from_urdf.chain.joints(), 5);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(dh.joint_type(i), from_urdf.chain.joint_type(i));
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  const int p = sid::chain_parameter_count(5);
+  Eigen::MatrixXd y_dh(5, p), y_urdf(5, p);
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::VectorXd q = Eigen::VectorXd::NullaryExpr(5, [&] { return u(rng); });
+    const Eigen::VectorXd qd = Eigen::VectorXd::NullaryExpr(5, [&] { return u(rng); });
+    const Eigen::VectorXd qdd = Eigen::VectorXd::NullaryExpr(5, [&] { return u(rng); });
+    sid::chain_regressor(dh, q, qd, qdd, y_dh);
+    sid::chain_regressor(from_urdf.chain, q, qd, qdd, y_urdf);
+    EXPECT_LT((y_dh - y_urdf).cwiseAbs().maxCoeff(), kDhUrdfRegressorTol) << "q " << q.transpose();
+  }
 }
 
 TEST(Urdf, CarriesTheBodiesOffAndPastTheChainOnlyOnce) {

@@ -1,11 +1,13 @@
 #pragma once
 /// @file
-/// @brief The little XML a robot description needs: elements, attributes and nesting. Text
-/// content, namespaces and DTDs are not interpreted (a prefixed name such as `xacro:include` is
-/// just a name); a UTF-8 byte order mark, declarations, comments, processing instructions, CDATA
-/// and a DOCTYPE with or without an internal subset are skipped. Attribute values may be quoted
-/// either way and hold the five predefined entities and character references (`&#233;`,
-/// `&#xE9;`, written as UTF-8); entities a DTD declares are refused by name. Elements may nest at
+/// @brief The little XML a robot description needs: elements, attributes, nesting and the text
+/// directly inside an element (`<mechanicalReduction>50</mechanicalReduction>`). Namespaces and
+/// DTDs are not interpreted (a prefixed name such as `xacro:include` is just a name); a UTF-8
+/// byte order mark, declarations, comments, processing instructions and a DOCTYPE with or
+/// without an internal subset are skipped, CDATA is kept as text as written. Attribute values
+/// may be quoted either way and hold the five predefined entities and character references
+/// (`&#233;`, `&#xE9;`, written as UTF-8); entities a DTD declares are refused by name there,
+/// and kept as written in text. Elements may nest at
 /// most kMaxXmlDepth deep, so that a hostile document cannot overflow the stack of the recursive
 /// reader.
 
@@ -25,6 +27,9 @@ struct XmlElement {
   std::string name;
   std::vector<std::pair<std::string, std::string>> attributes;
   std::vector<XmlElement> children;
+  /// The character data directly inside the element (around its children, joined, references
+  /// decoded), whitespace included.
+  std::string text;
 
   const std::string* attribute(const std::string& key) const {
     for (const auto& [k, v] : attributes)
@@ -151,9 +156,16 @@ class XmlParser {
 
   // An entity or character reference at '&', appended to value.
   void parse_reference(std::string& value) {
+    const std::string problem = read_reference(value);
+    if (!problem.empty()) fail(problem);
+  }
+
+  // An entity or character reference at '&', appended to value and passed; or what is wrong
+  // with it, with nothing appended or passed.
+  std::string read_reference(std::string& value) {
     const std::size_t semicolon = text_.find(';', pos_);
     const std::size_t length = semicolon == std::string::npos ? 0 : semicolon + 1 - pos_;
-    if (length < 3 || length > 12) fail("'&' that starts no entity in an attribute value");
+    if (length < 3 || length > 12) return "'&' that starts no entity in an attribute value";
     const std::string reference = text_.substr(pos_, length);
     if (reference[1] == '#') {
       const bool hex = reference[2] == 'x';
@@ -169,7 +181,7 @@ class XmlParser {
                static_cast<unsigned long>(std::isdigit(u) ? d - '0' : std::tolower(u) - 'a' + 10);
       }
       if (digits.empty() || code == 0 || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF))
-        fail("character reference " + reference + " is not a character");
+        return "character reference " + reference + " is not a character";
       append_utf8(code, value);
     } else {
       static const std::pair<const char*, char> entities[] = {
@@ -181,10 +193,11 @@ class XmlParser {
           known = true;
         }
       if (!known)
-        fail("unknown entity " + reference +
-             " in an attribute value (entities a DTD declares are not read)");
+        return "unknown entity " + reference +
+               " in an attribute value (entities a DTD declares are not read)";
     }
     pos_ += length;
+    return "";
   }
 
   static void append_utf8(unsigned long code, std::string& out) {
@@ -233,11 +246,16 @@ class XmlParser {
     for (;;) {
       const std::size_t text_end = text_.find('<', pos_);
       if (text_end == std::string::npos) fail("element <" + e.name + "> is not closed");
+      while (pos_ < text_end) {
+        if (text_[pos_] != '&' || !read_reference(e.text).empty()) e.text += text_[pos_++];
+      }
       pos_ = text_end;
       if (starts_with("<!--")) {
         skip_past("-->", "comment");
       } else if (starts_with("<![CDATA[")) {
+        const std::size_t start = pos_ + 9;
         skip_past("]]>", "CDATA section");
+        e.text.append(text_, start, pos_ - 3 - start);
       } else if (starts_with("<?")) {
         skip_past("?>", "processing instruction");
       } else if (starts_with("</")) {

@@ -1,8 +1,10 @@
 #pragma once
 /// @file
 /// @brief sid::SerialChain: the kinematics of a serial arm of revolute and prismatic joints, from
-/// joint placements as URDF writes them or from a Denavit-Hartenberg table (revolute joints) in
-/// the standard or the modified (Khalil/Craig) convention.
+/// joint placements as URDF writes them or from a Denavit-Hartenberg table (revolute and
+/// prismatic rows) in the standard or the modified (Khalil/Craig) convention.
+
+#include <sid/trajectory.hpp>
 
 #include <Eigen/Core>
 
@@ -13,10 +15,6 @@
 #include <vector>
 
 namespace sid {
-
-/// @brief The joint count a chain may have; the per-sample recursions keep their link states
-/// on the stack up to this size, so they run without heap memory in a control loop.
-inline constexpr int kMaxChainJoints = 12;
 
 template <typename Scalar>
 using Vector3 = Eigen::Matrix<Scalar, 3, 1>;
@@ -34,13 +32,21 @@ enum class DhConvention {
   Modified,
 };
 
-/// @brief One row of a DH table [m, rad]; the joint angle is q + offset.
+/// @brief How a joint moves its child link: turning about its axis or sliding along it.
+enum class JointType {
+  Revolute,   ///< Rot(axis, q + offset); q [rad], its generalized force a torque [N m]
+  Prismatic,  ///< Trans(axis (q + offset)); q [m], its generalized force a force [N]
+};
+
+/// @brief One row of a DH table [m, rad]. A revolute row's joint angle is q + offset and its
+/// slide d; a prismatic row's slide is q + d and its joint angle the constant offset.
 template <typename Scalar>
 struct DhJoint {
   Scalar a = Scalar(0);
   Scalar alpha = Scalar(0);
   Scalar d = Scalar(0);
   Scalar offset = Scalar(0);
+  JointType type = JointType::Revolute;
 };
 
 /// @brief The pose of a child frame in its parent: x_parent = rotation x_child + translation.
@@ -48,12 +54,6 @@ template <typename Scalar>
 struct FramePose {
   Matrix3<Scalar> rotation = Matrix3<Scalar>::Identity();
   Vector3<Scalar> translation = Vector3<Scalar>::Zero();
-};
-
-/// @brief How a joint moves its child link: turning about its axis or sliding along it.
-enum class JointType {
-  Revolute,   ///< Rot(axis, q + offset); q [rad], its generalized force a torque [N m]
-  Prismatic,  ///< Trans(axis (q + offset)); q [m], its generalized force a force [N]
 };
 
 /// @brief A joint placed in its parent link's frame, the way URDF writes it and any DH row can
@@ -68,7 +68,10 @@ struct JointPlacement {
   JointType type = JointType::Revolute;
 };
 
-/// @brief A DH row as a joint placement.
+/// @brief A DH row as a joint placement. A revolute row turns about z by q + offset; a
+/// prismatic row (row.type) slides along z by q + d, turned about z by the constant offset:
+/// T(i-1, i) = Rz(offset) Tz(q + d) Tx(a) Rx(alpha) (standard) or
+/// Rx(alpha) Tx(a) Rz(offset) Tz(q + d) (modified).
 template <typename Scalar>
 JointPlacement<Scalar> dh_placement(DhConvention convention, const DhJoint<Scalar>& row) {
   using std::cos;
@@ -77,6 +80,23 @@ JointPlacement<Scalar> dh_placement(DhConvention convention, const DhJoint<Scala
   Matrix3<Scalar> rx;
   rx << Scalar(1), Scalar(0), Scalar(0), Scalar(0), ca, -sa, Scalar(0), sa, ca;
   JointPlacement<Scalar> joint;
+  if (row.type == JointType::Prismatic) {
+    const Scalar ct = cos(row.offset), st = sin(row.offset);
+    Matrix3<Scalar> rz;
+    rz << ct, -st, Scalar(0), st, ct, Scalar(0), Scalar(0), Scalar(0), Scalar(1);
+    joint.type = JointType::Prismatic;
+    joint.offset = row.d;
+    if (convention == DhConvention::Standard) {
+      joint.before.rotation = rz;  // Rz(offset) Tz(q + d) Tx(a) Rx(alpha)
+      joint.after.rotation = rx;
+      joint.after.translation << row.a, Scalar(0), Scalar(0);
+    } else {
+      joint.before.rotation = rx * rz;  // Rx(alpha) Tx(a) Rz(offset) Tz(q + d)
+      joint.before.translation << row.a, Scalar(0), Scalar(0);
+    }
+    return joint;
+  }
+  joint.type = row.type;  // a type that is neither is refused by SerialChain
   joint.offset = row.offset;
   if (convention == DhConvention::Standard) {
     joint.after.rotation = rx;  // Rz(q) Tz(d) Tx(a) Rx(alpha)
@@ -114,7 +134,8 @@ class SerialChain {
     validate("sid::SerialChain");
   }
 
-  /// @brief The chain of a DH table, one row per joint {a, alpha, d, offset} [m, rad].
+  /// @brief The chain of a DH table, one row per joint {a, alpha, d, offset[, type]} [m, rad]
+  /// (see dh_placement).
   /// @throws std::invalid_argument as the other constructor.
   SerialChain(DhConvention convention, const std::vector<DhJoint<Scalar>>& table,
               const Vector3<Scalar>& gravity = default_gravity())

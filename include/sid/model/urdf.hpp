@@ -35,8 +35,9 @@ struct UrdfJointLimits {
   double effort = std::numeric_limits<double>::quiet_NaN();
 };
 
-/// @brief A joint's `<mimic>`: its value is multiplier * value(joint) + offset. Recorded only;
-/// the chain treats every joint as independent (as Pinocchio's `buildModel` does by default).
+/// @brief A joint's `<mimic>`: its value is multiplier * value(joint) + offset. The chain
+/// treats its own joints as independent (as Pinocchio's `buildModel` does by default); a joint
+/// held off the chain follows a master whose value `held` gives (see chain_from_urdf).
 struct UrdfMimic {
   std::string joint;
   double multiplier = 1.0;
@@ -282,6 +283,17 @@ inline FramePose<double> urdf_joint_pose(const XmlElement& joint, const std::str
   return compose(origin, motion);
 }
 
+/// A joint's <mimic>, if it has one.
+inline std::optional<UrdfMimic> urdf_mimic(const XmlElement& joint) {
+  const XmlElement* mimic = joint.child("mimic");
+  if (!mimic) return std::nullopt;
+  const std::string w = "joint '" + UrdfTree::joint_name(joint) + "' <mimic>";
+  const std::string* of = mimic->attribute("joint");
+  if (!of) throw std::invalid_argument(urdf_who() + ": " + w + " has no joint");
+  return UrdfMimic{*of, urdf_optional_number(*mimic, "multiplier", 1.0, w),
+                   urdf_optional_number(*mimic, "offset", 0.0, w)};
+}
+
 /// What the URDF says of a moving joint beyond its placement.
 inline UrdfJoint urdf_joint_info(const XmlElement& joint, const std::string& type) {
   const std::string where = "joint '" + UrdfTree::joint_name(joint) + "'";
@@ -299,19 +311,39 @@ inline UrdfJoint urdf_joint_info(const XmlElement& joint, const std::string& typ
     info.damping = urdf_optional_number(*dynamics, "damping", 0.0, w);
     info.friction = urdf_optional_number(*dynamics, "friction", 0.0, w);
   }
-  if (const XmlElement* mimic = joint.child("mimic")) {
-    const std::string w = where + " <mimic>";
-    const std::string* of = mimic->attribute("joint");
-    if (!of) throw std::invalid_argument(urdf_who() + ": " + w + " has no joint");
-    info.mimic = UrdfMimic{*of, urdf_optional_number(*mimic, "multiplier", 1.0, w),
-                           urdf_optional_number(*mimic, "offset", 0.0, w)};
-  }
+  info.mimic = urdf_mimic(joint);
   return info;
+}
+
+/// The value [rad or m] at which a moving joint off the chain is held: held[name] if given;
+/// else, if it mimics a joint whose value the user gave (directly, or through that joint's own
+/// <mimic>), multiplier * value + offset; else 0. A mimic whose chain of masters reaches no
+/// given value, or turns in a loop, is held at 0 as before.
+inline double urdf_held_value(const UrdfTree& tree, const XmlElement& joint,
+                              const std::map<std::string, double>& held) {
+  const auto given = held.find(UrdfTree::joint_name(joint));
+  if (given != held.end()) return given->second;
+  if (held.empty()) return 0.0;
+  // value(joint) = scale * value(at) + shift, followed out along the masters.
+  double scale = 1.0, shift = 0.0;
+  const XmlElement* at = &joint;
+  for (std::size_t step = 0; step <= tree.joints.size(); ++step) {
+    const std::optional<UrdfMimic> mimic = urdf_mimic(*at);
+    if (!mimic) return 0.0;
+    shift += scale * mimic->offset;
+    scale *= mimic->multiplier;
+    const auto master = held.find(mimic->joint);
+    if (master != held.end()) return scale * master->second + shift;
+    const auto next = tree.joints.find(mimic->joint);
+    if (next == tree.joints.end()) return 0.0;
+    at = next->second;
+  }
+  return 0.0;  // the masters turn in a loop
 }
 
 /// Adds to `into` every body below `link` (not the link itself), whose frame has pose `at` in
 /// the frame of the moving link that carries them, skipping the joint `except` (the chain's
-/// next joint). Moving joints are held at held[name] or 0 and recorded in `used`. Iterative, so
+/// next joint). Moving joints are held at urdf_held_value and recorded in `used`. Iterative, so
 /// that a long line of links cannot overflow the stack.
 inline void urdf_carry(const UrdfTree& tree, const std::string& link, const FramePose<double>& at,
                        const XmlElement* except, const std::map<std::string, double>& held,
@@ -328,8 +360,7 @@ inline void urdf_carry(const UrdfTree& tree, const std::string& link, const Fram
       const std::string name = UrdfTree::joint_name(*joint), type = urdf_type(*joint);
       double q = 0.0;
       if (type != "fixed") {
-        const auto given = held.find(name);
-        if (given != held.end()) q = given->second;
+        q = urdf_held_value(tree, *joint, held);
         used[name] = q;
       }
       const std::string child = UrdfTree::end_link(*joint, "child");
@@ -354,9 +385,11 @@ inline void urdf_carry(const UrdfTree& tree, const std::string& link, const Fram
 /// frame: the links fixed to it on the path, every branch off the path at it or at a link fixed
 /// to it (a camera on a bracket, a sensor on a tilt joint), and for the last moving link every
 /// body past tip_link (a hand and its fingers, or the rest of the arm). Moving joints in those
-/// bodies are held at `held[name]` [rad or m], or at 0 if the map does not name them; mimic
-/// relations are not applied to them. Bodies before the first moving joint belong to the base
-/// and are left out, as is everything not below base_link.
+/// bodies are held at `held[name]` [rad or m]; one the map does not name but whose `<mimic>`
+/// master it names (directly or through the master's own `<mimic>`) follows it, at multiplier *
+/// value + offset; every other one is held at 0 (Pinocchio's `buildModel` ignores `<mimic>`, so
+/// with an empty map the lumped bodies are its reduced model's at 0). Bodies before the first
+/// moving joint belong to the base and are left out, as is everything not below base_link.
 /// @param held values of joints off or past the chain; it may not name a joint of the chain,
 ///        a fixed joint or a joint the URDF does not have.
 /// @param gravity the gravitational acceleration in base_link's frame [m/s^2].
