@@ -158,8 +158,8 @@ and the one end link) or a DH table (docs/serial-arms.md). Runs have columns t, 
 tau1..taun in the joint order of the description (--columns renames them, e.g.
 t=time,q1=pos_1,tau1=effort_1). The model is the links' rigid-body parameters plus, per joint,
 the drive terms of --effects (default viscous,coulomb,offset,armature; also coulomb_asymmetry,
-or none); a --transmission file (YAML: gear_ratios, couplings, joint_zero) makes the runs
-motor-side and adds the coupled motors' friction and inertia. Each joint's smoothing cutoff is
+or none); a --transmission file (YAML: gear_ratios, couplings, joint_zero; or a URDF with
+ros_control <transmission> elements, e.g. the robot's own) makes the runs motor-side and adds the coupled motors' friction and inertia. Each joint's smoothing cutoff is
 chosen by held-out torque prediction (or --cutoff F for all), the torque goes through its
 joint's smoother too, and equations at rest are left out (--rest-fraction). The report names
 each base parameter by the combination it stands for, with its HAC standard deviation;
@@ -220,8 +220,9 @@ void define_options(CLI::App& cli, Options& o) {
                  "--robot URDF: JOINT=VALUE,... holds joints off the chain (a gripper past the "
                  "tip, a head on a branch) at VALUE [rad or m] instead of 0");
   cli.add_option("--transmission", o.chain.transmission,
-                 "--robot: YAML with gear_ratios, couplings and joint_zero; the runs are then "
-                 "motor-side (angles and torques as the drives log them)")
+                 "--robot: YAML with gear_ratios, couplings and joint_zero, or a URDF with "
+                 "ros_control <transmission> elements; the runs are then motor-side (angles "
+                 "and torques as the drives log them)")
       ->check(CLI::ExistingFile);
   cli.add_option("--validate-fraction", o.chain.validate_fraction,
                  "--robot: fit the first 1 - F of the one run, predict its last F");

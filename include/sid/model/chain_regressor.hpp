@@ -63,43 +63,38 @@ template <typename Scalar>
 using ChainRegressorRef =
     Eigen::Ref<Eigen::Matrix<NoDeduce<Scalar>, Eigen::Dynamic, Eigen::Dynamic>>;
 
-template <typename Scalar>
-Matrix3<Scalar> skew(const Vector3<Scalar>& v) {
-  Matrix3<Scalar> s;
-  s << Scalar(0), -v[2], v[1], v[2], Scalar(0), -v[0], -v[1], v[0], Scalar(0);
-  return s;
+/// A link's wrench about its frame's origin is linear in its ten parameters: with angular
+/// velocity w, angular acceleration w' and origin acceleration a (gravity included),
+/// f = m a + w' x h + w x (w x h) and n = I w' + w x I w + h x a. Its power for a joint motion
+/// (angular wu, linear vu at the origin), wu . n + vu . f, is therefore a row over the ten
+/// parameters; written out, it costs a few cross products instead of a 6 x 10 matrix per link.
+/// y^T I x for a symmetric I, as a row over [Ixx, Ixy, Iyy, Ixz, Iyz, Izz].
+template <typename Scalar, typename Row>
+void add_inertia_row(const Vector3<Scalar>& y, const Vector3<Scalar>& x, Row& row) {
+  row[4] += y[0] * x[0];
+  row[5] += y[0] * x[1] + y[1] * x[0];
+  row[6] += y[1] * x[1];
+  row[7] += y[0] * x[2] + y[2] * x[0];
+  row[8] += y[1] * x[2] + y[2] * x[1];
+  row[9] += y[2] * x[2];
 }
 
-/// I w = inertia_columns(w) [Ixx, Ixy, Iyy, Ixz, Iyz, Izz] for a symmetric I.
+/// The power row of a link's wrench for the joint motion (wu, vu), all in the link's frame.
 template <typename Scalar>
-Eigen::Matrix<Scalar, 3, 6> inertia_columns(const Vector3<Scalar>& w) {
-  Eigen::Matrix<Scalar, 3, 6> l = Eigen::Matrix<Scalar, 3, 6>::Zero();
-  l(0, 0) = w[0];
-  l(0, 1) = w[1];
-  l(1, 1) = w[0];
-  l(1, 2) = w[1];
-  l(0, 3) = w[2];
-  l(2, 3) = w[0];
-  l(1, 4) = w[2];
-  l(2, 4) = w[1];
-  l(2, 5) = w[2];
-  return l;
-}
-
-/// The wrench a link needs, about its frame's origin (moment rows 0-2, force rows 3-5), as a
-/// linear map of its ten parameters: f = m a + w' x h + w x (w x h), n = I w' + w x I w + h x a
-/// for angular velocity w, angular acceleration w' and origin acceleration a (gravity included).
-template <typename Scalar>
-Eigen::Matrix<Scalar, 6, kLinkParameters> link_wrench_columns(const Vector3<Scalar>& w,
-                                                              const Vector3<Scalar>& wd,
-                                                              const Vector3<Scalar>& a) {
-  Eigen::Matrix<Scalar, 6, kLinkParameters> y = Eigen::Matrix<Scalar, 6, kLinkParameters>::Zero();
-  const Matrix3<Scalar> sw = skew(w);
-  y.template block<3, 1>(3, 0) = a;
-  y.template block<3, 3>(0, 1) = -skew(a);
-  y.template block<3, 3>(3, 1) = skew(wd) + sw * sw;
-  y.template block<3, 6>(0, 4) = inertia_columns(wd) + sw * inertia_columns(w);
-  return y;
+Eigen::Matrix<Scalar, 1, kLinkParameters> link_power_row(const Vector3<Scalar>& w,
+                                                         const Vector3<Scalar>& wd,
+                                                         const Vector3<Scalar>& a,
+                                                         const Vector3<Scalar>& wu,
+                                                         const Vector3<Scalar>& vu) {
+  Eigen::Matrix<Scalar, 1, kLinkParameters> row;
+  row[0] = vu.dot(a);
+  // h: wu . (h x a) + vu . (w' x h + w x (w x h))
+  row.template segment<3>(1) = a.cross(wu) + vu.cross(wd) + w.cross(w.cross(vu));
+  row.template tail<6>().setZero();
+  // I: wu . (I w') + wu . (w x I w) = wu^T I w' + (wu x w)^T I w
+  add_inertia_row(wu, wd, row);
+  add_inertia_row(Vector3<Scalar>(wu.cross(w)), w, row);
+  return row;
 }
 
 template <typename Scalar>
@@ -163,9 +158,6 @@ void chain_link_columns_unchecked(const SerialChain<Scalar>& chain, const Joints
   ChainMotion<Scalar> m;
   chain_motion(chain, q, qd, qdd, m);
   const int n = chain.joints();
-  std::array<Eigen::Matrix<Scalar, 6, kLinkParameters>, kMaxChainJoints> wrench;
-  for (std::size_t k = 0; k < static_cast<std::size_t>(n); ++k)
-    wrench[k] = link_wrench_columns(m.w[k], m.wd[k], m.a[k]);
   out.leftCols(kLinkParameters * n).setZero();
   for (int i = 0; i < n; ++i) {
     // Joint i carries the wrenches of links i..n-1; its torque (or force) is the power of their
@@ -182,8 +174,7 @@ void chain_link_columns_unchecked(const SerialChain<Scalar>& chain, const Joints
         w = r.transpose() * w;
       }
       out.block(i, kLinkParameters * j, 1, kLinkParameters) =
-          w.transpose() * wrench[k].template topRows<3>() +
-          v.transpose() * wrench[k].template bottomRows<3>();
+          link_power_row(m.w[k], m.wd[k], m.a[k], w, v);
     }
   }
 }

@@ -167,18 +167,36 @@ class SerialChain {
     using std::cos;
     using std::sin;
     const Scalar c = cos(q + j.offset), s = sin(q + j.offset);
-    const Vector3<Scalar>& u = j.axis;
-    Matrix3<Scalar> turn = (Scalar(1) - c) * u * u.transpose();  // Rodrigues
-    turn.diagonal().array() += c;
-    turn(0, 1) -= s * u[2];
-    turn(1, 0) += s * u[2];
-    turn(0, 2) += s * u[1];
-    turn(2, 0) -= s * u[1];
-    turn(1, 2) -= s * u[0];
-    turn(2, 1) += s * u[0];
-    const Matrix3<Scalar> turned = j.before.rotation * turn;
-    pose.rotation = turned * j.after.rotation;
-    pose.translation = j.before.translation + turned * j.after.translation;
+    const Shape& shape = shapes_[static_cast<std::size_t>(i)];
+    Matrix3<Scalar> turned;
+    if (shape.axis_index >= 0) {
+      // Turning about a coordinate axis e_k (every DH joint, most URDF joints) moves two columns
+      // of the placement: 12 products instead of Rodrigues' matrix and a 3 x 3 product.
+      const int k = shape.axis_index, a = (k + 1) % 3, b = (k + 2) % 3;
+      const Scalar sk = shape.axis_sign * s;
+      const Matrix3<Scalar>& r = j.before.rotation;
+      turned.col(a) = c * r.col(a) + sk * r.col(b);
+      turned.col(b) = c * r.col(b) - sk * r.col(a);
+      turned.col(k) = r.col(k);
+    } else {
+      const Vector3<Scalar>& u = j.axis;
+      Matrix3<Scalar> turn = (Scalar(1) - c) * u * u.transpose();  // Rodrigues
+      turn.diagonal().array() += c;
+      turn(0, 1) -= s * u[2];
+      turn(1, 0) += s * u[2];
+      turn(0, 2) += s * u[1];
+      turn(2, 0) -= s * u[1];
+      turn(1, 2) -= s * u[0];
+      turn(2, 1) += s * u[0];
+      turned = j.before.rotation * turn;
+    }
+    if (shape.link_on_joint) {  // a URDF link's frame is its joint's frame
+      pose.rotation = turned;
+      pose.translation = j.before.translation;
+    } else {
+      pose.rotation = turned * j.after.rotation;
+      pose.translation = j.before.translation + turned * j.after.translation;
+    }
     return pose;
   }
 
@@ -235,6 +253,15 @@ class SerialChain {
       // The axis passes through the joint frame's origin; seen from the child link's frame.
       const Matrix3<Scalar> back = j.after.rotation.transpose();
       axes_.push_back({back * j.axis, -(back * j.after.translation)});
+      Shape shape;
+      for (int k = 0; k < 3; ++k)
+        if (j.axis[(k + 1) % 3] == Scalar(0) && j.axis[(k + 2) % 3] == Scalar(0)) {
+          shape.axis_index = k;
+          shape.axis_sign = j.axis[k] > Scalar(0) ? Scalar(1) : Scalar(-1);
+        }
+      shape.link_on_joint = j.after.rotation == Matrix3<Scalar>::Identity() &&
+                            j.after.translation == Vector3<Scalar>::Zero();
+      shapes_.push_back(shape);
     }
     if (!gravity_.allFinite())
       throw std::invalid_argument(std::string(who) + ": the gravity vector is not finite");
@@ -252,8 +279,17 @@ class SerialChain {
     return isfinite(x);
   }
 
+  /// What link_pose may skip for a joint: turning about a coordinate axis (axis_index 0, 1, 2
+  /// for x, y, z, -1 for any other), and an identity `after`.
+  struct Shape {
+    int axis_index = -1;
+    Scalar axis_sign = Scalar(1);
+    bool link_on_joint = false;
+  };
+
   std::vector<JointPlacement<Scalar>> joints_;
   std::vector<JointAxis<Scalar>> axes_;
+  std::vector<Shape> shapes_;
   Vector3<Scalar> gravity_;
 };
 
