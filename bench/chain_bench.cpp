@@ -1,11 +1,14 @@
-// Timing of a six-joint arm's regressor (Newton-Euler in the parameters), of stacking the
+// Timing of a six-joint arm's regressor (Newton-Euler in the parameters), its forward dynamics
+// (articulated bodies against the mass-matrix route), of stacking the
 // 10 s excitation at 1 kHz, the size of a typical identification experiment, and of the whole
 // identification of such a run (drive terms, cutoff search, HAC, physically consistent links).
 
 #include <sid/base_parameters.hpp>
 #include <sid/chain_consistency.hpp>
 #include <sid/identify_chain.hpp>
+#include <sid/model/articulated_body.hpp>
 #include <sid/model/chain_model.hpp>
+#include <sid/model/link_inertia.hpp>
 #include <sid/model/chain_regressor.hpp>
 #include <sid/model/serial_chain.hpp>
 
@@ -52,6 +55,41 @@ void BM_SixJointRegressor(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_SixJointRegressor);
+
+/// A plausible body on every link (forward dynamics needs a positive-definite mass matrix).
+Eigen::VectorXd plausible_theta(int joints) {
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(sid::chain_parameter_count(joints));
+  for (int i = 0; i < joints; ++i) {
+    sid::LinkInertia<double> body;
+    body.mass = 6.0 - 0.8 * i;
+    body.com = sid::Vector3<double>(0.05, 0.02 * i, 0.1);
+    body.inertia_com = sid::Vector3<double>(0.05, 0.04, 0.03).asDiagonal();
+    theta.segment<sid::kLinkParameters>(sid::kLinkParameters * i) = sid::standard_parameters(body);
+  }
+  return theta;
+}
+
+// Forward dynamics, O(n) (articulated bodies) against O(n^3) (n + 2 inverse dynamics, Cholesky).
+template <bool kArticulated>
+void BM_SixJointForwardDynamics(benchmark::State& state) {
+  const auto chain = puma560();
+  const Eigen::VectorXd theta = plausible_theta(6);
+  const Eigen::MatrixXd q = random_samples(kNumStates, kPi, 1).transpose(),
+                        qd = random_samples(kNumStates, 2, 2).transpose(),
+                        tau = random_samples(kNumStates, 20, 3).transpose();
+  Eigen::Index i = 0;
+  for (auto _ : state) {
+    if constexpr (kArticulated)
+      benchmark::DoNotOptimize(
+          sid::chain_forward_dynamics_aba(chain, theta, q.col(i), qd.col(i), tau.col(i)));
+    else
+      benchmark::DoNotOptimize(
+          sid::chain_forward_dynamics(chain, theta, q.col(i), qd.col(i), tau.col(i)));
+    i = (i + 1) % kNumStates;
+  }
+}
+BENCHMARK_TEMPLATE(BM_SixJointForwardDynamics, true)->Name("BM_SixJointForwardDynamicsAba");
+BENCHMARK_TEMPLATE(BM_SixJointForwardDynamics, false)->Name("BM_SixJointForwardDynamicsCubic");
 
 void BM_SixJointStack10sAt1kHz(benchmark::State& state) {
   const auto chain = puma560();

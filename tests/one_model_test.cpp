@@ -3,6 +3,7 @@
 // dynamics, mass matrix, state derivative) is the same code for both. Checked against the
 // closed-form two-link dynamics, the O(n^3) chain dynamics and a round trip.
 
+#include <sid/model/articulated_body.hpp>
 #include <sid/model/chain_dynamics.hpp>
 #include <sid/model/chain_model.hpp>
 #include <sid/model/model.hpp>
@@ -143,4 +144,107 @@ TEST(OneModel, RefusesWhatDoesNotFit) {
   // A singular mass matrix (no links, no armature) gives NaN accelerations, not an exception
   // inside a simulator's right-hand side.
   EXPECT_TRUE(model.model().forward_dynamics(theta, two, two, two).array().isNaN().all());
+}
+
+namespace {
+
+ChainVector random_joints(std::mt19937& g, int n, double scale) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  ChainVector v(n);
+  for (int j = 0; j < n; ++j) v[j] = scale * u(g);
+  return v;
+}
+
+}  // namespace
+
+// The O(n) articulated-body algorithm against the O(n^3) route on a seven-joint arm (Panda with
+// its hand held) and on a chain with a prismatic joint (PR2's torso lift), friction included.
+TEST(OneModel, ArticulatedBodyMatchesTheCubicRouteOnSevenJointsAndASlide) {
+  struct Case {
+    const char* file;
+    const char* base;
+    const char* tip;
+  };
+  for (const Case& c : {Case{"urdf/real/panda.urdf", "panda_link0", "panda_link8"},
+                        Case{"urdf/real/pr2.urdf", "base_footprint", "r_elbow_flex_link"}}) {
+    const sid::UrdfChain arm = sid::chain_from_urdf(read_text(c.file), c.base, c.tip);
+    const int n = arm.chain.joints();
+    Eigen::VectorXd theta = arm.theta;
+    for (int j = 0; j < n; ++j) {
+      theta[sid::kLinkParameters * n + j] = 0.3 + 0.1 * j;         // Fv_j
+      theta[(sid::kLinkParameters + 1) * n + j] = 0.05 * (j + 1);  // Fc_j
+    }
+    std::mt19937 g(17);
+    for (int trial = 0; trial < 20; ++trial) {
+      const ChainVector q = random_joints(g, n, 1.5), qd = random_joints(g, n, 2.0),
+                        tau = random_joints(g, n, 20.0);
+      const Eigen::VectorXd aba = sid::chain_forward_dynamics_aba(arm.chain, theta, q, qd, tau);
+      const Eigen::VectorXd cubic = sid::chain_forward_dynamics(arm.chain, theta, q, qd, tau);
+      EXPECT_LT((aba - cubic).cwiseAbs().maxCoeff(), 1e-10 * (1.0 + cubic.cwiseAbs().maxCoeff()))
+          << c.file << ", trial " << trial;
+      const Eigen::VectorXd back = sid::chain_inverse_dynamics(arm.chain, theta, q, qd, aba);
+      EXPECT_LT((back - tau).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + tau.cwiseAbs().maxCoeff()));
+    }
+  }
+}
+
+// The model's own O(n) forward dynamics, with every drive term, the TX40's coupled wrist motor
+// (its rotor a rank-one term of the mass matrix) included, equals the model's O(n^3) route and
+// inverts its inverse dynamics.
+TEST(OneModel, ChainModelForwardDynamicsWithACoupledRotorIsTheCubicRoutes) {
+  const sid::UrdfChain arm =
+      sid::chain_from_urdf(read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
+  Eigen::MatrixXd gear = Eigen::MatrixXd::Zero(6, 6);
+  gear.diagonal() << 32, 32, 45, -48, 45, 32;
+  gear(5, 4) = 32;  // the sixth motor turns with q5 + q6
+  const sid::Transmission drives(gear, Eigen::VectorXd::Zero(6));
+  const sid::ChainModel model(
+      arm.chain, arm.joint_names,
+      sid::drive_terms({sid::DriveTermKind::Viscous, sid::DriveTermKind::Coulomb,
+                        sid::DriveTermKind::CoulombAsymmetry, sid::DriveTermKind::Offset,
+                        sid::DriveTermKind::Armature},
+                       drives),
+      drives, 0.05);
+  std::mt19937 g(23);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Eigen::VectorXd theta(model.parameters());
+  theta.head(60) = arm.theta.head(60);
+  for (Eigen::Index k = 60; k < theta.size(); ++k) theta[k] = 0.05 + 0.2 * u(g);
+  for (int trial = 0; trial < 20; ++trial) {
+    const ChainVector q = random_joints(g, 6, 2.0), qd = random_joints(g, 6, 1.5),
+                      tau = random_joints(g, 6, 30.0);
+    const ChainVector fast = model.forward_dynamics(theta, q, qd, tau);
+    const ChainVector cubic = model.model().forward_dynamics(theta, q, qd, tau);
+    EXPECT_LT((fast - cubic).cwiseAbs().maxCoeff(), 1e-10 * (1.0 + cubic.cwiseAbs().maxCoeff()))
+        << "trial " << trial;
+    EXPECT_LT((model.model().inverse_dynamics(theta, q, qd, fast) - tau).cwiseAbs().maxCoeff(),
+              1e-9 * (1.0 + tau.cwiseAbs().maxCoeff()));
+  }
+  // Not a body: NaN accelerations from the model, an exception from the free function.
+  EXPECT_TRUE(model
+                  .forward_dynamics(Eigen::VectorXd::Zero(model.parameters()), ChainVector::Zero(6),
+                                    ChainVector::Zero(6), ChainVector::Ones(6))
+                  .array()
+                  .isNaN()
+                  .all());
+  sid_test::expect_invalid_argument(
+      [&] {
+        (void)sid::chain_forward_dynamics_aba(arm.chain, Eigen::VectorXd::Zero(72),
+                                              Eigen::VectorXd::Zero(6), Eigen::VectorXd::Zero(6),
+                                              Eigen::VectorXd::Ones(6));
+      },
+      "sid::chain_forward_dynamics_aba", "not a physical arm");
+  sid_test::expect_invalid_argument(
+      [&] {
+        (void)sid::chain_forward_dynamics_aba(arm.chain, Eigen::VectorXd::Zero(72),
+                                              Eigen::VectorXd::Zero(5), Eigen::VectorXd::Zero(6),
+                                              Eigen::VectorXd::Ones(6));
+      },
+      "sid::chain_forward_dynamics_aba", "q has 5 entries");
+  sid_test::expect_invalid_argument(
+      [&] {
+        (void)model.forward_dynamics(theta, ChainVector::Zero(5), ChainVector::Zero(6),
+                                     ChainVector::Zero(6));
+      },
+      "sid::ChainModel::forward_dynamics", "sizes do not match");
 }

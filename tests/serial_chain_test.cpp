@@ -5,6 +5,7 @@
 
 #include <sid/base_parameters.hpp>
 #include <sid/least_squares.hpp>
+#include <sid/model/articulated_body.hpp>
 #include <sid/model/chain_dynamics.hpp>
 #include <sid/model/chain_regressor.hpp>
 #include <sid/model/link_inertia.hpp>
@@ -168,6 +169,27 @@ TEST_P(SixJointArm, ForwardDynamicsInvertsTheTorquesAsPinocchiosAbaDoes) {
     EXPECT_LT(
         (m * qdd + sid::chain_bias_torque(arm.chain, theta, q, qd) - tau).cwiseAbs().maxCoeff(),
         kTorqueTol);
+  }
+}
+
+TEST_P(SixJointArm, ArticulatedBodyGivesPinocchiosAccelerations) {
+  // The O(n) forward dynamics maps Pinocchio's torques (with friction) back to the accelerations
+  // they came from, and agrees with the O(n^3) route.
+  const Arm& arm = GetParam();
+  const sid_test::Table table = sid_test::read_table("ndof/rnea_" + arm.name + ".csv");
+  const Eigen::VectorXd theta = base_reference(arm.name).theta;
+  for (Eigen::Index row = 0; row < table.data.rows(); ++row) {
+    const Eigen::VectorXd q = sid_test::joints_of(table, row, "q"),
+                          qd = sid_test::joints_of(table, row, "qd"),
+                          qdd = sid_test::joints_of(table, row, "qdd"),
+                          tau = sid_test::joints_of(table, row, "tau");
+    const Eigen::VectorXd aba = sid::chain_forward_dynamics_aba(arm.chain, theta, q, qd, tau);
+    const double scale = 1.0 + qdd.cwiseAbs().maxCoeff();
+    EXPECT_LT((aba - qdd).cwiseAbs().maxCoeff(), 1e-10 * scale) << "sample " << row;
+    EXPECT_LT(
+        (aba - sid::chain_forward_dynamics(arm.chain, theta, q, qd, tau)).cwiseAbs().maxCoeff(),
+        1e-10 * scale)
+        << "sample " << row;
   }
 }
 

@@ -10,12 +10,14 @@
 /// parameter; a joint term writes only its own joint's row. The model is a sid::Model of the
 /// chain's joint count, so the mass matrix and forward dynamics come with it.
 
+#include <sid/model/articulated_body.hpp>
 #include <sid/model/chain_regressor.hpp>
 #include <sid/model/model.hpp>
 #include <sid/model/serial_chain.hpp>
 #include <sid/model/transmission.hpp>
 
 #include <Eigen/Core>
+#include <Eigen/LU>
 
 #include <algorithm>
 #include <cmath>
@@ -153,6 +155,8 @@ class ChainModel {
     model_.add(rigid_body_term());
     for (const DriveTerm& t : terms_) model_.add(drive_term(t));
     names_ = model_.parameter_names();
+    directions_.resize(n, n);
+    for (int m = 0; m < n; ++m) directions_.row(m) = transmission_.motor_direction(m);
   }
 
   int joints() const noexcept { return chain_.joints(); }
@@ -180,6 +184,63 @@ class ChainModel {
                                   std::to_string(parameters()) + " parameters");
     const Vector qv = q, qdv = qd, qddv = qdd;  // a row or a column of samples
     model_.regressor(qv, qdv, qddv, RegressorView<double, Eigen::Dynamic>(out.derived()));
+  }
+
+  /// @brief qdd [rad/s^2 or m/s^2] under applied torques tau [N m or N] in O(n): the
+  /// articulated-body algorithm with each joint's rotor inertia, the other drive terms' torques
+  /// (friction, offsets) opposing tau, and each coupled motor's rotor inertia (a rank-one term
+  /// I_m d d^T of the mass matrix, d the motor's direction) by the Sherman-Morrison-Woodbury
+  /// identity, one more pass per such motor. The same accelerations as model().forward_dynamics
+  /// (the O(n^3) route). Allocates nothing.
+  /// @return NaN where theta is not a physical arm at q.
+  /// @throws std::invalid_argument if a size does not match the model.
+  Vector forward_dynamics(const Eigen::Ref<const Eigen::VectorXd>& theta, const Vector& q,
+                          const Vector& qd, const Vector& tau) const {
+    const int n = joints();
+    if (theta.size() != parameters() || q.size() != n || qd.size() != n || tau.size() != n)
+      throw std::invalid_argument(
+          "sid::ChainModel::forward_dynamics: sizes do not match the "
+          "model's " +
+          std::to_string(n) + " joints and " + std::to_string(parameters()) + " parameters");
+    Vector armature = Vector::Zero(n), applied = tau;
+    JointMatrix<double, Eigen::Dynamic> motors(n, 0);  // directions of coupled rotors
+    JointVector<double, Eigen::Dynamic> motor_inertia(0);
+    Eigen::Index column = rigid_body_parameters();
+    for (const DriveTerm& t : terms_) {
+      const double value = theta[column++];
+      const bool rotor = t.kind == DriveTermKind::Armature;
+      if (!t.on_motor) {
+        if (rotor)
+          armature[t.index] += value;
+        else
+          applied[t.index] -= value * term_value(t.kind, epsilon_, qd[t.index], 0.0);
+      } else if (!rotor) {
+        const double rate = directions_.row(t.index).dot(qd);
+        applied -= directions_.row(t.index).transpose() *
+                   (value * term_value(t.kind, epsilon_, rate, 0.0));
+      } else if (value != 0.0) {
+        const Eigen::Index m = motors.cols();
+        motors.conservativeResize(n, m + 1);
+        motors.col(m) = directions_.row(t.index).transpose();
+        motor_inertia.conservativeResize(m + 1);
+        motor_inertia[m] = value;
+      }
+    }
+    const auto links = theta.head(rigid_body_parameters());
+    Vector qdd = detail::articulated_body_unchecked(chain_, links, armature, q, qd, applied, true);
+    if (motors.cols() == 0 || !qdd.allFinite()) return qdd;
+    // (M + U C U^T)^-1 r = x - Y (C^-1 + U^T Y)^-1 U^T x, x = M^-1 r, Y = M^-1 U.
+    const Eigen::Index k = motors.cols();
+    JointMatrix<double, Eigen::Dynamic> y(n, k), small(k, k);
+    for (Eigen::Index m = 0; m < k; ++m) {
+      const Vector direction = motors.col(m);
+      y.col(m) =
+          detail::articulated_body_unchecked(chain_, links, armature, q, qd, direction, false);
+    }
+    small = motors.transpose() * y;
+    small.diagonal() += motor_inertia.cwiseInverse();
+    const Vector correction = small.partialPivLu().solve(Vector(motors.transpose() * qdd));
+    return qdd - y * correction;
   }
 
  private:
@@ -252,6 +313,7 @@ class ChainModel {
   double epsilon_;
   Model<double, Eigen::Dynamic> model_;
   std::vector<std::string> names_;
+  Eigen::MatrixXd directions_;  ///< row m: the joint rates motor m turns with
 };
 
 }  // namespace sid
