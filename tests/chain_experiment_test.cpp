@@ -1,0 +1,172 @@
+// Tests of sid/fourier_trajectory.hpp and sid/cvode/chain_experiment.hpp: the excitation's
+// derivatives are its series' own (finite differences), random excitations keep their bounds,
+// and a simulated six-axis arm with drive terms and a coupled wrist tracks its excitation, records
+// the torques its model gives and is identified back from them.
+
+#include <sid/cvode/chain_experiment.hpp>
+#include <sid/fourier_trajectory.hpp>
+#include <sid/identify_chain.hpp>
+#include <sid/model/urdf.hpp>
+
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+
+namespace {
+
+std::string read_text(const std::string& name) {
+  std::ifstream in(sid_test::data_path(name));
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+sid::FourierTrajectory three_joint_series() {
+  sid::FourierTrajectory f;
+  f.base_frequency = 0.2;
+  f.q0 = Eigen::Vector3d(0.1, -0.4, 0.3);
+  f.a = Eigen::MatrixXd::Zero(3, 2);
+  f.b = Eigen::MatrixXd::Zero(3, 2);
+  f.a << 0.5, -0.2, 0.3, 0.1, -0.4, 0.25;
+  f.b << 0.1, 0.3, -0.2, 0.05, 0.15, -0.35;
+  return f;
+}
+
+}  // namespace
+
+TEST(FourierTrajectory, RatesAreTheDerivativesAndTheRunRepeats) {
+  const sid::FourierTrajectory f = three_joint_series();
+  Eigen::VectorXd q(3), qd(3), qdd(3), qp(3), qdp(3), qddp(3), qm(3), qdm(3), qddm(3);
+  constexpr double h = 1e-5;
+  for (const double t : {0.0, 0.7, 2.3, 4.9}) {
+    f.evaluate(t, q, qd, qdd);
+    f.evaluate(t + h, qp, qdp, qddp);
+    f.evaluate(t - h, qm, qdm, qddm);
+    EXPECT_LT(((qp - qm) / (2 * h) - qd).cwiseAbs().maxCoeff(), 1e-8);
+    EXPECT_LT(((qdp - qdm) / (2 * h) - qdd).cwiseAbs().maxCoeff(), 1e-7);
+    f.evaluate(t + 1.0 / f.base_frequency, qp, qdp, qddp);
+    EXPECT_LT((qp - q).cwiseAbs().maxCoeff(), 1e-12);
+    EXPECT_LT((qdp - qd).cwiseAbs().maxCoeff(), 1e-12);
+  }
+  // One period of a pure series averages to its offset.
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(3);
+  for (int k = 0; k < 1000; ++k) {
+    f.evaluate(k / (1000 * f.base_frequency), q, qd, qdd);
+    mean += q / 1000;
+  }
+  EXPECT_LT((mean - f.q0).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(FourierTrajectory, RandomSeriesKeepTheirBoundsAndRepeatForASeed) {
+  const Eigen::Vector3d q0(0.0, 0.5, -0.2), range(0.8, 0.3, 1.2), rate(1.0, 2.0, 0.4);
+  std::mt19937_64 a(5), b(5);
+  const sid::FourierTrajectory f = sid::random_fourier_trajectory(q0, 5, 0.1, range, rate, a);
+  const sid::FourierTrajectory g = sid::random_fourier_trajectory(q0, 5, 0.1, range, rate, b);
+  EXPECT_EQ(f.a, g.a);
+  EXPECT_EQ(f.b, g.b);
+  Eigen::VectorXd q(3), qd(3), qdd(3), largest_q = Eigen::VectorXd::Zero(3),
+                                       largest_qd = Eigen::VectorXd::Zero(3);
+  for (int k = 0; k < 20000; ++k) {
+    f.evaluate(k / (20000 * f.base_frequency), q, qd, qdd);
+    largest_q = largest_q.cwiseMax((q - q0).cwiseAbs());
+    largest_qd = largest_qd.cwiseMax(qd.cwiseAbs());
+  }
+  for (int j = 0; j < 3; ++j) {
+    EXPECT_LE(largest_q[j], 1.01 * range[j]) << "joint " << j;
+    EXPECT_LE(largest_qd[j], 1.01 * rate[j]) << "joint " << j;
+    // one of the two bounds binds
+    EXPECT_GT(std::max(largest_q[j] / range[j], largest_qd[j] / rate[j]), 0.99) << "joint " << j;
+  }
+  std::mt19937_64 rng(1);
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::random_fourier_trajectory(q0, 0, 0.1, range, rate, rng); },
+      "sid::random_fourier_trajectory", "harmonics");
+  sid_test::expect_invalid_argument(
+      [&] {
+        (void)sid::random_fourier_trajectory(q0, 3, 0.1, Eigen::Vector3d(1, 0, 1), rate, rng);
+      },
+      "sid::random_fourier_trajectory", "> 0");
+  sid::FourierTrajectory bad = three_joint_series();
+  bad.b.resize(2, 2);
+  sid_test::expect_invalid_argument([&] { bad.validate(); }, "sid::FourierTrajectory",
+                                    "joints x harmonics");
+}
+
+// The TX40 with every drive term and its coupled wrist motor, simulated under computed torque:
+// it tracks the excitation, its recorded torques are its model's, and the identification finds
+// a model that explains them.
+TEST(ChainExperiment, SimulatedSixAxisArmTracksAndIsIdentifiedBack) {
+  const sid::UrdfChain arm =
+      sid::chain_from_urdf(read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
+  Eigen::MatrixXd gear = Eigen::MatrixXd::Zero(6, 6);
+  gear.diagonal() << 32, 32, 45, -48, 45, 32;
+  gear(5, 4) = 32;
+  const sid::Transmission drives(gear, Eigen::VectorXd::Zero(6));
+  const sid::ChainModel model(
+      arm.chain, arm.joint_names,
+      sid::drive_terms(
+          {sid::DriveTermKind::Viscous, sid::DriveTermKind::Coulomb, sid::DriveTermKind::Armature},
+          drives),
+      drives, 0.05);
+  Eigen::VectorXd theta(model.parameters());
+  theta.head(60) = arm.theta.head(60);
+  for (Eigen::Index k = 60; k < theta.size(); ++k) {
+    const std::string& name = model.parameter_names()[static_cast<std::size_t>(k)];
+    theta[k] = name.rfind("Ia_", 0) == 0 ? 0.01 : name.rfind("fc_", 0) == 0 ? 0.3 : 0.8;
+  }
+  std::mt19937_64 rng(40);
+  const sid::FourierTrajectory desired = sid::random_fourier_trajectory(
+      Eigen::VectorXd::Zero(6), 5, 0.25, Eigen::VectorXd::Constant(6, 1.0),
+      Eigen::VectorXd::Constant(6, 1.5), rng);
+  sid::ChainExperiment experiment;
+  experiment.duration = 4.0;
+  const sid::ChainExperimentResult run =
+      sid::simulate_chain_experiment(model, theta, desired, experiment);
+  ASSERT_TRUE(run.ok()) << run.message;
+  ASSERT_EQ(run.truth.t.size(), 4001);
+  Eigen::VectorXd q(6), qd(6), qdd(6);
+  double tracking = 0.0, consistency = 0.0;
+  for (Eigen::Index k = 0; k < run.truth.t.size(); k += 50) {
+    desired.evaluate(run.truth.t[k], q, qd, qdd);
+    tracking = std::max(tracking, (run.truth.q.row(k).transpose() - q).cwiseAbs().maxCoeff());
+    const sid::ChainModel::Vector qk = run.truth.q.row(k).transpose(),
+                                  qdk = run.truth.qd.row(k).transpose(),
+                                  qddk = run.truth.qdd.row(k).transpose();
+    consistency = std::max(consistency, (model.model().inverse_dynamics(theta, qk, qdk, qddk) -
+                                         run.truth.tau.row(k).transpose())
+                                            .cwiseAbs()
+                                            .maxCoeff());
+  }
+  EXPECT_LT(tracking, 1e-7);      // the feedforward is exact; CVODE's error is what is left
+  EXPECT_LT(consistency, 1e-10);  // the recorded torque is the model's at the recorded state
+  const sid::ChainIdentification id = sid::identify_chain(model, {run.trajectory()});
+  EXPECT_LT(id.fitted.relative_residual, 1e-3);
+}
+
+TEST(ChainExperiment, RefusesWhatDoesNotFit) {
+  const sid::UrdfChain arm =
+      sid::chain_from_urdf(read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
+  const sid::Transmission direct(Eigen::MatrixXd::Identity(6, 6), Eigen::VectorXd::Zero(6));
+  const sid::ChainModel model(arm.chain, arm.joint_names,
+                              sid::drive_terms({sid::DriveTermKind::Armature}, direct), direct);
+  const Eigen::VectorXd theta = Eigen::VectorXd::Ones(model.parameters());
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::simulate_chain_experiment(model, theta, three_joint_series()); },
+      "sid::simulate_chain_experiment", "the trajectory 3 joints");
+  sid::FourierTrajectory six = three_joint_series();
+  six.q0 = Eigen::VectorXd::Zero(6);
+  six.a = six.b = Eigen::MatrixXd::Zero(6, 2);
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::simulate_chain_experiment(model, theta.head(10), six); },
+      "sid::simulate_chain_experiment", "theta 10 entries");
+  sid::ChainExperiment bad;
+  bad.sample_time = -1.0;
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::simulate_chain_experiment(model, theta, six, bad); }, "sid::sample_grid",
+      "sample_time");
+}
