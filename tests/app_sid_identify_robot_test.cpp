@@ -183,3 +183,57 @@ TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
 }
 
 }  // namespace
+
+// sid_simulate --robot writes the log of a simulated TX40 with a hidden Coulomb friction on
+// joint 3 and a rotor on joint 6; sid_identify --robot finds both back within their std.
+TEST_F(IdentifyRobot, SimulatedChainLogIsIdentifiedBackWithItsHiddenEffects) {
+  const std::string urdf = data("tx40_mdh_modified.urdf");
+  const sid_test::AppRun sim =
+      shell(app("sid_simulate") + " --robot " + urdf +
+            " --T 6 --Ts 0.002 --effect armature_j6:0.01 --effect coulomb_j3:0.4 --sigma-q2 0"
+            " --sigma-tau2 1e-4 -q -o sim.csv");
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const sid::app::CsvTable table = sid::app::read_csv(file("sim.csv"));
+  EXPECT_EQ(table.rows(), 3001);
+  EXPECT_NO_THROW((void)table.column("tau6"));
+  const sid_test::AppRun fit =
+      shell(app("sid_identify") + " --robot " + urdf + " --json fit.json sim.csv");
+  ASSERT_EQ(fit.exit_code, 0) << fit.err;
+  const nlohmann::json j = nlohmann::json::parse(read(file("fit.json")));
+  EXPECT_LT(j["relative_residual"].get<double>(), 0.005);
+  const auto value = [&](const std::string& name, double truth) {
+    const auto& names = j["parameter_names"];
+    for (std::size_t k = 0; k < names.size(); ++k)
+      if (names[k].get<std::string>() == name) {
+        const double theta = j["theta"][k].get<double>(), std = j["std_dev"][k].get<double>();
+        EXPECT_LT(std::abs(theta - truth), 4 * std + 1e-12) << name << " = " << theta;
+        EXPECT_LT(std, 0.1 * truth) << name;
+        return;
+      }
+    ADD_FAILURE() << name << " is not a base parameter";
+  };
+  value("fc_3", 0.4);
+  value("Ia_6", 0.01);
+  // The same seed gives the same file.
+  ASSERT_EQ(shell(app("sid_simulate") + " --robot " + urdf +
+                  " --T 6 --Ts 0.002 --effect armature_j6:0.01 --effect coulomb_j3:0.4"
+                  " --sigma-q2 0 --sigma-tau2 1e-4 -q -o again.csv")
+                .exit_code,
+            0);
+  EXPECT_EQ(read(file("again.csv")), read(file("sim.csv")));
+}
+
+TEST_F(IdentifyRobot, SimulateRobotRefusesWhatItCannotSimulate) {
+  const std::string urdf = data("tx40_mdh_modified.urdf");
+  const auto refused = [&](const std::string& options, const std::string& words) {
+    const sid_test::AppRun r = shell(app("sid_simulate") + " " + options + " -o x.csv");
+    EXPECT_EQ(r.exit_code, 2) << options;
+    EXPECT_NE(r.err.find(words), std::string::npos) << r.err;
+  };
+  refused("--robot " + urdf, "add a rotor, e.g. --effect armature_j6");
+  refused("--robot " + urdf + " --effect spring_j2:1", "unknown kind 'spring'");
+  refused("--robot " + urdf + " --effect coulomb_j9:1", "the joint must be 1..6");
+  refused("--robot " + urdf + " --effect coulomb_j2:-1", "coulomb must be > 0");
+  refused("--robot " + urdf + " --excitation multisine", "random Fourier series");
+  refused("--robot '" SID_SOURCE_DIR "/examples/dfki_double_pendulum.dh'", "give a URDF");
+}

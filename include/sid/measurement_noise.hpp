@@ -29,8 +29,8 @@ struct MeasurementNoise {
 /// copied unchanged.
 ///
 /// Draw order (part of the contract, so a run is reproducible from its seed): one standard normal
-/// z per entry, column by column: q1 for all samples, then q2, then tau1, then tau2; each entry
-/// becomes value + sqrt(variance) * z. A zero variance therefore returns the exact values while
+/// z per entry, column by column: q1 for all samples, then q2 (... qn), then tau1, tau2 (...
+/// taun); each entry becomes value + sqrt(variance) * z. A zero variance therefore returns the exact values while
 /// still consuming its draws, so the q noise of a seed does not depend on the tau variance.
 ///
 /// Reproducibility: the numbers depend on the generator and on std::normal_distribution, whose
@@ -42,11 +42,12 @@ struct MeasurementNoise {
 ///   (never a global one: a run depends only on its seed).
 /// @param[in] truth noise-free samples; validated (see Trajectory::validate()).
 /// @param[in] noise variances, finite and >= 0.
-/// @param[in,out] rng the generator; advanced by 4 n draws of std::normal_distribution.
+/// @param[in,out] rng the generator; advanced by 2 joints x samples draws of
+///   std::normal_distribution.
 /// @throws std::invalid_argument for a negative or non-finite variance or an invalid truth.
-template <typename Scalar, typename Rng>
-Trajectory<Scalar> add_measurement_noise(const Trajectory<Scalar>& truth,
-                                         const MeasurementNoise<Scalar>& noise, Rng& rng) {
+template <typename Scalar, int Joints, typename Rng>
+Trajectory<Scalar, Joints> add_measurement_noise(const Trajectory<Scalar, Joints>& truth,
+                                                 const MeasurementNoise<Scalar>& noise, Rng& rng) {
   static_assert(std::is_floating_point_v<Scalar>,
                 "sid::add_measurement_noise: std::normal_distribution needs float, double or "
                 "long double");
@@ -63,21 +64,21 @@ Trajectory<Scalar> add_measurement_noise(const Trajectory<Scalar>& truth,
   std::normal_distribution<Scalar> standard_normal(Scalar(0), Scalar(1));
   const Scalar sigma_q = sqrt(noise.q_variance);
   const Scalar sigma_tau = sqrt(noise.tau_variance);
-  Trajectory<Scalar> measured = truth;
+  Trajectory<Scalar, Joints> measured = truth;
   const Eigen::Index n = truth.size();
-  for (Eigen::Index j = 0; j < 2; ++j)
+  for (Eigen::Index j = 0; j < truth.joints(); ++j)
     for (Eigen::Index i = 0; i < n; ++i) measured.q(i, j) += sigma_q * standard_normal(rng);
-  for (Eigen::Index j = 0; j < 2; ++j)
+  for (Eigen::Index j = 0; j < truth.joints(); ++j)
     for (Eigen::Index i = 0; i < n; ++i) measured.tau(i, j) += sigma_tau * standard_normal(rng);
   return measured;
 }
 
 /// @brief The same for a true trajectory given as kinematics (its qd and qdd are not measured
 /// and are dropped).
-template <typename Scalar, typename Rng>
-Trajectory<Scalar> add_measurement_noise(const Kinematics<Scalar>& truth,
-                                         const MeasurementNoise<Scalar>& noise, Rng& rng) {
-  return add_measurement_noise(Trajectory<Scalar>{truth.t, truth.q, truth.tau}, noise, rng);
+template <typename Scalar, int Joints, typename Rng>
+Trajectory<Scalar, Joints> add_measurement_noise(const Kinematics<Scalar, Joints>& truth,
+                                                 const MeasurementNoise<Scalar>& noise, Rng& rng) {
+  return add_measurement_noise(Trajectory<Scalar, Joints>{truth.t, truth.q, truth.tau}, noise, rng);
 }
 
 }  // namespace sid

@@ -1,0 +1,185 @@
+#include "chain_simulate_app.hpp"
+
+#include <sid/cvode/chain_experiment.hpp>
+#include <sid/fourier_trajectory.hpp>
+#include <sid/measurement_noise.hpp>
+#include <sid/model/chain_model.hpp>
+
+#include "app.hpp"
+#include "csv.hpp"
+#include "robot_description.hpp"
+
+#include <charconv>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace sid::app {
+
+namespace {
+
+std::string shortest(double v) {
+  char buffer[64];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
+  return std::string(buffer, result.ptr);
+}
+
+struct ChainEffect {
+  std::string kind;  ///< viscous, coulomb, armature, torque_offset
+  int joint = 0;     ///< 0-based
+  double value = 0.0;
+};
+
+ChainEffect parse_chain_effect(const std::string& text, int joints) {
+  const std::string who = "--effect '" + text + "': ";
+  const auto colon = text.find(':');
+  require(colon != std::string::npos, who + "expected KIND_jN:VALUE, e.g. coulomb_j3:0.4");
+  const std::string id = text.substr(0, colon), value = text.substr(colon + 1);
+  const auto mark = id.rfind("_j");
+  require(mark != std::string::npos, who + "expected KIND_jN:VALUE, e.g. coulomb_j3:0.4");
+  ChainEffect e;
+  e.kind = id.substr(0, mark);
+  require(
+      e.kind == "viscous" || e.kind == "coulomb" || e.kind == "armature" ||
+          e.kind == "torque_offset",
+      who + "unknown kind '" + e.kind + "'; on a chain: viscous, coulomb, armature, torque_offset");
+  const std::string number = id.substr(mark + 2);
+  int joint = 0;
+  const auto parsed = std::from_chars(number.data(), number.data() + number.size(), joint);
+  require(!number.empty() && parsed.ec == std::errc() &&
+              parsed.ptr == number.data() + number.size() && joint >= 1 && joint <= joints,
+          who + "the joint must be 1.." + std::to_string(joints) + ", got '" + number + "'");
+  e.joint = joint - 1;
+  e.value = parse_doubles(value, "--effect " + id, 1)[0];
+  require(e.kind == "torque_offset" || e.value > 0.0,
+          who + e.kind + " must be > 0, got " + shortest(e.value));
+  return e;
+}
+
+}  // namespace
+
+long simulate_robot(const ChainSimulateOptions& o) {
+  require(o.harmonics >= 1 && o.harmonics <= 50, "--harmonics must be 1..50");
+  require(std::isfinite(o.base_frequency) && o.base_frequency > 0.0,
+          "--base-frequency must be a finite number > 0 [Hz]");
+  require(std::isfinite(o.q_range) && o.q_range > 0.0, "--q-range must be a finite number > 0");
+  require(std::isfinite(o.qd_max) && o.qd_max > 0.0, "--qd-max must be a finite number > 0");
+  const RobotDescription robot =
+      read_robot_description(o.robot, o.base, o.tip, parse_held_joints(o.hold, "--hold"));
+  require(robot.link_parameters.size() > 0,
+          o.robot + ": a DH table has no link inertias to simulate with; give a URDF");
+  const int n = robot.chain.joints();
+  std::vector<ChainEffect> effects;
+  for (const std::string& text : o.effects) {
+    effects.push_back(parse_chain_effect(text, n));
+    for (std::size_t k = 0; k + 1 < effects.size(); ++k)
+      require(effects[k].kind != effects.back().kind || effects[k].joint != effects.back().joint,
+              "--effect '" + text + "' is given more than once");
+  }
+
+  const Transmission direct(n);
+  const ChainModel model(
+      robot.chain, robot.joint_names,
+      drive_terms({DriveTermKind::Viscous, DriveTermKind::Coulomb, DriveTermKind::Armature},
+                  direct),
+      direct, o.coulomb_epsilon);
+  // theta: the URDF's links, its <dynamics> damping and friction, then the effects on top.
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(model.parameters());
+  theta.head(model.rigid_body_parameters()) = robot.link_parameters;
+  Eigen::VectorXd offset = Eigen::VectorXd::Zero(n);
+  const Eigen::Index drives = model.rigid_body_parameters();
+  for (int j = 0; j < n; ++j) {
+    theta[drives + 3 * j] = robot.damping[j];
+    theta[drives + 3 * j + 1] = robot.friction[j];
+  }
+  for (const ChainEffect& e : effects) {
+    if (e.kind == "torque_offset") {
+      offset[e.joint] = e.value;
+      continue;
+    }
+    const int slot = e.kind == "viscous" ? 0 : e.kind == "coulomb" ? 1 : 2;
+    theta[drives + 3 * e.joint + slot] += e.value;
+  }
+
+  std::mt19937_64 rng(o.seed);
+  const FourierTrajectory desired = random_fourier_trajectory(
+      Eigen::VectorXd::Zero(n), o.harmonics, o.base_frequency,
+      Eigen::VectorXd::Constant(n, o.q_range), Eigen::VectorXd::Constant(n, o.qd_max), rng);
+  ChainExperiment experiment;
+  experiment.duration = o.duration;
+  experiment.sample_time = o.sample_time;
+  experiment.simulator.rtol = o.rtol;
+  experiment.simulator.atol = o.atol;
+  {
+    ChainModel::Vector q(n), qd(n), qdd(n);
+    desired.evaluate(0.0, q, qd, qdd);
+    require(
+        model.model().mass_matrix(theta, q).diagonal().minCoeff() > 0.0,
+        o.robot +
+            ": a joint of the chain moves no inertia (a link with none about its "
+            "axis); add a rotor, e.g. --effect armature_j" +
+            [&] {
+              ChainModel::Vector d = model.model().mass_matrix(theta, q).diagonal();
+              Eigen::Index j = 0;
+              d.minCoeff(&j);
+              return std::to_string(j + 1);
+            }() +
+            ":0.01");
+  }
+  const ChainExperimentResult run = simulate_chain_experiment(model, theta, desired, experiment);
+  require(run.ok(), std::string("the simulation failed (") + to_string(run.status) +
+                        "): " + run.message +
+                        "; check the description's inertias or the tolerances --rtol/--atol");
+
+  ChainTrajectory<double> sensed = run.trajectory();
+  for (int j = 0; j < n; ++j) sensed.tau.col(j).array() += offset[j];
+  const ChainTrajectory<double> measured =
+      add_measurement_noise(sensed, MeasurementNoise<double>{o.sigma_q2, o.sigma_tau2}, rng);
+
+  std::vector<std::string> names{"t"};
+  std::vector<Eigen::VectorXd> columns{measured.t};
+  for (const char* stem : {"q", "tau"})
+    for (int j = 0; j < n; ++j) {
+      names.push_back(stem + std::to_string(j + 1));
+      columns.push_back(std::string(stem) == "q" ? measured.q.col(j) : measured.tau.col(j));
+    }
+  if (o.truth) {
+    const ChainKinematics<double>& k = run.truth;
+    const std::pair<const char*, const Eigen::MatrixXd*> truth[] = {
+        {"q_true", &k.q}, {"qd", &k.qd}, {"qdd", &k.qdd}, {"tau_true", &k.tau}};
+    for (const auto& [stem, m] : truth)
+      for (int j = 0; j < n; ++j) {
+        const std::string s = stem;
+        const auto under = s.find('_');
+        names.push_back(under == std::string::npos
+                            ? s + std::to_string(j + 1)
+                            : s.substr(0, under) + std::to_string(j + 1) + s.substr(under));
+        columns.push_back(m->col(j));
+      }
+  }
+  std::string joint_list, parameters;
+  for (int j = 0; j < n; ++j) joint_list += (j ? "," : "") + robot.joint_names[j];
+  for (Eigen::Index k = drives; k < theta.size(); ++k)
+    if (theta[k] != 0.0)
+      parameters += (parameters.empty() ? "" : " ") +
+                    model.parameter_names()[static_cast<std::size_t>(k)] + "=" + shortest(theta[k]);
+  std::string effect_list;
+  for (const std::string& text : o.effects) effect_list += (effect_list.empty() ? "" : " ") + text;
+  const std::vector<std::string> comments{
+      "sid_simulate --robot " + o.robot + ": " + std::to_string(n) + " joints (" + joint_list +
+          "), the description's links, computed torque tracking a random Fourier excitation",
+      "excitation: " + std::to_string(o.harmonics) + " harmonics of " + shortest(o.base_frequency) +
+          " Hz, |q| <= " + shortest(o.q_range) + ", |qd| <= " + shortest(o.qd_max) +
+          " per joint, from the seed",
+      "T = " + shortest(o.duration) + " s, Ts = " + shortest(o.sample_time) +
+          " s, samples = " + std::to_string(measured.size()),
+      "seed = " + std::to_string(o.seed) + " (std::mt19937_64), sigma_q2 = " +
+          shortest(o.sigma_q2) + ", sigma_tau2 = " + shortest(o.sigma_tau2),
+      "drive terms = " + (parameters.empty() ? std::string("none") : parameters) +
+          " (coulomb_epsilon = " + shortest(o.coulomb_epsilon) + ")",
+      "effects = " + (effect_list.empty() ? std::string("none") : effect_list)};
+  write_csv(o.output, names, columns, comments);
+  return static_cast<long>(measured.size());
+}
+
+}  // namespace sid::app
