@@ -30,8 +30,9 @@ struct MeasurementNoise {
 ///
 /// Draw order (part of the contract, so a run is reproducible from its seed): one standard normal
 /// z per entry, column by column: q1 for all samples, then q2 (... qn), then tau1, tau2 (...
-/// taun); each entry becomes value + sqrt(variance) * z. A zero variance therefore returns the exact values while
-/// still consuming its draws, so the q noise of a seed does not depend on the tau variance.
+/// taun); each entry becomes value + sqrt(variance) * z. A zero variance therefore returns the
+/// exact values while still consuming its draws, so the q noise of a seed does not depend on the
+/// tau variance.
 ///
 /// Reproducibility: the numbers depend on the generator and on std::normal_distribution, whose
 /// algorithm the C++ standard leaves to the library. The same seed gives the same noise on every
