@@ -72,7 +72,8 @@ The file is what sid_identify reads.
 
 Any chain (--robot FILE.urdf [--base LINK] [--tip LINK] [--hold JOINT=VALUE,...]): the URDF's
 links and <dynamics> damping and friction, every joint tracking a random Fourier series
-(--harmonics, --base-frequency; scaled so |q_j| <= --q-range and |qd_j| <= --qd-max, drawn
+(--harmonics, --base-frequency; about the middle of the joint's <limit>, scaled so that
+|q_j - q0_j| <= --q-range and |qd_j| <= --qd-max and within 90 % of the <limit>s, drawn
 from --seed) under computed torque with a PD correction. Effects on a chain: viscous_jN:fv,
 coulomb_jN:Fc (tanh, --coulomb-epsilon), armature_jN:Ia (a rotor; needed where a link has no
 inertia about its own axis), torque_offset_jN:b. Output: t,q1..qn,tau1..taun (with --truth
@@ -195,7 +196,8 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--base-frequency", o.base_frequency,
                  "--robot: the excitation's base frequency [Hz] (its period is 1 / f)")
       ->capture_default_str();
-  cli.add_option("--q-range", o.q_range, "--robot: largest |q_j| [rad or m]")
+  cli.add_option("--q-range", o.q_range,
+                 "--robot: largest |q_j - q0_j| [rad or m], q0 the middle of its <limit>")
       ->capture_default_str();
   cli.add_option("--qd-max", o.qd_max, "--robot: largest |qd_j| [rad/s or m/s]")
       ->capture_default_str();

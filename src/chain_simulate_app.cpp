@@ -9,7 +9,9 @@
 #include "csv.hpp"
 #include "robot_description.hpp"
 
+#include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <random>
 #include <string>
 #include <vector>
@@ -101,10 +103,24 @@ long simulate_robot(const ChainSimulateOptions& o) {
     theta[drives + 3 * e.joint + slot] += e.value;
   }
 
+  // Within the URDF's limits: about the middle of each joint's range, at most 90 % of its half
+  // width and of its velocity limit.
+  Eigen::VectorXd q0 = Eigen::VectorXd::Zero(n), range = Eigen::VectorXd::Constant(n, o.q_range),
+                  rate = Eigen::VectorXd::Constant(n, o.qd_max);
+  for (int j = 0; j < n && j < static_cast<int>(robot.limits.size()); ++j) {
+    const UrdfJointLimits& limit = robot.limits[static_cast<std::size_t>(j)];
+    if (std::isfinite(limit.lower) && std::isfinite(limit.upper)) {
+      require(limit.upper > limit.lower, o.robot + ": joint '" + robot.joint_names[j] +
+                                             "' has an empty <limit> range; cannot move it");
+      q0[j] = 0.5 * (limit.lower + limit.upper);
+      range[j] = std::min(range[j], 0.45 * (limit.upper - limit.lower));
+    }
+    if (std::isfinite(limit.velocity) && limit.velocity > 0.0)
+      rate[j] = std::min(rate[j], 0.9 * limit.velocity);
+  }
   std::mt19937_64 rng(o.seed);
-  const FourierTrajectory desired = random_fourier_trajectory(
-      Eigen::VectorXd::Zero(n), o.harmonics, o.base_frequency,
-      Eigen::VectorXd::Constant(n, o.q_range), Eigen::VectorXd::Constant(n, o.qd_max), rng);
+  const FourierTrajectory desired =
+      random_fourier_trajectory(q0, o.harmonics, o.base_frequency, range, rate, rng);
   ChainExperiment experiment;
   experiment.duration = o.duration;
   experiment.sample_time = o.sample_time;
@@ -169,8 +185,8 @@ long simulate_robot(const ChainSimulateOptions& o) {
       "sid_simulate --robot " + o.robot + ": " + std::to_string(n) + " joints (" + joint_list +
           "), the description's links, computed torque tracking a random Fourier excitation",
       "excitation: " + std::to_string(o.harmonics) + " harmonics of " + shortest(o.base_frequency) +
-          " Hz, |q| <= " + shortest(o.q_range) + ", |qd| <= " + shortest(o.qd_max) +
-          " per joint, from the seed",
+          " Hz about the middle of each joint's <limit>, |q - q0| <= " + shortest(o.q_range) +
+          ", |qd| <= " + shortest(o.qd_max) + " (and 90 % of the limits), from the seed",
       "T = " + shortest(o.duration) + " s, Ts = " + shortest(o.sample_time) +
           " s, samples = " + std::to_string(measured.size()),
       "seed = " + std::to_string(o.seed) + " (std::mt19937_64), sigma_q2 = " +

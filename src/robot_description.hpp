@@ -6,6 +6,7 @@
 
 #include <sid/model/serial_chain.hpp>
 #include <sid/model/transmission.hpp>
+#include <sid/model/urdf.hpp>
 #include <sid/trajectory.hpp>
 
 #include "csv.hpp"
@@ -26,6 +27,8 @@ struct RobotDescription {
   Eigen::VectorXd link_parameters;      ///< the description's ten per link (URDF), else empty
   /// Per joint, the URDF's <dynamics> damping and friction (0 where absent or for a DH table).
   Eigen::VectorXd damping, friction;
+  /// Per joint, the URDF's <limit> (NaN where absent); empty for a DH table.
+  std::vector<sid::UrdfJointLimits> limits;
 };
 
 /// @brief Reads a URDF (a file whose first element is <robot>) or a DH table (see

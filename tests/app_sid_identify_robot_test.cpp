@@ -3,6 +3,7 @@
 // joint-side runs, and bad input refused with a message naming it.
 
 #include <nlohmann/json.hpp>
+#include <sid/model/urdf.hpp>
 
 #include "app_test_support.hpp"
 #include "chain_simulation.hpp"
@@ -236,4 +237,30 @@ TEST_F(IdentifyRobot, SimulateRobotRefusesWhatItCannotSimulate) {
   refused("--robot " + urdf + " --effect coulomb_j2:-1", "coulomb must be > 0");
   refused("--robot " + urdf + " --excitation multisine", "random Fourier series");
   refused("--robot '" SID_SOURCE_DIR "/examples/dfki_double_pendulum.dh'", "give a URDF");
+}
+
+// Asked for more than the URDF allows, the excitation stays within 90 % of every <limit>.
+TEST_F(IdentifyRobot, SimulatedChainStaysWithinTheDescriptionsLimits) {
+  const std::string path = SID_TEST_DATA_DIR "/staubli_tx40/tx40_mdh_modified.urdf";
+  const sid_test::AppRun sim =
+      shell(app("sid_simulate") + " --robot '" + path +
+            "' --T 10 --Ts 0.01 --q-range 10 --qd-max 50 --effect armature_j6:0.01"
+            " --sigma-q2 0 --sigma-tau2 0 --truth -q -o sim.csv");
+  ASSERT_EQ(sim.exit_code, 0) << sim.err;
+  const sid::app::CsvTable table = sid::app::read_csv(file("sim.csv"));
+  const sid::UrdfChain arm = sid::chain_from_urdf(read(path), "base_link", "tool0");
+  for (int j = 0; j < 6; ++j) {
+    const sid::UrdfJointLimits& limit = arm.joints[static_cast<std::size_t>(j)].limit;
+    const double middle = 0.5 * (limit.lower + limit.upper);
+    const double half = 0.5 * (limit.upper - limit.lower);
+    const Eigen::VectorXd& q = table.column("q" + std::to_string(j + 1));
+    const Eigen::VectorXd& qd = table.column("qd" + std::to_string(j + 1));
+    EXPECT_LE((q.array() - middle).abs().maxCoeff(), 0.9 * half + 1e-6) << "joint " << j + 1;
+    EXPECT_LE(qd.cwiseAbs().maxCoeff(), 0.9 * limit.velocity + 1e-6) << "joint " << j + 1;
+    // the excitation uses the room it is given: one of the two limits binds
+    EXPECT_GT(std::max((q.array() - middle).abs().maxCoeff() / (0.9 * half),
+                       qd.cwiseAbs().maxCoeff() / (0.9 * limit.velocity)),
+              0.95)
+        << "joint " << j + 1;
+  }
 }
