@@ -209,18 +209,11 @@ std::string short_number(double v) {
   return buffer;
 }
 
-// The shortest text that reads back as the same double (0.0025, not 0.0025000000000000001).
-std::string shortest(double v) {
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
-  return std::string(buffer, result.ptr);
-}
-
 // Exact (shortest round-trip text) for the file's comments, short (6 digits) for messages.
 std::string join_numbers(const Eigen::VectorXd& v, bool exact = false) {
   std::string out;
   for (Eigen::Index i = 0; i < v.size(); ++i)
-    out += (i ? "," : "") + (exact ? shortest(v[i]) : short_number(v[i]));
+    out += (i ? "," : "") + (exact ? sid::app::shortest_number(v[i]) : short_number(v[i]));
   return out;
 }
 
@@ -312,7 +305,7 @@ std::vector<sid::EffectSpec> parse_effects(const std::vector<std::string>& texts
 std::string spec_text(const sid::EffectSpec& spec) {
   std::string text = spec.effect.id() + ":";
   for (std::size_t i = 0; i < spec.values.size(); ++i)
-    text += (i ? "," : "") + shortest(spec.values[i]);
+    text += (i ? "," : "") + sid::app::shortest_number(spec.values[i]);
   return text;
 }
 
@@ -321,7 +314,8 @@ std::string spec_description(const sid::EffectSpec& spec) {
   const auto units = sid::effect_value_units(spec.effect);
   std::string text = "effect " + spec.effect.id() + ": " + sid::effect_name(spec.effect);
   for (std::size_t i = 0; i < names.size(); ++i)
-    text += (i ? ", " : "; ") + names[i] + " = " + shortest(spec.values[i]) + " " + units[i];
+    text += (i ? ", " : "; ") + names[i] + " = " + sid::app::shortest_number(spec.values[i]) + " " +
+            units[i];
   return text;
 }
 
@@ -443,20 +437,23 @@ int simulate(const Options& o) {
               "q(0) = qd(0) = 0, g = 9.81 m/s^2"
             : "sid_simulate: open-loop experiment with the multisine input, u1 = 5 sin 1.3t + "
               "2 sin 3.1t, u2 = 3 cos 0.7t + 1.5 sin 2.3t [N m], q(0) = qd(0) = 0, g = 9.81 m/s^2",
-      "T = " + shortest(o.T) + " s, Ts = " + shortest(o.Ts) +
+      "T = " + sid::app::shortest_number(o.T) + " s, Ts = " + sid::app::shortest_number(o.Ts) +
           " s, samples = " + std::to_string(measured.size()),
-      "seed = " + std::to_string(seed) + " (std::mt19937_64), sigma_q2 = " + shortest(o.sigma_q2) +
-          " rad^2, sigma_tau2 = " + shortest(o.sigma_tau2) + " (N m)^2",
+      "seed = " + std::to_string(seed) +
+          " (std::mt19937_64), sigma_q2 = " + sid::app::shortest_number(o.sigma_q2) +
+          " rad^2, sigma_tau2 = " + sid::app::shortest_number(o.sigma_tau2) + " (N m)^2",
       "theta = " + join_numbers(theta, true),
-      "CVODE rtol = " + shortest(o.rtol) + ", atol = " + shortest(o.atol),
+      "CVODE rtol = " + sid::app::shortest_number(o.rtol) +
+          ", atol = " + sid::app::shortest_number(o.atol),
       "excitation = " + o.excitation};
   std::string effect_list;
   for (const auto& spec : effects)
     effect_list += (effect_list.empty() ? "" : " ") + spec_text(spec);
-  comments.push_back("effects = " + (effects.empty() ? std::string("none") : effect_list) +
-                     (effects.empty()
-                          ? std::string()
-                          : " (coulomb_epsilon = " + shortest(o.coulomb_epsilon) + " rad/s)"));
+  comments.push_back(
+      "effects = " + (effects.empty() ? std::string("none") : effect_list) +
+      (effects.empty()
+           ? std::string()
+           : " (coulomb_epsilon = " + sid::app::shortest_number(o.coulomb_epsilon) + " rad/s)"));
   for (const auto& spec : effects) comments.push_back(spec_description(spec));
   sid::app::write_csv(o.output, names, columns, comments);
   if (!o.quiet)

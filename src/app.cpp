@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -140,6 +141,12 @@ std::string ensure_output_directory(const std::string& dir, bool force) {
 
 std::string path_in(const std::string& dir, const std::string& file) {
   return (fs::path(dir) / file).string();
+}
+
+std::string shortest_number(double v) {
+  char buffer[64];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
+  return std::string(buffer, result.ptr);
 }
 
 std::vector<double> parse_doubles(const std::string& text, const std::string& what) {

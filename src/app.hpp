@@ -69,6 +69,9 @@ std::string ensure_output_directory(const std::string& dir, bool force);
 /// @brief dir + "/" + file (std::filesystem join, as a string).
 std::string path_in(const std::string& dir, const std::string& file);
 
+/// @brief The shortest text that reads back as exactly v (for settings recorded in a file).
+std::string shortest_number(double v);
+
 /// @brief Parses "0.1, 0.2,3e-4" (commas, optional spaces). what names the option in messages.
 /// @throws InputError "--theta: value 3 'abc' is not a number" and the like; NaN/Inf rejected.
 std::vector<double> parse_doubles(const std::string& text, const std::string& what);

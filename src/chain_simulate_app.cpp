@@ -20,12 +20,6 @@ namespace sid::app {
 
 namespace {
 
-std::string shortest(double v) {
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
-  return std::string(buffer, result.ptr);
-}
-
 struct ChainEffect {
   std::string kind;  ///< viscous, coulomb, armature, torque_offset
   int joint = 0;     ///< 0-based
@@ -54,7 +48,7 @@ ChainEffect parse_chain_effect(const std::string& text, int joints) {
   e.joint = joint - 1;
   e.value = parse_doubles(value, "--effect " + id, 1)[0];
   require(e.kind == "torque_offset" || e.value > 0.0,
-          who + e.kind + " must be > 0, got " + shortest(e.value));
+          who + e.kind + " must be > 0, got " + shortest_number(e.value));
   return e;
 }
 
@@ -129,18 +123,14 @@ long simulate_robot(const ChainSimulateOptions& o) {
   {
     ChainModel::Vector q(n), qd(n), qdd(n);
     desired.evaluate(0.0, q, qd, qdd);
-    require(
-        model.model().mass_matrix(theta, q).diagonal().minCoeff() > 0.0,
-        o.robot +
-            ": a joint of the chain moves no inertia (a link with none about its "
-            "axis); add a rotor, e.g. --effect armature_j" +
-            [&] {
-              ChainModel::Vector d = model.model().mass_matrix(theta, q).diagonal();
-              Eigen::Index j = 0;
-              d.minCoeff(&j);
-              return std::to_string(j + 1);
-            }() +
-            ":0.01");
+    const Eigen::VectorXd inertia = model.model().mass_matrix(theta, q).diagonal();
+    Eigen::Index least = 0;
+    const double smallest = inertia.minCoeff(&least);
+    require(smallest > 0.0,
+            o.robot +
+                ": a joint of the chain moves no inertia (a link with none about its axis); add "
+                "a rotor, e.g. --effect armature_j" +
+                std::to_string(least + 1) + ":0.01");
   }
   const ChainExperimentResult run = simulate_chain_experiment(model, theta, desired, experiment);
   require(run.ok(), std::string("the simulation failed (") + to_string(run.status) +
@@ -178,21 +168,24 @@ long simulate_robot(const ChainSimulateOptions& o) {
   for (Eigen::Index k = drives; k < theta.size(); ++k)
     if (theta[k] != 0.0)
       parameters += (parameters.empty() ? "" : " ") +
-                    model.parameter_names()[static_cast<std::size_t>(k)] + "=" + shortest(theta[k]);
+                    model.parameter_names()[static_cast<std::size_t>(k)] + "=" +
+                    shortest_number(theta[k]);
   std::string effect_list;
   for (const std::string& text : o.effects) effect_list += (effect_list.empty() ? "" : " ") + text;
   const std::vector<std::string> comments{
       "sid_simulate --robot " + o.robot + ": " + std::to_string(n) + " joints (" + joint_list +
           "), the description's links, computed torque tracking a random Fourier excitation",
-      "excitation: " + std::to_string(o.harmonics) + " harmonics of " + shortest(o.base_frequency) +
-          " Hz about the middle of each joint's <limit>, |q - q0| <= " + shortest(o.q_range) +
-          ", |qd| <= " + shortest(o.qd_max) + " (and 90 % of the limits), from the seed",
-      "T = " + shortest(o.duration) + " s, Ts = " + shortest(o.sample_time) +
+      "excitation: " + std::to_string(o.harmonics) + " harmonics of " +
+          shortest_number(o.base_frequency) +
+          " Hz about the middle of each joint's <limit>, |q - q0| <= " +
+          shortest_number(o.q_range) + ", |qd| <= " + shortest_number(o.qd_max) +
+          " (and 90 % of the limits), from the seed",
+      "T = " + shortest_number(o.duration) + " s, Ts = " + shortest_number(o.sample_time) +
           " s, samples = " + std::to_string(measured.size()),
       "seed = " + std::to_string(o.seed) + " (std::mt19937_64), sigma_q2 = " +
-          shortest(o.sigma_q2) + ", sigma_tau2 = " + shortest(o.sigma_tau2),
+          shortest_number(o.sigma_q2) + ", sigma_tau2 = " + shortest_number(o.sigma_tau2),
       "drive terms = " + (parameters.empty() ? std::string("none") : parameters) +
-          " (coulomb_epsilon = " + shortest(o.coulomb_epsilon) + ")",
+          " (coulomb_epsilon = " + shortest_number(o.coulomb_epsilon) + ")",
       "effects = " + (effect_list.empty() ? std::string("none") : effect_list)};
   write_csv(o.output, names, columns, comments);
   return static_cast<long>(measured.size());

@@ -19,13 +19,6 @@
 
 namespace {
 
-std::string read_text(const std::string& name) {
-  std::ifstream in(sid_test::data_path(name));
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 sid::FourierTrajectory three_joint_series() {
   sid::FourierTrajectory f;
   f.base_frequency = 0.2;
@@ -101,8 +94,8 @@ TEST(FourierTrajectory, RandomSeriesKeepTheirBoundsAndRepeatForASeed) {
 // it tracks the excitation, its recorded torques are its model's, and the identification finds
 // a model that explains them.
 TEST(ChainExperiment, SimulatedSixAxisArmTracksAndIsIdentifiedBack) {
-  const sid::UrdfChain arm =
-      sid::chain_from_urdf(read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
+  const sid::UrdfChain arm = sid::chain_from_urdf(
+      sid_test::read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
   Eigen::MatrixXd gear = Eigen::MatrixXd::Zero(6, 6);
   gear.diagonal() << 32, 32, 45, -48, 45, 32;
   gear(5, 4) = 32;
@@ -149,8 +142,8 @@ TEST(ChainExperiment, SimulatedSixAxisArmTracksAndIsIdentifiedBack) {
 }
 
 TEST(ChainExperiment, RefusesWhatDoesNotFit) {
-  const sid::UrdfChain arm =
-      sid::chain_from_urdf(read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
+  const sid::UrdfChain arm = sid::chain_from_urdf(
+      sid_test::read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
   const sid::Transmission direct(Eigen::MatrixXd::Identity(6, 6), Eigen::VectorXd::Zero(6));
   const sid::ChainModel model(arm.chain, arm.joint_names,
                               sid::drive_terms({sid::DriveTermKind::Armature}, direct), direct);

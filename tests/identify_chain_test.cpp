@@ -23,13 +23,6 @@
 
 namespace {
 
-std::string read_text(const std::string& name) {
-  std::ifstream in(sid_test::data_path(name));
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 /// The TX40's transmission as FIGAROH states it: N = [32, 32, 45, -48, 45, 32], the sixth motor
 /// also turning with joint 5, and the modified-DH zero of joints 2 and 3.
 sid::Transmission tx40_transmission() {
@@ -45,8 +38,8 @@ sid::Transmission tx40_transmission() {
 
 sid::ChainModel tx40_model(const std::vector<sid::DriveTermKind>& kinds,
                            double coulomb_epsilon = 0.01) {
-  const sid::UrdfChain arm =
-      sid::chain_from_urdf(read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
+  const sid::UrdfChain arm = sid::chain_from_urdf(
+      sid_test::read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
   const sid::Transmission t = tx40_transmission();
   return sid::ChainModel(arm.chain, arm.joint_names, sid::drive_terms(kinds, t), t,
                          coulomb_epsilon);

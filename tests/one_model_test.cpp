@@ -30,13 +30,6 @@ sid::Transmission direct(int joints) {
                            Eigen::VectorXd::Zero(joints));
 }
 
-std::string read_text(const std::string& name) {
-  std::ifstream in(sid_test::data_path(name));
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 }  // namespace
 
 // The paper's arm written as a two-joint chain with viscous drives is the same model as the
@@ -85,8 +78,8 @@ TEST(OneModel, PaperArmAsAChainIsThePapersModel) {
 // sid/model/chain_dynamics.hpp), with its drive terms on top, and forward dynamics inverts
 // inverse dynamics.
 TEST(OneModel, SixJointModelHasTheChainsDynamics) {
-  const sid::UrdfChain arm =
-      sid::chain_from_urdf(read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
+  const sid::UrdfChain arm = sid::chain_from_urdf(
+      sid_test::read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
   const sid::ChainModel model(
       arm.chain, arm.joint_names,
       sid::drive_terms({sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature}, direct(6)),
@@ -167,7 +160,7 @@ TEST(OneModel, ArticulatedBodyMatchesTheCubicRouteOnSevenJointsAndASlide) {
   };
   for (const Case& c : {Case{"urdf/real/panda.urdf", "panda_link0", "panda_link8"},
                         Case{"urdf/real/pr2.urdf", "base_footprint", "r_elbow_flex_link"}}) {
-    const sid::UrdfChain arm = sid::chain_from_urdf(read_text(c.file), c.base, c.tip);
+    const sid::UrdfChain arm = sid::chain_from_urdf(sid_test::read_text(c.file), c.base, c.tip);
     const int n = arm.chain.joints();
     Eigen::VectorXd theta = arm.theta;
     for (int j = 0; j < n; ++j) {
@@ -192,8 +185,8 @@ TEST(OneModel, ArticulatedBodyMatchesTheCubicRouteOnSevenJointsAndASlide) {
 // (its rotor a rank-one term of the mass matrix) included, equals the model's O(n^3) route and
 // inverts its inverse dynamics.
 TEST(OneModel, ChainModelForwardDynamicsWithACoupledRotorIsTheCubicRoutes) {
-  const sid::UrdfChain arm =
-      sid::chain_from_urdf(read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
+  const sid::UrdfChain arm = sid::chain_from_urdf(
+      sid_test::read_text("staubli_tx40/tx40_mdh_modified.urdf"), "base_link", "tool0");
   Eigen::MatrixXd gear = Eigen::MatrixXd::Zero(6, 6);
   gear.diagonal() << 32, 32, 45, -48, 45, 32;
   gear(5, 4) = 32;  // the sixth motor turns with q5 + q6

@@ -151,8 +151,9 @@ TEST_P(SixJointArm, InverseDynamicsMatchesPinocchioWithFriction) {
 
 TEST_P(SixJointArm, ForwardDynamicsInvertsTheTorquesAsPinocchiosAbaDoes) {
   // Pinocchio's ABA maps the rigid-body torques back to qdd to 1e-13; with friction in theta
-  // and in the torques, so must sid's forward dynamics. M(q) must be symmetric and its product
-  // with qdd plus h(q, qd) the torque.
+  // and in the torques, so must sid's forward dynamics, both the O(n^3) route and the O(n)
+  // articulated bodies. M(q) must be symmetric and its product with qdd plus h(q, qd) the
+  // torque.
   const Arm& arm = GetParam();
   const sid_test::Table table = sid_test::read_table("ndof/rnea_" + arm.name + ".csv");
   const Eigen::VectorXd theta = base_reference(arm.name).theta;
@@ -164,32 +165,15 @@ TEST_P(SixJointArm, ForwardDynamicsInvertsTheTorquesAsPinocchiosAbaDoes) {
     const Eigen::VectorXd qdd_hat = sid::chain_forward_dynamics(arm.chain, theta, q, qd, tau);
     EXPECT_LT((qdd_hat - qdd).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + qdd.cwiseAbs().maxCoeff()))
         << "sample " << row;
+    const Eigen::VectorXd aba = sid::chain_forward_dynamics_aba(arm.chain, theta, q, qd, tau);
+    const double scale = 1.0 + qdd.cwiseAbs().maxCoeff();
+    EXPECT_LT((aba - qdd).cwiseAbs().maxCoeff(), 1e-10 * scale) << "sample " << row;
+    EXPECT_LT((aba - qdd_hat).cwiseAbs().maxCoeff(), 1e-10 * scale) << "sample " << row;
     const Eigen::MatrixXd m = sid::chain_mass_matrix(arm.chain, theta, q);
     EXPECT_LT((m - m.transpose()).cwiseAbs().maxCoeff(), 1e-12 * m.cwiseAbs().maxCoeff());
     EXPECT_LT(
         (m * qdd + sid::chain_bias_torque(arm.chain, theta, q, qd) - tau).cwiseAbs().maxCoeff(),
         kTorqueTol);
-  }
-}
-
-TEST_P(SixJointArm, ArticulatedBodyGivesPinocchiosAccelerations) {
-  // The O(n) forward dynamics maps Pinocchio's torques (with friction) back to the accelerations
-  // they came from, and agrees with the O(n^3) route.
-  const Arm& arm = GetParam();
-  const sid_test::Table table = sid_test::read_table("ndof/rnea_" + arm.name + ".csv");
-  const Eigen::VectorXd theta = base_reference(arm.name).theta;
-  for (Eigen::Index row = 0; row < table.data.rows(); ++row) {
-    const Eigen::VectorXd q = sid_test::joints_of(table, row, "q"),
-                          qd = sid_test::joints_of(table, row, "qd"),
-                          qdd = sid_test::joints_of(table, row, "qdd"),
-                          tau = sid_test::joints_of(table, row, "tau");
-    const Eigen::VectorXd aba = sid::chain_forward_dynamics_aba(arm.chain, theta, q, qd, tau);
-    const double scale = 1.0 + qdd.cwiseAbs().maxCoeff();
-    EXPECT_LT((aba - qdd).cwiseAbs().maxCoeff(), 1e-10 * scale) << "sample " << row;
-    EXPECT_LT(
-        (aba - sid::chain_forward_dynamics(arm.chain, theta, q, qd, tau)).cwiseAbs().maxCoeff(),
-        1e-10 * scale)
-        << "sample " << row;
   }
 }
 

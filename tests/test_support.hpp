@@ -16,6 +16,14 @@ inline std::string data_path(const std::string& name) {
   return std::string(SID_TEST_DATA_DIR) + "/" + name;
 }
 
+/// The whole text of a file in tests/data/ (a URDF, a YAML), "" if it cannot be read.
+inline std::string read_text(const std::string& name) {
+  std::ifstream in(data_path(name));
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 /// A numeric CSV table: header names, data (rows x columns) and the '#' comment lines.
 struct Table {
   std::vector<std::string> names;

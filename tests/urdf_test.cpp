@@ -35,13 +35,6 @@ constexpr double kPinocchioTorqueTol = 1e-12;     // [N m or N]; |tau| reaches 2
 constexpr double kDhUrdfRegressorTol = 1e-12;  // entries of Y reach about 50
 constexpr double kMimicMomentTol = 1e-15;      // [kg m]; first moments of about 0.01
 
-std::string read_text(const std::string& name) {
-  std::ifstream in(sid_test::data_path(name));
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 std::string message_of(const std::string& urdf, const std::string& base = "base",
                        const std::string& tip = "tip",
                        const std::map<std::string, double>& held = {}) {
@@ -55,7 +48,7 @@ std::string message_of(const std::string& urdf, const std::string& base = "base"
 
 TEST(Urdf, Tx40GivesPinocchiosRegressorAndTheReferenceParameters) {
   const sid::UrdfChain arm =
-      sid::chain_from_urdf(read_text("ndof/tx40.urdf"), "base_link", "tool0");
+      sid::chain_from_urdf(sid_test::read_text("ndof/tx40.urdf"), "base_link", "tool0");
   ASSERT_EQ(arm.chain.joints(), 6);
   EXPECT_EQ(arm.joint_names, (std::vector<std::string>{"j1", "j2", "j3", "j4", "j5", "j6"}));
   EXPECT_EQ(arm.link_names.back(), "link6");
@@ -155,7 +148,7 @@ TEST(Urdf, RefusesWhatItCannotReadWithTheReason) {
     <joint name="j" type="revolute"><parent link="base"/><child link="tip"/></joint></robot>)";
   EXPECT_PRED2(contains, message_of(no_mass), "needs <mass> and <inertia>");
   // Every truncation of a real description is refused, none crashes.
-  const std::string tx40 = read_text("ndof/tx40.urdf");
+  const std::string tx40 = sid_test::read_text("ndof/tx40.urdf");
   for (std::size_t length = 0; length + 10 < tx40.size(); length += 7)
     EXPECT_THROW((void)sid::chain_from_urdf(tx40.substr(0, length), "base_link", "tool0"),
                  std::invalid_argument)
@@ -271,7 +264,7 @@ class GlobalLocale {
 };
 
 TEST(Urdf, ReadsNumbersTheSameUnderAGermanLocale) {
-  const std::string urdf = read_text("urdf/arm_hand.urdf");
+  const std::string urdf = sid_test::read_text("urdf/arm_hand.urdf");
   const sid::UrdfChain classic = sid::chain_from_urdf(urdf, "base_link", "tool0");
   {
     const GlobalLocale german(std::locale(std::locale::classic(), new CommaDecimal));
@@ -288,7 +281,7 @@ TEST(Urdf, ReadsNumbersTheSameUnderAGermanLocale) {
 
 TEST(Urdf, ReportsLimitsDynamicsAndMimicOfEachJoint) {
   const sid::UrdfChain arm =
-      sid::chain_from_urdf(read_text("urdf/arm_hand.urdf"), "base_link", "tool0");
+      sid::chain_from_urdf(sid_test::read_text("urdf/arm_hand.urdf"), "base_link", "tool0");
   ASSERT_EQ(arm.joints.size(), 5u);
   const sid::UrdfJoint& j1 = arm.joints[0];
   EXPECT_EQ(j1.type, "revolute");
@@ -357,7 +350,7 @@ class CarriedBodies : public ::testing::TestWithParam<PinocchioCase> {};
 TEST_P(CarriedBodies, GiveThePinocchioReducedModelsParametersAndTorques) {
   const PinocchioCase& c = GetParam();
   const sid::UrdfChain arm =
-      sid::chain_from_urdf(read_text("urdf/" + c.urdf), c.base, c.tip, c.held);
+      sid::chain_from_urdf(sid_test::read_text("urdf/" + c.urdf), c.base, c.tip, c.held);
   const int n = arm.chain.joints();
   const Eigen::VectorXd theta = sid_test::read_table("urdf/" + c.name + "_theta.csv").col("theta");
   ASSERT_EQ(theta.size(), sid::kLinkParameters * n);
@@ -465,7 +458,7 @@ class RealRobots : public ::testing::TestWithParam<PinocchioCase> {};
 TEST_P(RealRobots, GiveThePinocchioReducedModelsParametersAndTorques) {
   const PinocchioCase& c = GetParam();
   const sid::UrdfChain arm =
-      sid::chain_from_urdf(read_text("urdf/real/" + c.urdf), c.base, c.tip, c.held);
+      sid::chain_from_urdf(sid_test::read_text("urdf/real/" + c.urdf), c.base, c.tip, c.held);
   const int n = arm.chain.joints();
   const sid_test::Table theta_table = sid_test::read_table("urdf/real/" + c.name + "_theta.csv");
   ASSERT_FALSE(theta_table.comments.empty());  // "... joints j1 j2 ...; held ..."
@@ -495,8 +488,8 @@ INSTANTIATE_TEST_SUITE_P(Urdf, RealRobots, ::testing::ValuesIn(kRealRobots),
                          [](const auto& info) { return info.param.name; });
 
 TEST(Urdf, ReadsPrismaticJoints) {
-  const sid::UrdfChain robot = sid::chain_from_urdf(read_text("urdf/mobile_manipulator.urdf"),
-                                                    "base_footprint", "gripper_link");
+  const sid::UrdfChain robot = sid::chain_from_urdf(
+      sid_test::read_text("urdf/mobile_manipulator.urdf"), "base_footprint", "gripper_link");
   EXPECT_EQ(robot.joint_names,
             (std::vector<std::string>{"torso_lift", "shoulder_pan", "shoulder_lift", "arm_extend",
                                       "wrist_flex", "wrist_roll"}));
@@ -627,7 +620,7 @@ TEST(Urdf, PrismaticDhRowsGiveTheRegressorOfTheirUrdf) {
 }
 
 TEST(Urdf, CarriesTheBodiesOffAndPastTheChainOnlyOnce) {
-  const std::string urdf = read_text("urdf/arm_hand.urdf");
+  const std::string urdf = sid_test::read_text("urdf/arm_hand.urdf");
   const sid::UrdfChain arm = sid::chain_from_urdf(urdf, "base_link", "tool0", kArmTool0Held.held);
   EXPECT_EQ(arm.joint_names, (std::vector<std::string>{"j1", "j2", "j3", "j4", "j5"}));
   EXPECT_EQ(arm.held_joints, kArmTool0Held.held);

@@ -154,10 +154,7 @@ ChainVector<Scalar> chain_forward_dynamics_aba(const SerialChain<Scalar>& chain,
                                                const detail::ChainVectorRef<Scalar>& qd,
                                                const detail::ChainVectorRef<Scalar>& tau) {
   const char* who = "sid::chain_forward_dynamics_aba";
-  detail::check_chain_theta(who, chain, theta);
-  detail::check_chain_joints(who, chain, "q", q.size());
-  detail::check_chain_joints(who, chain, "qd", qd.size());
-  detail::check_chain_joints(who, chain, "tau", tau.size());
+  detail::check_forward_dynamics_arguments(who, chain, theta, q, qd, tau);
   if (!(theta.allFinite() && q.allFinite() && qd.allFinite() && tau.allFinite()))
     throw std::invalid_argument(std::string(who) +
                                 ": theta, q, qd or tau holds a value that is "

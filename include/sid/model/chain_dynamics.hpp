@@ -57,6 +57,19 @@ ChainMatrix<Scalar> mass_unchecked(const SerialChain<Scalar>& chain,
   return m;
 }
 
+/// The sizes a forward-dynamics call needs, checked the same way by both routes.
+template <typename Scalar>
+void check_forward_dynamics_arguments(const char* who, const SerialChain<Scalar>& chain,
+                                      const ChainVectorRef<Scalar>& theta,
+                                      const ChainVectorRef<Scalar>& q,
+                                      const ChainVectorRef<Scalar>& qd,
+                                      const ChainVectorRef<Scalar>& tau) {
+  check_chain_theta(who, chain, theta);
+  check_chain_joints(who, chain, "q", q.size());
+  check_chain_joints(who, chain, "qd", qd.size());
+  check_chain_joints(who, chain, "tau", tau.size());
+}
+
 }  // namespace detail
 
 /// @brief The joint-space mass matrix M(q) [kg m^2] (n x n, symmetric).
@@ -97,10 +110,7 @@ ChainVector<Scalar> chain_forward_dynamics(const SerialChain<Scalar>& chain,
                                            const detail::ChainVectorRef<Scalar>& qd,
                                            const detail::ChainVectorRef<Scalar>& tau) {
   const char* who = "sid::chain_forward_dynamics";
-  detail::check_chain_theta(who, chain, theta);
-  detail::check_chain_joints(who, chain, "q", q.size());
-  detail::check_chain_joints(who, chain, "qd", qd.size());
-  detail::check_chain_joints(who, chain, "tau", tau.size());
+  detail::check_forward_dynamics_arguments(who, chain, theta, q, qd, tau);
   const Eigen::LLT<ChainMatrix<Scalar>> llt(detail::mass_unchecked(chain, theta, q));
   if (llt.info() != Eigen::Success)
     throw std::invalid_argument(std::string(who) +

@@ -152,11 +152,11 @@ class ChainModel {
           throw std::invalid_argument(who + "the " + drive_term_keyword(t.kind) + " term of " +
                                       term_place(t) + " is given twice");
     }
+    directions_.resize(n, n);
+    for (int m = 0; m < n; ++m) directions_.row(m) = transmission_.motor_direction(m);
     model_.add(rigid_body_term());
     for (const DriveTerm& t : terms_) model_.add(drive_term(t));
     names_ = model_.parameter_names();
-    directions_.resize(n, n);
-    for (int m = 0; m < n; ++m) directions_.row(m) = transmission_.motor_direction(m);
   }
 
   int joints() const noexcept { return chain_.joints(); }
@@ -267,7 +267,7 @@ class ChainModel {
                 out(t.index, 0) = term_value(t.kind, epsilon, qd[t.index], qdd[t.index]);
               }};
     // The motor turns with direction . qd; its torque reaches every joint it turns.
-    const Eigen::VectorXd direction = transmission_.motor_direction(t.index).transpose();
+    const Eigen::VectorXd direction = directions_.row(t.index).transpose();
     return {name,
             {name},
             [t, epsilon = epsilon_, direction](const Vector&, const Vector& qd, const Vector& qdd,
