@@ -189,7 +189,8 @@ std::string diagnose_report(const sid::DiagnosisResult& r, const sid::Simulation
       out << (v + 1 < e.estimate.size() ? ";" : "");
     }
     out << "\n    Wald " << g(e.wald) << ", p (Holm) " << g(e.p_value) << ", BIC drop "
-        << g(e.information_drop) << ", CV drop " << format("%.1f", 100.0 * e.cv_drop) << " %\n";
+        << g(e.information_drop) << ", CV drop " << format("%.1f", 100.0 * e.cv_drop) << " %, size "
+        << format("%.0f", 100.0 * e.practical_size.maxCoeff()) << " % of the residual\n";
     if (!e.note.empty()) out << "    note: " << e.note << "\n";
   }
   if (!r.friction_checks.empty()) {
@@ -296,6 +297,7 @@ nlohmann::json diagnose_json(const sid::DiagnosisResult& r, const sid::Simulatio
                        {"p_value", number(e.p_value)},
                        {"information_drop", number(e.information_drop)},
                        {"cv_drop", number(e.cv_drop)},
+                       {"practical_size", to_json_array(e.practical_size)},
                        {"note", e.note}});
   }
   j["effects"] = effects;

@@ -159,7 +159,13 @@ SID_INLINE void wald_test(CandidateTest& t, const Eigen::MatrixXd& z_resid_kept,
   const Eigen::MatrixXd a = z_resid_kept.transpose() * z_resid_kept;
   const Eigen::LDLT<Eigen::MatrixXd> a_ldlt(a);
   t.gamma = a_ldlt.solve(z_resid_kept.transpose() * r);
-  const Eigen::VectorXd e = r - z_resid_kept * t.gamma;
+  const Eigen::VectorXd change = z_resid_kept * t.gamma;
+  const Eigen::VectorXd e = r - change;
+  for (int j = 0; j < 2; ++j) {
+    const double residual_norm = r.segment(j * n, n).norm();
+    t.practical_size[j] =
+        residual_norm > 0.0 ? change.segment(j * n, n).norm() / residual_norm : 0.0;
+  }
   const Eigen::MatrixXd g = time_scores(z_resid_kept, e);
   const Eigen::MatrixXd a_inv = a_ldlt.solve(Eigen::MatrixXd::Identity(m, m));
   t.covariance = a_inv * hac_long_run_sum(g) * a_inv;
@@ -300,6 +306,9 @@ SID_INLINE void check_diagnose_options(const DiagnoseOptions& o) {
   if (!(o.family_alpha > 0.0 && o.family_alpha < 1.0))
     throw std::invalid_argument(who + "options.family_alpha must be in (0, 1), got " +
                                 std::to_string(o.family_alpha));
+  if (!(o.negligible_size >= 0.0 && o.negligible_size < 1.0))
+    throw std::invalid_argument(who + "options.negligible_size must be in [0, 1), got " +
+                                std::to_string(o.negligible_size));
   if (!(o.separability_r2 > 0.0 && o.separability_r2 < 1.0))
     throw std::invalid_argument(who + "options.separability_r2 must be in (0, 1), got " +
                                 std::to_string(o.separability_r2));
@@ -640,20 +649,6 @@ SID_INLINE std::vector<CandidateTest> test_round(const DiagnosisEquations& eq,
   return tests;
 }
 
-SID_INLINE std::vector<double> holm_adjusted(const std::vector<double>& p) {
-  std::vector<std::size_t> order(p.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return p[a] < p[b]; });
-  std::vector<double> adjusted(p.size());
-  double running = 0.0;
-  const double count = static_cast<double>(p.size());
-  for (std::size_t r = 0; r < order.size(); ++r) {
-    running = std::max(running, std::min(1.0, (count - static_cast<double>(r)) * p[order[r]]));
-    adjusted[order[r]] = running;
-  }
-  return adjusted;
-}
-
 /// Fills a tested candidate's detection limit and, if its tests pass, its admissibility, from a
 /// fit of the model with the term (a Stribeck term replacing its joint's Coulomb term).
 SID_INLINE void judge_candidate(CandidateTest& t, const DiagnosisEquations& eq,
@@ -682,7 +677,8 @@ SID_INLINE void judge_candidate(CandidateTest& t, const DiagnosisEquations& eq,
                       assemble_model(options.identify.gravity, trial), t.settings);
   t.inadmissible = admissibility_violation(t.effect, e.value);
   t.admissible = t.inadmissible.empty();
-  t.passed = t.admissible;
+  t.negligible = t.practical_size.maxCoeff() < options.negligible_size;
+  t.passed = t.admissible && !t.negligible;
 }
 
 /// Adds the chosen candidate to the model; a Stribeck term replaces its joint's Coulomb term.
@@ -695,6 +691,7 @@ SID_INLINE void name_candidate(const CandidateTest& chosen, Selection& s) {
   effect.p_value = chosen.p_adjusted;
   effect.information_drop = chosen.bic_drop;
   effect.cv_drop = chosen.cv_drop;
+  effect.practical_size = chosen.practical_size;
   effect.note = effect_note(chosen.effect);
   const std::optional<Effect> superseded = contained_effect(chosen.effect);
   for (auto it = s.selected.begin(); it != s.selected.end();)
@@ -760,8 +757,13 @@ SID_INLINE std::vector<UnnamedEffect> unnamed_effects(const Selection& s,
       reason = "no BIC drop";
     else if (!(t.cv_drop > 0.0))
       reason = "no blocked-CV gain";
-    else
+    else if (!t.admissible)
       reason = "not admissible: " + t.inadmissible;
+    else
+      reason = "significant but negligible: it would change the torque prediction by " +
+               format_value(std::round(1000.0 * t.practical_size.maxCoeff()) / 10.0) +
+               " % of the residual RMS at most (below " +
+               format_value(100.0 * options.negligible_size) + " %)";
     out.push_back({t.effect, effect_name(t.effect), reason, t.detection_limit});
   }
   return out;

@@ -3,6 +3,8 @@
 
 #include <sid/diagnosis/hac.hpp>
 
+#include <algorithm>
+
 namespace sid {
 
 namespace detail {
@@ -144,6 +146,20 @@ SID_INLINE double wald_statistic(const Eigen::Ref<const Eigen::VectorXd>& gamma,
   for (Eigen::Index i = 0; i < sv.size(); ++i)
     if (sv[i] > cut) statistic += projected[i] * back[i] / sv[i];
   return statistic;
+}
+
+SID_INLINE std::vector<double> holm_adjusted(const std::vector<double>& p) {
+  std::vector<std::size_t> order(p.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return p[a] < p[b]; });
+  std::vector<double> adjusted(p.size());
+  double running = 0.0;
+  const double count = static_cast<double>(p.size());
+  for (std::size_t r = 0; r < order.size(); ++r) {
+    running = std::max(running, std::min(1.0, (count - static_cast<double>(r)) * p[order[r]]));
+    adjusted[order[r]] = running;
+  }
+  return adjusted;
 }
 
 }  // namespace sid

@@ -15,6 +15,7 @@
 #include <sid/config.hpp>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace sid {
 
@@ -68,6 +69,10 @@ SID_INLINE Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::Matrix
 /// @brief Wald statistic γ̂ᵀ V⁻¹ γ̂ (V symmetric positive definite; pseudo-inverse otherwise).
 SID_INLINE double wald_statistic(const Eigen::Ref<const Eigen::VectorXd>& gamma,
                                  const Eigen::Ref<const Eigen::MatrixXd>& covariance);
+
+/// @brief Holm's step-down adjustment of a family's p-values: the r-th smallest is multiplied by
+/// the number of hypotheses not yet rejected and kept monotone, capped at 1.
+SID_INLINE std::vector<double> holm_adjusted(const std::vector<double>& p);
 
 }  // namespace sid
 

@@ -55,7 +55,10 @@ struct NamedEffect {
   double wald = 0, p_value = 1;  ///< HAC Wald statistic and its Holm-corrected p-value at selection
   double information_drop = 0;   ///< drop of BIC at selection
   double cv_drop = 0;            ///< relative drop of the blocked-CV prediction error
-  std::string note;              ///< e.g. the indistinguishability remark
+  /// Per joint at selection: RMS of the change it made to the torque prediction / RMS of the
+  /// residual before it (DiagnoseOptions::negligible_size).
+  Vector2<double> practical_size = Vector2<double>::Zero();
+  std::string note;  ///< e.g. the indistinguishability remark
 };
 
 /// @brief A candidate that was tried and not named.
