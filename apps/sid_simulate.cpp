@@ -76,7 +76,8 @@ links and <dynamics> damping and friction, every joint tracking a random Fourier
 |q_j - q0_j| <= --q-range and |qd_j| <= --qd-max and within 90 % of the <limit>s, drawn
 from --seed) under computed torque with a PD correction. Effects on a chain: viscous_jN:fv,
 coulomb_jN:Fc (tanh, --coulomb-epsilon), armature_jN:Ia (a rotor; needed where a link has no
-inertia about its own axis), torque_offset_jN:b. Output: t,q1..qn,tau1..taun (with --truth
+inertia about its own axis), torque_offset_jN:b. --trajectory FILE tracks the Fourier
+series sid_excite wrote instead of the random one. Output: t,q1..qn,tau1..taun (with --truth
 also q1_true.., qd1.., qdd1.., tau1_true..), the log sid_identify --robot reads.
 
 Exit codes: 0 success, 2 bad options or a failed simulation (message on standard error),
@@ -114,6 +115,7 @@ struct Options {
   double base_frequency = 0.1;
   double q_range = 1.0;
   double qd_max = 1.5;
+  std::string trajectory;
 };
 
 // The effect list of --help, written from the library so that it cannot fall out of step.
@@ -201,6 +203,9 @@ void define_options(CLI::App& cli, Options& o) {
       ->capture_default_str();
   cli.add_option("--qd-max", o.qd_max, "--robot: largest |qd_j| [rad/s or m/s]")
       ->capture_default_str();
+  cli.add_option("--trajectory", o.trajectory,
+                 "--robot: track this Fourier trajectory (sid_excite -o) instead of a random one")
+      ->check(CLI::ExistingFile);
 }
 
 std::string short_number(double v) {
@@ -338,6 +343,7 @@ int simulate_robot(const Options& o) {
   c.base_frequency = o.base_frequency;
   c.q_range = o.q_range;
   c.qd_max = o.qd_max;
+  c.trajectory = o.trajectory;
   c.coulomb_epsilon = o.coulomb_epsilon;
   c.rtol = o.rtol;
   c.atol = o.atol;
@@ -354,6 +360,7 @@ int simulate_robot(const Options& o) {
 int simulate(const Options& o) {
   using sid::app::require;
   check_options(o);
+  require(o.trajectory.empty() || !o.robot.empty(), "--trajectory needs --robot");
   if (!o.robot.empty()) return simulate_robot(o);
   const std::uint64_t seed = parse_seed(o.seed);
   const std::vector<sid::EffectSpec> effects = parse_effects(o.effects);

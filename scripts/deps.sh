@@ -1,5 +1,5 @@
 # Sourced by scripts/run and scripts/test: installs the Debian packages sid needs, if missing.
-SID_PACKAGES=(cmake g++ make libeigen3-dev libsundials-dev libgtest-dev libbenchmark-dev
+SID_PACKAGES=(cmake g++ make libeigen3-dev libsundials-dev libnlopt-dev libgtest-dev libbenchmark-dev
               libcli11-dev nlohmann-json3-dev libyaml-cpp-dev gnuplot-nox)
 
 # Extra packages a caller needs beyond SID_PACKAGES are given as arguments.

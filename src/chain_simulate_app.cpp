@@ -6,6 +6,7 @@
 #include <sid/model/chain_model.hpp>
 
 #include "app.hpp"
+#include "chain_excite_app.hpp"
 #include "csv.hpp"
 #include "robot_description.hpp"
 
@@ -54,7 +55,26 @@ ChainEffect parse_chain_effect(const std::string& text, int joints) {
 
 }  // namespace
 
-long simulate_robot(const ChainSimulateOptions& o) {
+ExcitationRoom excitation_room(const RobotDescription& robot, const std::string& source,
+                               double q_range, double qd_max) {
+  const int n = robot.chain.joints();
+  ExcitationRoom room{Eigen::VectorXd::Zero(n), Eigen::VectorXd::Constant(n, q_range),
+                      Eigen::VectorXd::Constant(n, qd_max)};
+  for (int j = 0; j < n && j < static_cast<int>(robot.limits.size()); ++j) {
+    const UrdfJointLimits& limit = robot.limits[static_cast<std::size_t>(j)];
+    if (std::isfinite(limit.lower) && std::isfinite(limit.upper)) {
+      require(limit.upper > limit.lower, source + ": joint '" + robot.joint_names[j] +
+                                             "' has an empty <limit> range; cannot move it");
+      room.q0[j] = 0.5 * (limit.lower + limit.upper);
+      room.q_range[j] = std::min(room.q_range[j], 0.45 * (limit.upper - limit.lower));
+    }
+    if (std::isfinite(limit.velocity) && limit.velocity > 0.0)
+      room.qd_max[j] = std::min(room.qd_max[j], 0.9 * limit.velocity);
+  }
+  return room;
+}
+
+SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& o, std::mt19937_64& rng) {
   require(o.harmonics >= 1 && o.harmonics <= 50, "--harmonics must be 1..50");
   require(std::isfinite(o.base_frequency) && o.base_frequency > 0.0,
           "--base-frequency must be a finite number > 0 [Hz]");
@@ -97,24 +117,14 @@ long simulate_robot(const ChainSimulateOptions& o) {
     theta[drives + 3 * e.joint + slot] += e.value;
   }
 
-  // Within the URDF's limits: about the middle of each joint's range, at most 90 % of its half
-  // width and of its velocity limit.
-  Eigen::VectorXd q0 = Eigen::VectorXd::Zero(n), range = Eigen::VectorXd::Constant(n, o.q_range),
-                  rate = Eigen::VectorXd::Constant(n, o.qd_max);
-  for (int j = 0; j < n && j < static_cast<int>(robot.limits.size()); ++j) {
-    const UrdfJointLimits& limit = robot.limits[static_cast<std::size_t>(j)];
-    if (std::isfinite(limit.lower) && std::isfinite(limit.upper)) {
-      require(limit.upper > limit.lower, o.robot + ": joint '" + robot.joint_names[j] +
-                                             "' has an empty <limit> range; cannot move it");
-      q0[j] = 0.5 * (limit.lower + limit.upper);
-      range[j] = std::min(range[j], 0.45 * (limit.upper - limit.lower));
-    }
-    if (std::isfinite(limit.velocity) && limit.velocity > 0.0)
-      rate[j] = std::min(rate[j], 0.9 * limit.velocity);
+  FourierTrajectory desired;
+  if (o.trajectory.empty()) {
+    const ExcitationRoom room = excitation_room(robot, o.robot, o.q_range, o.qd_max);
+    desired = random_fourier_trajectory(room.q0, o.harmonics, o.base_frequency, room.q_range,
+                                        room.qd_max, rng);
+  } else {
+    desired = read_fourier_trajectory(o.trajectory, n);
   }
-  std::mt19937_64 rng(o.seed);
-  const FourierTrajectory desired =
-      random_fourier_trajectory(q0, o.harmonics, o.base_frequency, range, rate, rng);
   ChainExperiment experiment;
   experiment.duration = o.duration;
   experiment.sample_time = o.sample_time;
@@ -137,8 +147,19 @@ long simulate_robot(const ChainSimulateOptions& o) {
                         "): " + run.message +
                         "; check the description's inertias or the tolerances --rtol/--atol");
 
-  ChainTrajectory<double> sensed = run.trajectory();
-  for (int j = 0; j < n; ++j) sensed.tau.col(j).array() += offset[j];
+  return SimulatedRobot{robot, model, theta, offset, run.truth};
+}
+
+long simulate_robot(const ChainSimulateOptions& o) {
+  std::mt19937_64 rng(o.seed);
+  const SimulatedRobot simulated = simulate_robot_truth(o, rng);
+  const RobotDescription& robot = simulated.robot;
+  const ChainModel& model = simulated.model;
+  const Eigen::VectorXd& theta = simulated.theta;
+  const int n = model.joints();
+  const Eigen::Index drives = model.rigid_body_parameters();
+  ChainTrajectory<double> sensed{simulated.truth.t, simulated.truth.q, simulated.truth.tau};
+  for (int j = 0; j < n; ++j) sensed.tau.col(j).array() += simulated.torque_offset[j];
   const ChainTrajectory<double> measured =
       add_measurement_noise(sensed, MeasurementNoise<double>{o.sigma_q2, o.sigma_tau2}, rng);
 
@@ -150,7 +171,7 @@ long simulate_robot(const ChainSimulateOptions& o) {
       columns.push_back(std::string(stem) == "q" ? measured.q.col(j) : measured.tau.col(j));
     }
   if (o.truth) {
-    const ChainKinematics<double>& k = run.truth;
+    const ChainKinematics<double>& k = simulated.truth;
     const std::pair<const char*, const Eigen::MatrixXd*> truth[] = {
         {"q_true", &k.q}, {"qd", &k.qd}, {"qdd", &k.qdd}, {"tau_true", &k.tau}};
     for (const auto& [stem, m] : truth)
@@ -174,12 +195,14 @@ long simulate_robot(const ChainSimulateOptions& o) {
   for (const std::string& text : o.effects) effect_list += (effect_list.empty() ? "" : " ") + text;
   const std::vector<std::string> comments{
       "sid_simulate --robot " + o.robot + ": " + std::to_string(n) + " joints (" + joint_list +
-          "), the description's links, computed torque tracking a random Fourier excitation",
-      "excitation: " + std::to_string(o.harmonics) + " harmonics of " +
-          shortest_number(o.base_frequency) +
-          " Hz about the middle of each joint's <limit>, |q - q0| <= " +
-          shortest_number(o.q_range) + ", |qd| <= " + shortest_number(o.qd_max) +
-          " (and 90 % of the limits), from the seed",
+          "), the description's links, computed torque tracking a Fourier excitation",
+      !o.trajectory.empty()
+          ? "excitation: the Fourier trajectory of " + o.trajectory
+          : "excitation: " + std::to_string(o.harmonics) + " harmonics of " +
+                shortest_number(o.base_frequency) +
+                " Hz about the middle of each joint's <limit>, |q - q0| <= " +
+                shortest_number(o.q_range) + ", |qd| <= " + shortest_number(o.qd_max) +
+                " (and 90 % of the limits), from the seed",
       "T = " + shortest_number(o.duration) + " s, Ts = " + shortest_number(o.sample_time) +
           " s, samples = " + std::to_string(measured.size()),
       "seed = " + std::to_string(o.seed) + " (std::mt19937_64), sigma_q2 = " +

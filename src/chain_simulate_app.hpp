@@ -2,9 +2,17 @@
 // sid_simulate --robot: an identification experiment on any serial chain of a URDF, simulated
 // with CVODE under a random Fourier excitation, written as the log sid_identify --robot reads.
 
+#include <sid/model/chain_model.hpp>
+#include <sid/trajectory.hpp>
+
+#include <Eigen/Core>
+
 #include <cstdint>
+#include <random>
 #include <string>
 #include <vector>
+
+#include "robot_description.hpp"
 
 namespace sid::app {
 
@@ -23,7 +31,37 @@ struct ChainSimulateOptions {
   double rtol = 1e-9, atol = 1e-9;
   bool truth = false;
   std::string output = "-";
+  /// A Fourier trajectory file (sid_excite -o) to track instead of the random one; then the
+  /// harmonics, base frequency and ranges above are the file's.
+  std::string trajectory;
 };
+
+/// @brief Where an excitation of the robot may go: q0 about the middle of each joint's <limit>,
+/// |q - q0| at most q_range and 90 % of its half width, |qd| at most qd_max and 90 % of its
+/// velocity limit (q_range and qd_max alone where the URDF gives no limit).
+struct ExcitationRoom {
+  Eigen::VectorXd q0, q_range, qd_max;
+};
+
+/// @throws InputError when a joint's <limit> range is empty (source names the file).
+ExcitationRoom excitation_room(const RobotDescription& robot, const std::string& source,
+                               double q_range, double qd_max);
+
+/// The experiment before any noise: the description, the model simulated (viscous, Coulomb and
+/// armature terms on every joint), its true parameters, the torque offsets of the effects
+/// (added to the sensed torque, not part of the model) and the true samples.
+struct SimulatedRobot {
+  RobotDescription robot;
+  ChainModel model;
+  Eigen::VectorXd theta;
+  Eigen::VectorXd torque_offset;
+  ChainKinematics<double> truth;
+};
+
+/// Reads the description and simulates it under the random Fourier excitation drawn from rng
+/// (the options' seed is not used here). Noise, columns and output are ignored.
+/// @throws InputError naming the problem (a DH table, an unknown effect, a failed simulation).
+SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& options, std::mt19937_64& rng);
 
 /// Simulates, adds noise and writes the CSV (t, q1..qn, tau1..taun; with truth the true q, qd,
 /// qdd and tau too); returns the number of samples.

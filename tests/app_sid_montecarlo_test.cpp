@@ -77,17 +77,19 @@ int count_data_lines(const std::string& text) {
 TEST_F(SidMonteCarlo, HelpExplainsEveryOptionAndTheMethodsAndExitsZero) {
   const AppRun r = run("--help");
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  for (const char* word : {"--runs",       "--levels",
-                           "--sigma-tau2", "--methods",
-                           "--seed",       "--threads",
-                           "--json",       "--csv-dir",
-                           "--plots",      "--quiet",
-                           "--force",      "raw",
-                           "filtered",     "css",
-                           "oracle",       "forward differences",
-                           "Butterworth",  "smoothing spline",
-                           "exact q",      "1.7475",
-                           "gnuplot-nox"})
+  for (const char* word : {"--runs",         "--levels",
+                           "--sigma-tau2",   "--methods",
+                           "--seed",         "--threads",
+                           "--json",         "--csv-dir",
+                           "--plots",        "--quiet",
+                           "--force",        "raw",
+                           "filtered",       "css",
+                           "oracle",         "forward differences",
+                           "Butterworth",    "smoothing spline",
+                           "exact q",        "1.7475",
+                           "gnuplot-nox",    "--robot",
+                           "--tip",          "--rate",
+                           "base parameters"})
     EXPECT_NE(r.out.find(word), std::string::npos) << "help does not mention " << word;
 }
 
@@ -270,4 +272,55 @@ TEST_F(SidMonteCarlo, EstimatorMethodsCssWlsAndCssIvRunInTheStudy) {
   const AppRun bad = run("--methods css_iv,oracle,css_iv");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.err.find("'css_iv' is given twice"), std::string::npos) << bad.err;
+}
+
+TEST_F(SidMonteCarlo, RobotRunsTheStudyOnAChainOfAUrdf) {
+  // The first two joints of a URDF arm (damping on both, Coulomb friction on the first), 3 s at
+  // 200 Hz: every method fits the chain's base parameters.
+  const std::string robot = "--robot '" SID_TEST_DATA_DIR "/urdf/arm_hand.urdf' --tip link2 ";
+  const std::string study = robot +
+                            "--duration 3 --rate 200 --runs 3 --levels 1e-6 --seed 3 "
+                            "--methods raw,css,oracle ";
+  const AppRun one = run(study + "--threads 1 --json one.json");
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  const AppRun two = run(study + "--threads 2 --json two.json -q");
+  ASSERT_EQ(two.exit_code, 0) << two.err;
+  EXPECT_EQ(without_wall_time(one.out), without_wall_time(two.out));
+  for (const char* word :
+       {"Monte Carlo study of a chain", "j1, j2", "base parameters", "oracle", "zero in truth"})
+    EXPECT_NE(one.out.find(word), std::string::npos) << word << "\n" << one.out;
+  auto a = read_json("one.json"), b = read_json("two.json");
+  a.erase("wall_seconds");
+  b.erase("wall_seconds");
+  a.erase("threads");
+  b.erase("threads");
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(a["joint_names"], (nlohmann::json{"j1", "j2"}));
+  const std::size_t p = a["parameter_names"].size();
+  EXPECT_EQ(a["true_beta"].size(), p);
+  const auto& methods = a["levels"][0]["methods"];
+  for (const char* m : {"raw", "css", "oracle"}) {
+    ASSERT_TRUE(methods.contains(m)) << m;
+    EXPECT_EQ(methods[m]["failed_runs"], 0) << m;
+    EXPECT_EQ(methods[m]["mean"].size(), p) << m;
+    EXPECT_EQ(methods[m]["torque_error_pct"].size(), 3u) << m;
+  }
+  EXPECT_LT(methods["css"]["mean_torque_error_pct"].get<double>(),
+            methods["raw"]["mean_torque_error_pct"].get<double>());
+  EXPECT_LT(methods["oracle"]["mean_torque_error_pct"].get<double>(), 1.0);
+}
+
+TEST_F(SidMonteCarlo, RobotOptionsAreCheckedBeforeAnyWork) {
+  const std::string robot = "--robot '" SID_TEST_DATA_DIR "/urdf/arm_hand.urdf' --tip link2 ";
+  expect_input_error("--tip link2", "--tip is an option of --robot");
+  expect_input_error("--duration 5", "--duration is an option of --robot");
+  expect_input_error(robot + "--methods css,css_iv", "css_iv");
+  expect_input_error(robot + "--plots figs", "--plots");
+  expect_input_error(robot + "--rate 10", "--rate");
+  expect_input_error(robot + "--duration 0.5", "--duration");
+  expect_input_error(robot + "--harmonics 0", "--harmonics");
+  expect_input_error("--robot no_such_file.urdf", "no_such_file.urdf");
+  std::ofstream(file("s.json")) << "keep";
+  expect_input_error(robot + "--runs 2 --json s.json", "--force");
+  EXPECT_EQ(read(file("s.json")), "keep");
 }

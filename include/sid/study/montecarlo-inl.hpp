@@ -46,11 +46,6 @@ SID_INLINE std::mt19937_64 run_generator(std::uint64_t seed, std::size_t level, 
 SID_INLINE Kinematics<double> study_kinematics(StudyMethod method, const Kinematics<double>& truth,
                                                const Trajectory<double>& measured, double sigma_q2,
                                                const IdentifyOptions& base) {
-  if (method == StudyMethod::Oracle) {
-    Kinematics<double> k = truth;
-    k.tau = measured.tau;
-    return k;
-  }
   if (method == StudyMethod::CssTorqueCv) {
     // The study already runs one data set per thread; the cutoff search stays on it.
     RunsIdentifyOptions choice;
@@ -61,17 +56,7 @@ SID_INLINE Kinematics<double> study_kinematics(StudyMethod method, const Kinemat
     return kinematics_at_cutoff(
         measured, choose_cutoff(runs, two_link_arm_model<double>(base.gravity), choice).cutoff_hz);
   }
-  IdentifyOptions options = base;
-  options.method = method == StudyMethod::Raw        ? DerivativeMethod::ForwardDifference
-                   : method == StudyMethod::Filtered ? DerivativeMethod::FilteredDifference
-                                                     : DerivativeMethod::SmoothingSpline;
-  options.sigma_q = Vector2<double>::Constant(std::sqrt(sigma_q2));
-  const bool gcv = method == StudyMethod::CssGcv || method == StudyMethod::CssWls ||
-                   method == StudyMethod::CssIv;
-  options.smoothing = gcv ? SmoothingMode::Gcv : SmoothingMode::SConstraint;
-  if (method == StudyMethod::CssIv)
-    options.cross_validation_lambda_scale = kInstrumentalVariableLambdaScale;
-  return estimate_kinematics(measured, options);
+  return detail::method_kinematics(method, truth, measured, sigma_q2, base);
 }
 
 SID_INLINE LeastSquaresResult<double> fit_study_method(StudyMethod method,
@@ -96,41 +81,10 @@ SID_INLINE LeastSquaresResult<double> fit_study_method(StudyMethod method,
 namespace detail {
 
 SID_INLINE void summarize(MethodSummary& s, const TwoLinkParameters<double>& theta) {
-  const Eigen::Index p = theta.size();
-  s.mean = Eigen::VectorXd::Zero(p);
-  s.variance = Eigen::VectorXd::Zero(p);
-  int good = 0;
-  double sum_sq_rel = 0.0;
-  for (Eigen::Index r = 0; r < s.estimates.rows(); ++r) {
-    if (!s.estimates.row(r).allFinite()) continue;
-    ++good;
-    s.mean += s.estimates.row(r).transpose();
-    sum_sq_rel += ((s.estimates.row(r).transpose() - theta).cwiseQuotient(theta)).squaredNorm();
-  }
-  s.failed_runs = static_cast<int>(s.estimates.rows()) - good;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  if (good == 0) {
-    s.mean.setConstant(nan);
-    s.variance.setConstant(nan);
-  } else {
-    s.mean /= good;
-    for (Eigen::Index r = 0; r < s.estimates.rows(); ++r)
-      if (s.estimates.row(r).allFinite())
-        s.variance += (s.estimates.row(r).transpose() - s.mean).cwiseAbs2();
-    s.variance /= good > 1 ? good - 1 : nan;
-  }
-  const Eigen::VectorXd abs_theta = theta.cwiseAbs();
-  s.bias_pct = 100.0 * (s.mean - theta).cwiseQuotient(abs_theta);
-  s.std_pct = 100.0 * s.variance.cwiseSqrt().cwiseQuotient(abs_theta);
-  s.standard_error = (s.variance / std::max(good, 1)).cwiseSqrt();
-  s.rms_rel_error_pct =
-      good > 0 ? 100.0 * std::sqrt(sum_sq_rel / (good * static_cast<double>(p))) : nan;
-  s.worst_abs_bias_pct = s.bias_pct.cwiseAbs().maxCoeff();
+  summarize_estimates(s, theta);
 }
 
-SID_INLINE void check_monte_carlo_input(const Kinematics<double>& truth,
-                                        const MonteCarloOptions& options) {
-  const char* who = "sid::run_monte_carlo";
+SID_INLINE void check_study_settings(const StudySettings& options, const char* who) {
   if (options.runs < 2)
     throw std::invalid_argument(std::string(who) + ": runs must be >= 2 (a variance needs two)");
   if (options.sigma_q2_levels.empty())
@@ -144,6 +98,28 @@ SID_INLINE void check_monte_carlo_input(const Kinematics<double>& truth,
   if (!(options.sigma_tau2 >= 0.0) || !std::isfinite(options.sigma_tau2))
     throw std::invalid_argument(std::string(who) + ": sigma_tau2 must be finite and >= 0");
   if (options.methods.empty()) throw std::invalid_argument(std::string(who) + ": no methods");
+}
+
+SID_INLINE std::vector<LevelSummary> empty_levels(const StudySettings& options,
+                                                  Eigen::Index parameters) {
+  const std::size_t levels = options.sigma_q2_levels.size(), methods = options.methods.size();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<LevelSummary> result(levels);
+  for (std::size_t l = 0; l < levels; ++l) {
+    result[l].sigma_q2 = options.sigma_q2_levels[l];
+    result[l].methods.resize(methods);
+    for (std::size_t m = 0; m < methods; ++m) {
+      result[l].methods[m].method = options.methods[m];
+      result[l].methods[m].estimates = Eigen::MatrixXd::Constant(options.runs, parameters, nan);
+    }
+  }
+  return result;
+}
+
+SID_INLINE void check_monte_carlo_input(const Kinematics<double>& truth,
+                                        const MonteCarloOptions& options) {
+  const char* who = "sid::run_monte_carlo";
+  check_study_settings(options, who);
   for (StudyMethod m : options.methods)
     if (m == StudyMethod::CssIv && !options.refine)
       throw std::invalid_argument(
@@ -155,43 +131,12 @@ SID_INLINE void check_monte_carlo_input(const Kinematics<double>& truth,
     throw std::invalid_argument(std::string(who) + ": truth has columns of different lengths");
 }
 
-/// The result before any run: one summary per level and method, every estimate NaN.
-SID_INLINE MonteCarloResult empty_monte_carlo_result(const MonteCarloOptions& options) {
-  MonteCarloResult result;
-  result.theta = options.theta;
-  result.runs = options.runs;
-  result.seed = options.seed;
-  const std::size_t levels = options.sigma_q2_levels.size(), methods = options.methods.size();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  result.levels.resize(levels);
-  for (std::size_t l = 0; l < levels; ++l) {
-    result.levels[l].sigma_q2 = options.sigma_q2_levels[l];
-    result.levels[l].methods.resize(methods);
-    for (std::size_t m = 0; m < methods; ++m) {
-      result.levels[l].methods[m].method = options.methods[m];
-      result.levels[l].methods[m].estimates = Eigen::MatrixXd::Constant(options.runs, 7, nan);
-    }
-  }
-  return result;
-}
-
-/// A fit that failed, kept with its place in the study: the summaries list failures in run
-/// order, whichever thread met them first.
-struct StudyFailure {
-  std::size_t level = 0, method = 0;
-  int run = 0;
-  std::string message;
-};
-
-/// Job `job` of the study (level job / runs, run job % runs): one noisy data set, every method
-/// fitted to it, each estimate stored in its row of result. Jobs write disjoint rows; `mutex`
-/// guards `failures`, which all jobs share.
+/// Run `run` of level `l`: one noisy data set, every method fitted to it, each estimate stored in
+/// its row of result.
 SID_INLINE void run_monte_carlo_job(const Kinematics<double>& truth,
-                                    const MonteCarloOptions& options, int job,
-                                    MonteCarloResult& result, std::vector<StudyFailure>& failures,
-                                    std::mutex& mutex) {
-  const std::size_t l = static_cast<std::size_t>(job / options.runs);
-  const int run = job % options.runs;
+                                    const MonteCarloOptions& options, std::size_t l, int run,
+                                    MonteCarloResult& result,
+                                    const std::function<void(std::size_t, std::string)>& fail) {
   const double sigma_q2 = options.sigma_q2_levels[l];
   std::mt19937_64 rng = run_generator(options.seed, l, run);
   const Trajectory<double> measured =
@@ -209,21 +154,19 @@ SID_INLINE void run_monte_carlo_job(const Kinematics<double>& truth,
     } catch (const std::exception& e) {
       failure = e.what();
     }
-    if (!failure.empty()) {
-      std::lock_guard<std::mutex> lock(mutex);
-      failures.push_back({l, m, run, std::move(failure)});
-    }
+    if (!failure.empty()) fail(m, std::move(failure));
   }
 }
 
 /// The first few failures of each summary, in run order.
-SID_INLINE void record_failures(std::vector<StudyFailure> failures, MonteCarloResult& result) {
+SID_INLINE void record_failures(std::vector<StudyFailure> failures,
+                                std::vector<LevelSummary>& levels) {
   constexpr std::size_t kKeptPerSummary = 5;
   std::sort(failures.begin(), failures.end(), [](const StudyFailure& a, const StudyFailure& b) {
     return std::tie(a.level, a.method, a.run) < std::tie(b.level, b.method, b.run);
   });
   for (auto& f : failures) {
-    auto& kept = result.levels[f.level].methods[f.method].failures;
+    auto& kept = levels[f.level].methods[f.method].failures;
     if (kept.size() < kKeptPerSummary)
       kept.push_back("run " + std::to_string(f.run) + ": " + std::move(f.message));
   }
@@ -240,23 +183,16 @@ SID_INLINE MonteCarloResult run_monte_carlo(const Kinematics<double>& truth,
                                             const MonteCarloOptions& options) {
   detail::check_monte_carlo_input(truth, options);
   const auto start = std::chrono::steady_clock::now();
-  MonteCarloResult result = detail::empty_monte_carlo_result(options);
-
-  const int total = static_cast<int>(options.sigma_q2_levels.size()) * options.runs;
-  const int threads = detail::monte_carlo_threads(options.threads, total);
-  result.threads_used = threads;
-  std::vector<detail::StudyFailure> failures;
-  std::mutex mutex;  // guards `failures` and the progress callback
-  std::atomic<int> done{0};
-  detail::for_each_index(total, threads, [&](Eigen::Index job, int) {
-    detail::run_monte_carlo_job(truth, options, static_cast<int>(job), result, failures, mutex);
-    const int finished = ++done;
-    if (options.progress) {
-      std::lock_guard<std::mutex> lock(mutex);
-      options.progress(finished, total);
-    }
-  });
-  detail::record_failures(std::move(failures), result);
+  MonteCarloResult result;
+  result.theta = options.theta;
+  result.runs = options.runs;
+  result.seed = options.seed;
+  result.levels = detail::empty_levels(options, 7);
+  result.threads_used = detail::run_study_jobs(
+      options, result.levels,
+      [&](std::size_t l, int run, const std::function<void(std::size_t, std::string)>& fail) {
+        detail::run_monte_carlo_job(truth, options, l, run, result, fail);
+      });
   for (auto& level : result.levels)
     for (auto& summary : level.methods) detail::summarize(summary, options.theta);
   result.wall_seconds =

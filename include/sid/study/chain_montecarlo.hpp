@@ -1,0 +1,106 @@
+#pragma once
+/// @file
+/// @brief The paper's Monte Carlo study (section 3.1) for any serial chain: for each noise level
+/// and run, draw noise on q and τ, estimate the kinematics by each method, stack the chain's
+/// regressor on its base parameters, least squares; then the sample mean and variance of β̂ per
+/// method and level, and how well each estimate predicts the true torque.
+///
+/// The study is sid::run_monte_carlo's on a sid::ChainModel: the same settings (StudySettings),
+/// the same loop (a run's noise depends only on (seed, level, run), so any thread count gives the
+/// same numbers), the same kinematics per method (detail::method_kinematics) and the same
+/// summaries (MethodSummary). A chain's ten parameters per link are not identifiable, so the
+/// study estimates and summarises the base parameters (sid::chain_base_parameters). Methods raw,
+/// filtered, css, css_gcv, css_wls, css_tcv and oracle; css_iv's instruments come from the
+/// two-link simulator and are not available for a chain.
+///
+/// The true trajectory is an input (e.g. sid::simulate_chain_experiment), so this header needs
+/// no SUNDIALS.
+
+#include <sid/base_parameters.hpp>
+#include <sid/config.hpp>
+#include <sid/identify_chain.hpp>
+#include <sid/least_squares.hpp>
+#include <sid/model/chain_model.hpp>
+#include <sid/study/montecarlo.hpp>
+#include <sid/trajectory.hpp>
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace sid {
+
+/// @brief Settings of the chain study; runs, levels, methods, seed and threads as the paper's.
+struct ChainMonteCarloOptions : StudySettings {
+  /// The kinematics of the methods: skip, skip_end, filtered_skip, filters (cutoffs relative to
+  /// Nyquist), cross_validation_skip, S. Not used: method, smoothing and sigma_q (set per method
+  /// and level, δq = σq), gravity (the model's), weighted and least_squares.
+  IdentifyOptions kinematics = default_kinematics();
+  /// The base parameters (chain_base_parameters), the equations' rate (regression_rate_hz) and
+  /// the whole of method css_tcv, which is sid::identify_chain on the run as measured.
+  ChainIdentifyOptions identify;
+  LeastSquaresOptions least_squares;
+
+  /// The paper's windows, and the last 0.25 s left out too: a natural spline's q̈ is wrong
+  /// over its last samples unless the motion stops there, and a random excitation does not.
+  static IdentifyOptions default_kinematics() {
+    IdentifyOptions k;
+    k.skip_end = 0.25;
+    return k;
+  }
+};
+
+/// @brief The chain study's result: per level and method the estimates of the base parameters
+/// (MethodSummary::estimates, runs × base parameters) and their statistics against the true ones.
+struct ChainMonteCarloResult {
+  std::vector<std::string> parameter_names;         ///< the base parameters, shortened
+  std::vector<std::string> parameter_combinations;  ///< the same in full
+  Eigen::VectorXd beta;                             ///< the true base parameters
+  Eigen::VectorXd theta;                            ///< the true parameters of the model
+  /// Base parameters with no relative figures: true value 0 (within 1e-9 of the largest |β|),
+  /// e.g. a friction the description does not have. Their bias_pct and std_pct are NaN.
+  std::vector<bool> zero_in_truth;
+  int runs = 0;
+  std::uint64_t seed = 0;
+  Eigen::Index equations = 0;  ///< rows of the true regression (samples × joints in the window)
+  std::vector<LevelSummary> levels;
+  double wall_seconds = 0.0;
+  int threads_used = 1;
+};
+
+/// @brief The equations of a chain on given kinematics: the samples at most at rate_hz, rows
+/// joint-major (joint 1's rows at every sample, then joint 2's, ...), the columns of the base
+/// parameters.
+struct ChainRegression {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y;
+};
+SID_INLINE ChainRegression chain_study_regression(const ChainModel& model,
+                                                  const std::vector<Eigen::Index>& columns,
+                                                  const ChainKinematics<double>& k, double rate_hz);
+
+/// @brief β̂ of one method on one noisy data set (windowed as options say); NaN-free on success.
+/// @param base the base parameters (chain_base_parameters(model, options.identify)).
+/// @throws std::invalid_argument for css_iv, too few equations, or a css_tcv fit whose run
+///         leaves a base parameter undetermined.
+SID_INLINE LeastSquaresResult<double> fit_chain_study_method(
+    StudyMethod method, const ChainModel& model, const BaseParameters<double>& base,
+    const ChainKinematics<double>& truth, const ChainTrajectory<double>& measured, double sigma_q2,
+    const ChainMonteCarloOptions& options);
+
+/// @brief Runs the study on the true trajectory of model at parameters theta (t, q, q̇, q̈, τ at
+/// the samples, τ = Y θ).
+/// @throws std::invalid_argument on the settings run_monte_carlo refuses, css_iv among the
+///         methods, a theta or a truth whose sizes disagree with the model, or a window too short.
+SID_INLINE ChainMonteCarloResult run_chain_monte_carlo(const ChainModel& model,
+                                                       const Eigen::VectorXd& theta,
+                                                       const ChainKinematics<double>& truth,
+                                                       const ChainMonteCarloOptions& options);
+
+}  // namespace sid
+
+#ifdef SID_HEADER_ONLY
+#include <sid/study/chain_montecarlo-inl.hpp>
+#endif

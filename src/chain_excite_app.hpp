@@ -1,0 +1,48 @@
+#pragma once
+/// @file
+/// @brief sid_excite: the excitation of a robot description's chain designed for
+/// identification (sid::design_excitation), and the file its Fourier coefficients are written
+/// to and sid_simulate --robot --trajectory reads.
+
+#include <sid/fourier_trajectory.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace sid::app {
+
+/// @brief The options of sid_excite.
+struct ChainExciteOptions {
+  std::string robot, base, tip, hold;
+  int harmonics = 5;
+  double base_frequency = 0.1;   ///< [Hz]
+  double q_range = 1.0;          ///< largest |q - q0| [rad or m], and 90 % of the <limit>
+  double qd_max = 1.5;           ///< largest |qd| [rad/s or m/s], and 90 % of the <limit>
+  double qdd_max = 10.0;         ///< largest |qdd| [rad/s^2 or m/s^2]
+  double torque_fraction = 0.8;  ///< of each <limit effort>
+  double rate = 20.0;            ///< grid points per second over one period [Hz]
+  int max_evaluations = 300;
+  std::string algorithm = "slsqp";  ///< slsqp or mma
+  std::uint64_t seed = 1;
+  bool random_only = false;  ///< report (and write) the random excitation only
+  std::string output;        ///< the coefficients file; empty: not written
+  bool force = false;
+};
+
+/// @brief Designs the excitation, prints the comparison with the random one and writes the
+/// file. @return the exit code; bad input throws InputError.
+int excite_robot(const ChainExciteOptions& options, const char* app_name);
+
+/// @brief Writes a Fourier trajectory as CSV: one row per joint, columns
+/// joint,base_frequency,q0,a1..aH,b1..bH (17 significant digits, so it reads back exactly);
+/// comments become '#' lines first.
+void write_fourier_trajectory(const std::string& path, const sid::FourierTrajectory& trajectory,
+                              const std::vector<std::string>& comments);
+
+/// @brief Reads the file write_fourier_trajectory writes.
+/// @throws InputError naming the file and the problem (a missing column, a joint count other
+///         than joints, joints out of order, base frequencies that differ, a bad coefficient).
+sid::FourierTrajectory read_fourier_trajectory(const std::string& path, int joints);
+
+}  // namespace sid::app

@@ -1,0 +1,213 @@
+#include "chain_montecarlo_report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "app.hpp"
+#include "montecarlo_report.hpp"
+
+namespace sid::app {
+
+namespace {
+
+/// The figures of one method at one level that the table prints.
+struct MethodFigures {
+  double median_bias = std::nan(""), max_bias = std::nan("");
+  std::string max_bias_name;
+  double median_std = std::nan(""), max_std = std::nan("");
+  double mean_torque = std::nan(""), max_torque = std::nan("");
+};
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+MethodFigures figures_of(const sid::MethodSummary& s, const std::vector<std::string>& names) {
+  MethodFigures f;
+  std::vector<double> bias, std_dev;
+  for (Eigen::Index k = 0; k < s.bias_pct.size(); ++k) {
+    if (std::isfinite(s.bias_pct[k])) {
+      const double b = std::abs(s.bias_pct[k]);
+      bias.push_back(b);
+      if (!(b <= f.max_bias)) {
+        f.max_bias = b;
+        f.max_bias_name = names[static_cast<std::size_t>(k)];
+      }
+    }
+    if (std::isfinite(s.std_pct[k])) std_dev.push_back(s.std_pct[k]);
+  }
+  f.median_bias = median_of(bias);
+  f.median_std = median_of(std_dev);
+  if (!std_dev.empty()) f.max_std = *std::max_element(std_dev.begin(), std_dev.end());
+  double sum = 0.0;
+  int good = 0;
+  for (Eigen::Index r = 0; r < s.torque_error_pct.size(); ++r)
+    if (std::isfinite(s.torque_error_pct[r])) {
+      sum += s.torque_error_pct[r];
+      ++good;
+      if (!(s.torque_error_pct[r] <= f.max_torque)) f.max_torque = s.torque_error_pct[r];
+    }
+  if (good > 0) f.mean_torque = sum / good;
+  return f;
+}
+
+std::string fixed(double v, int width, int digits) {
+  char buffer[64];
+  if (!std::isfinite(v))
+    std::snprintf(buffer, sizeof buffer, "%*s", width, "n/a");
+  else
+    std::snprintf(buffer, sizeof buffer, "%*.*f", width, digits, v);
+  return buffer;
+}
+
+nlohmann::json number_or_null(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+std::string chain_montecarlo_header(const sid::ChainMonteCarloOptions& options,
+                                    const ChainStudySetup& setup) {
+  std::ostringstream out;
+  std::string levels, methods, joints;
+  for (double v : options.sigma_q2_levels) levels += (levels.empty() ? "" : ", ") + level_label(v);
+  for (auto m : options.methods)
+    methods += (methods.empty() ? "" : ", ") + std::string(sid::study_method_name(m));
+  for (const auto& name : setup.joint_names) joints += (joints.empty() ? "" : ", ") + name;
+  out << "Monte Carlo study of a chain (the paper's section 3.1, on the base parameters)\n"
+      << "  robot            " << setup.robot << "\n"
+      << "  joints           " << setup.joint_names.size() << " (" << joints << ")\n"
+      << "  excitation       " << setup.harmonics << " harmonics of "
+      << shortest_number(setup.base_frequency)
+      << " Hz, |q - q0| <= " << shortest_number(setup.q_range)
+      << ", |qd| <= " << shortest_number(setup.qd_max) << " (within the <limit>s), from the seed\n"
+      << "  true trajectory  " << setup.samples
+      << " samples, T = " << shortest_number(setup.duration)
+      << " s, Ts = " << shortest_number(setup.sample_time) << " s (computed torque, CVODE)\n"
+      << "  runs per level   " << options.runs << "\n"
+      << "  sigma_q2 levels  " << levels << " rad^2\n"
+      << "  sigma_tau2       " << level_label(options.sigma_tau2) << " (N m)^2\n"
+      << "  methods          " << methods << "\n"
+      << "  seed             " << options.seed
+      << " (the excitation; a run's noise depends on seed, level, run only)\n";
+  return out.str();
+}
+
+std::string chain_montecarlo_tables(const sid::ChainMonteCarloResult& result) {
+  std::ostringstream out;
+  std::size_t zero = 0;
+  for (const bool z : result.zero_in_truth) zero += z ? 1 : 0;
+  out << "\n"
+      << result.beta.size() << " base parameters, " << result.equations
+      << " equations (samples x joints in the window)\n"
+      << "|bias| and std: over runs, in % of each true value";
+  if (zero > 0) out << " (not for the " << zero << " whose true value is 0, listed below)";
+  out << "\ntorque: 100 |tau - Y beta-hat| / |tau| at the true motion, over runs\n";
+  for (const auto& level : result.levels) {
+    out << "\nsigma_q2 = " << level_label(level.sigma_q2) << " rad^2\n"
+        << "  method     |bias| median     max   std median     max   rms err   torque mean"
+           "     max  failed  largest |bias|\n";
+    for (const auto& s : level.methods) {
+      const MethodFigures f = figures_of(s, result.parameter_names);
+      std::string method = sid::study_method_name(s.method);
+      method.resize(9, ' ');
+      char failed[16];
+      std::snprintf(failed, sizeof failed, "%8d", s.failed_runs);
+      out << "  " << method << fixed(f.median_bias, 14, 2) << fixed(f.max_bias, 8, 2)
+          << fixed(f.median_std, 13, 2) << fixed(f.max_std, 8, 2)
+          << fixed(s.rms_rel_error_pct, 10, 2) << fixed(f.mean_torque, 14, 3)
+          << fixed(f.max_torque, 8, 3) << failed << "  " << f.max_bias_name << "\n";
+    }
+    for (const auto& s : level.methods)
+      for (const auto& why : s.failures)
+        out << "  " << sid::study_method_name(s.method) << " failed: " << why << "\n";
+  }
+  if (zero > 0) {
+    out << "\nzero in truth (no relative figures; their mean and variance are in the JSON):";
+    std::size_t shown = 0;
+    for (std::size_t k = 0; k < result.zero_in_truth.size(); ++k)
+      if (result.zero_in_truth[k])
+        out << (shown++ % 6 == 0 ? "\n  " : ", ") << result.parameter_names[k];
+    out << "\n";
+  }
+  return out.str();
+}
+
+std::string chain_montecarlo_wall_line(const sid::ChainMonteCarloResult& result) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.2f", result.wall_seconds);
+  return "wall time " + std::string(buffer) + " s (" + std::to_string(result.threads_used) +
+         " thread" + (result.threads_used == 1 ? "" : "s") +
+         "; the numbers do not depend on the thread count)\n";
+}
+
+nlohmann::json chain_montecarlo_json(const sid::ChainMonteCarloResult& result,
+                                     const sid::ChainMonteCarloOptions& options,
+                                     const ChainStudySetup& setup) {
+  nlohmann::json j;
+  j["robot"] = setup.robot;
+  j["base"] = setup.base;
+  j["tip"] = setup.tip;
+  j["joint_names"] = setup.joint_names;
+  j["samples"] = setup.samples;
+  j["duration"] = setup.duration;
+  j["sample_time"] = setup.sample_time;
+  j["excitation"] = {{"harmonics", setup.harmonics},
+                     {"base_frequency", setup.base_frequency},
+                     {"q_range", setup.q_range},
+                     {"qd_max", setup.qd_max}};
+  j["runs"] = result.runs;
+  j["seed"] = result.seed;
+  j["sigma_tau2"] = number_or_null(options.sigma_tau2);
+  j["threads"] = result.threads_used;
+  nlohmann::json methods = nlohmann::json::array();
+  for (auto m : options.methods) methods.push_back(sid::study_method_name(m));
+  j["methods"] = methods;
+  j["equations"] = result.equations;
+  j["parameter_names"] = result.parameter_names;
+  j["parameter_combinations"] = result.parameter_combinations;
+  j["true_beta"] = to_json_array(result.beta);
+  j["zero_in_truth"] = result.zero_in_truth;
+  j["true_theta"] = to_json_array(result.theta);
+  nlohmann::json levels = nlohmann::json::array();
+  for (const auto& level : result.levels) {
+    nlohmann::json l;
+    l["sigma_q2"] = level.sigma_q2;
+    nlohmann::json ms = nlohmann::json::object();
+    for (const auto& s : level.methods) {
+      const MethodFigures f = figures_of(s, result.parameter_names);
+      nlohmann::json m;
+      m["mean"] = to_json_array(s.mean);
+      m["var"] = to_json_array(s.variance);
+      m["bias_pct"] = to_json_array(s.bias_pct);
+      m["std_pct"] = to_json_array(s.std_pct);
+      m["median_abs_bias_pct"] = number_or_null(f.median_bias);
+      m["max_abs_bias_pct"] = number_or_null(f.max_bias);
+      m["max_abs_bias_parameter"] = f.max_bias_name;
+      m["median_std_pct"] = number_or_null(f.median_std);
+      m["max_std_pct"] = number_or_null(f.max_std);
+      m["rms_rel_error_pct"] = number_or_null(s.rms_rel_error_pct);
+      m["standard_error"] = to_json_array(s.standard_error);
+      m["torque_error_pct"] = to_json_array(s.torque_error_pct);
+      m["mean_torque_error_pct"] = number_or_null(f.mean_torque);
+      m["max_torque_error_pct"] = number_or_null(f.max_torque);
+      m["failed_runs"] = s.failed_runs;
+      m["failures"] = s.failures;
+      ms[sid::study_method_name(s.method)] = m;
+    }
+    l["methods"] = ms;
+    levels.push_back(l);
+  }
+  j["levels"] = levels;
+  j["wall_seconds"] = number_or_null(result.wall_seconds);
+  return j;
+}
+
+}  // namespace sid::app
