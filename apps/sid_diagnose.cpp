@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "app.hpp"
+#include "chain_diagnose_app.hpp"
 #include "csv.hpp"
 #include "diagnose_report.hpp"
 #include "plot.hpp"
@@ -29,7 +30,8 @@ constexpr const char* kDescription =
     "Diagnose a two-link arm log: identify the paper's 7-parameter model, find where it and the\n"
     "data disagree (torque residual against the noise floor, free simulation against the\n"
     "measured angles), name the missing physical effect (friction, sensor offsets, rotor inertia,\n"
-    "springs), refit with it and report the gap before and after.\n";
+    "springs), refit with it and report the gap before and after. With --robot, the same for\n"
+    "any serial chain: which drive terms (friction, offsets, rotors, springs) its logs support.\n";
 
 constexpr const char* kFooter = R"(
 Measured runs (two files or more, or --measured): the runs are diagnosed together, as they are.
@@ -50,6 +52,18 @@ Measured runs (two files or more, or --measured): the runs are diagnosed togethe
      why it became unstable), and the runs given with --validate.
   Options of the single-log diagnosis that do not apply: --reference-theta, --plots,
   --rest-velocity, --window.
+
+Any serial chain (--robot FILE, a URDF or DH table, as sid_identify --robot takes it): the
+  logs (t, q1..qn, tau1..taun; motor-side with --transmission) are smoothed per joint at the
+  cutoff of a GCV spline of its angles, and the nominal model (rigid bodies and --drives) is
+  fitted. Then every drive term kind of --candidates (default coulomb, offset, armature,
+  spring, viscous) on every joint and coupled motor where the model lacks it is tested against
+  the residual: named only if its HAC Wald test rejects (Holm, 1 %), BIC and the blocked
+  cross-validation error drop, its value is physical, and it changes the torque prediction by
+  at least --negligible-size of the joint's torque noise (otherwise: significant but
+  negligible). Reported: per joint the noise, the residual before and after and what no tried
+  term explains; the named terms with values and HAC standard deviations; why each other one
+  was not named.
 
 Input: CSV files with a header row and the columns t [s], q1, q2 [rad], tau1, tau2 [N m] in
 any order (other columns are ignored; what sid_simulate writes; --columns maps other names, e.g.
@@ -114,6 +128,7 @@ Examples:
   sid_simulate --effect coulomb_j2:0.2 -o log.csv && sid_diagnose log.csv
   sid_diagnose log.csv --json diagnosis.json --plots figures
   sid_diagnose log.csv --candidates coulomb_j1,coulomb_j2 --coulomb-epsilon 0.02
+  sid_diagnose --robot arm.urdf --transmission drives.yaml motor_log.csv --json diagnosis.json
   sid_diagnose log.csv --reference-theta 0.0340,0.00306,0.00453,0.1329,0.01694,0.6189,0.6189
 )";
 
@@ -131,7 +146,11 @@ struct Options {
   double segment = 1.0;
   double window = 0.5;
   double rest_velocity = sid::DiagnoseOptions{}.rest_velocity;
+  std::optional<double> negligible_size;
   bool force = false;
+  // Any serial chain
+  std::string robot, base, tip, hold, transmission, drives, cutoff;
+  std::optional<double> rest_fraction;
 };
 
 void define_options(CLI::App& cli, Options& o) {
@@ -167,7 +186,27 @@ void define_options(CLI::App& cli, Options& o) {
       ->capture_default_str();
   cli.add_option("--window", o.window, "length of the windows compared with the noise [s], > 0")
       ->capture_default_str();
+  cli.add_option("--negligible-size", o.negligible_size,
+                 "practical size below which a significant effect is not named, in [0, 1): its "
+                 "change of the torque prediction over the residual RMS (default 0.075), with "
+                 "--robot over the torque noise");
   cli.add_flag("--force", o.force, "overwrite existing output files");
+  cli.add_option("--robot", o.robot,
+                 "any serial chain: its URDF or DH table; the logs have t, q1..qn, tau1..taun "
+                 "(see Any serial chain below)");
+  cli.add_option("--base", o.base, "--robot URDF: the chain's first link (default: root)");
+  cli.add_option("--tip", o.tip, "--robot URDF: the chain's last link (default: the one end link)");
+  cli.add_option("--hold", o.hold, "--robot URDF: JOINT=VALUE,... holds joints off the chain");
+  cli.add_option("--transmission", o.transmission,
+                 "--robot: YAML or URDF transmission; the logs are then motor-side");
+  cli.add_option("--drives", o.drives,
+                 "--robot: the nominal model's drive terms on every joint (default: "
+                 "viscous,armature; none for rigid bodies alone)");
+  cli.add_option("--cutoff", o.cutoff,
+                 "--robot: smoothing cutoff [Hz], one or one per joint (default: per joint from "
+                 "GCV of its angles)");
+  cli.add_option("--rest-fraction", o.rest_fraction,
+                 "--robot: leave out joint j's equations where |qd_j| < F RMS(qd_j) (default 0.1)");
 }
 
 std::string short_number(double v) {
@@ -193,10 +232,10 @@ sid::app::TrajectoryColumns columns_of(const Options& o) {
 
 int diagnose_measured_runs(const Options& o) {
   using sid::app::require;
-  require(o.reference.empty() && o.plots.empty() &&
+  require(o.reference.empty() && o.plots.empty() && !o.negligible_size &&
               o.rest_velocity == sid::DiagnoseOptions{}.rest_velocity && o.window == 0.5,
-          "--reference-theta, --plots, --rest-velocity and --window apply to the diagnosis of a "
-          "single log, "
+          "--reference-theta, --plots, --negligible-size, --rest-velocity and --window apply to "
+          "the diagnosis of a single log, "
           "not of measured runs");
   sid::app::RunsDiagnoseReportInput in;
   if (!o.candidates.empty())
@@ -267,8 +306,39 @@ int diagnose_measured_runs(const Options& o) {
   return sid::app::kExitOk;
 }
 
+int diagnose_robot(const Options& o) {
+  using sid::app::require;
+  require(o.validate.empty() && !o.measured && !o.gear_ratio && o.reference.empty() &&
+              o.plots.empty() && o.window == 0.5 &&
+              o.rest_velocity == sid::DiagnoseOptions{}.rest_velocity,
+          "--validate, --measured, --gear-ratio, --reference-theta, --plots, --window and "
+          "--rest-velocity apply to two-link logs, not with --robot");
+  sid::app::ChainDiagnoseAppOptions chain;
+  chain.chain.robot = o.robot;
+  chain.chain.base = o.base;
+  chain.chain.tip = o.tip;
+  chain.chain.hold = o.hold;
+  chain.chain.transmission = o.transmission;
+  chain.chain.inputs = o.inputs;
+  chain.chain.columns = o.columns;
+  chain.chain.cutoff = o.cutoff;
+  chain.chain.effects = o.drives;
+  chain.chain.rest_fraction = o.rest_fraction;
+  chain.chain.coulomb_epsilon = o.coulomb_epsilon;
+  chain.chain.json = o.json;
+  chain.chain.force = o.force;
+  chain.candidates = o.candidates;
+  chain.negligible_size = o.negligible_size;
+  return sid::app::diagnose_robot(chain);
+}
+
 int diagnose(const Options& o) {
   using sid::app::require;
+  if (!o.robot.empty()) return diagnose_robot(o);
+  require(o.base.empty() && o.tip.empty() && o.hold.empty() && o.transmission.empty() &&
+              o.drives.empty() && o.cutoff.empty() && !o.rest_fraction,
+          "--base, --tip, --hold, --transmission, --drives, --cutoff and --rest-fraction need "
+          "--robot");
   if (o.measured || o.inputs.size() > 1) return diagnose_measured_runs(o);
   require(o.validate.empty() && !o.gear_ratio,
           "--validate and --gear-ratio apply to measured runs (two files or more, or --measured)");
@@ -294,6 +364,11 @@ int diagnose(const Options& o) {
       std::isfinite(o.rest_velocity) && o.rest_velocity >= 0.0,
       "--rest-velocity must be a finite number >= 0 [rad/s], got " + short_number(o.rest_velocity));
   options.rest_velocity = o.rest_velocity;
+  if (o.negligible_size) {
+    require(*o.negligible_size >= 0.0 && *o.negligible_size < 1.0,
+            "--negligible-size must be in [0, 1), got " + short_number(*o.negligible_size));
+    options.negligible_size = *o.negligible_size;
+  }
   sid::FreeSimulationOptions simulation;
   simulation.segment = o.segment;
   const sid::SimulationCheckOptions check;

@@ -76,8 +76,8 @@ links and <dynamics> damping and friction, every joint tracking a random Fourier
 |q_j - q0_j| <= --q-range and |qd_j| <= --qd-max and within 90 % of the <limit>s, drawn
 from --seed) under computed torque with a PD correction. Effects on a chain: viscous_jN:fv,
 coulomb_jN:Fc (tanh, --coulomb-epsilon), armature_jN:Ia (a rotor; needed where a link has no
-inertia about its own axis), torque_offset_jN:b. --trajectory FILE tracks the Fourier
-series sid_excite wrote instead of the random one. Output: t,q1..qn,tau1..taun (with --truth
+inertia about its own axis), spring_jN:k (k q), torque_offset_jN:b. --trajectory FILE tracks
+the Fourier series sid_excite wrote instead of the random one. Output: t,q1..qn,tau1..taun (with --truth
 also q1_true.., qd1.., qdd1.., tau1_true..), the log sid_identify --robot reads.
 
 Exit codes: 0 success, 2 bad options or a failed simulation (message on standard error),

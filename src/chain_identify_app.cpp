@@ -20,13 +20,8 @@
 namespace sid::app {
 namespace {
 
-struct LoadedRun {
-  std::string file;
-  sid::ChainTrajectory<double> data;
-};
-
-LoadedRun load_run(const std::string& path, const sid::Transmission& transmission, bool motor_side,
-                   const std::vector<std::string>& columns) {
+ChainRunFile load_run(const std::string& path, const sid::Transmission& transmission,
+                      bool motor_side, const std::vector<std::string>& columns) {
   const CsvTable table = read_csv(path);
   sid::ChainTrajectory<double> run =
       chain_trajectory_from_table(table, transmission.joints(), columns);
@@ -198,23 +193,15 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
 
 }  // namespace
 
-int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
-  require(!o.inputs.empty(), "no run given");
-  require(!o.validate_fraction || o.inputs.size() == 1,
-          "--validate-fraction splits one run; give one run (or use --validate)");
-  require(!o.validate_fraction || (*o.validate_fraction > 0.0 && *o.validate_fraction < 1.0),
-          "--validate-fraction must be in (0, 1)");
-  if (!o.json.empty()) ensure_writable(o.json, o.force);
-  if (!o.write_urdf.empty()) ensure_writable(o.write_urdf, o.force);
-  const RobotDescription robot =
+LoadedChain load_chain(const ChainIdentifyAppOptions& o,
+                       const std::vector<sid::DriveTermKind>& default_kinds) {
+  RobotDescription robot =
       read_robot_description(o.robot, o.base, o.tip, parse_held_joints(o.hold, "--hold"));
-  require(o.write_urdf.empty() || !robot.urdf.empty(),
-          "--write-urdf needs a URDF as --robot, not a DH table");
   const int n = robot.chain.joints();
   const bool motor_side = !o.transmission.empty();
-  const sid::Transmission transmission =
+  sid::Transmission transmission =
       motor_side ? read_transmission(o.transmission, robot.joint_names) : sid::Transmission(n);
-  std::vector<sid::DriveTermKind> kinds = sid::default_drive_term_kinds();
+  std::vector<sid::DriveTermKind> kinds = default_kinds;
   if (!o.effects.empty()) {
     try {
       kinds = sid::parse_drive_term_kinds(o.effects);
@@ -225,15 +212,36 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
   if (o.coulomb_epsilon)
     require(*o.coulomb_epsilon >= 0.0 && std::isfinite(*o.coulomb_epsilon),
             "--coulomb-epsilon must be finite and >= 0");
-  const sid::ChainModel model(robot.chain, robot.joint_names, sid::drive_terms(kinds, transmission),
-                              transmission, o.coulomb_epsilon.value_or(0.01));
-  const sid::ChainIdentifyOptions options = make_options(o, n);
-
+  sid::ChainModel model(robot.chain, robot.joint_names, sid::drive_terms(kinds, transmission),
+                        transmission, o.coulomb_epsilon.value_or(0.01));
+  sid::ChainIdentifyOptions options = make_options(o, n);
   const std::vector<std::string> columns = chain_columns(o.columns, n, "--columns");
-  std::vector<LoadedRun> runs, held_out;
+  std::vector<ChainRunFile> runs;
   for (const auto& f : o.inputs) runs.push_back(load_run(f, transmission, motor_side, columns));
+  return {std::move(robot), std::move(transmission), motor_side,
+          std::move(model), std::move(options),      std::move(runs)};
+}
+
+int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
+  require(!o.inputs.empty(), "no run given");
+  require(!o.validate_fraction || o.inputs.size() == 1,
+          "--validate-fraction splits one run; give one run (or use --validate)");
+  require(!o.validate_fraction || (*o.validate_fraction > 0.0 && *o.validate_fraction < 1.0),
+          "--validate-fraction must be in (0, 1)");
+  if (!o.json.empty()) ensure_writable(o.json, o.force);
+  if (!o.write_urdf.empty()) ensure_writable(o.write_urdf, o.force);
+  LoadedChain loaded = load_chain(o, sid::default_drive_term_kinds());
+  const RobotDescription& robot = loaded.robot;
+  require(o.write_urdf.empty() || !robot.urdf.empty(),
+          "--write-urdf needs a URDF as --robot, not a DH table");
+  const int n = robot.chain.joints();
+  const sid::ChainModel& model = loaded.model;
+  const sid::ChainIdentifyOptions& options = loaded.options;
+  std::vector<ChainRunFile>& runs = loaded.runs;
+  std::vector<ChainRunFile> held_out;
   for (const auto& f : o.validate)
-    held_out.push_back(load_run(f, transmission, motor_side, columns));
+    held_out.push_back(load_run(f, loaded.transmission, loaded.motor_side,
+                                chain_columns(o.columns, n, "--columns")));
   if (o.validate_fraction) {
     try {
       auto [first, last] = sid::split_run(runs.front().data, 1.0 - *o.validate_fraction);

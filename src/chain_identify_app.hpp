@@ -3,6 +3,11 @@
 /// @brief sid_identify --robot: identification of any serial chain from its robot description
 /// and its logs, with the text report and the JSON.
 
+#include <sid/identify_chain.hpp>
+#include <sid/model/chain_model.hpp>
+
+#include "robot_description.hpp"
+
 #include <optional>
 #include <string>
 #include <vector>
@@ -29,6 +34,27 @@ struct ChainIdentifyAppOptions {
   std::string write_urdf;  ///< a copy of the URDF with the physically consistent links
   bool force = false;
 };
+
+/// @brief A log of the chain, joint-side.
+struct ChainRunFile {
+  std::string file;
+  sid::ChainTrajectory<double> data;
+};
+
+/// @brief What the --robot options describe: the chain, its transmission, the model with the
+/// drive terms of options.effects (else default_kinds), the identification options and the runs.
+struct LoadedChain {
+  RobotDescription robot;
+  sid::Transmission transmission;
+  bool motor_side = false;
+  sid::ChainModel model;
+  sid::ChainIdentifyOptions options;
+  std::vector<ChainRunFile> runs;
+};
+
+/// @throws InputError naming the option or file at fault.
+LoadedChain load_chain(const ChainIdentifyAppOptions& options,
+                       const std::vector<sid::DriveTermKind>& default_kinds);
 
 /// @brief Runs the identification and prints the report (the JSON too with --json).
 /// @return the exit code; bad input throws InputError.

@@ -22,7 +22,7 @@ namespace sid::app {
 namespace {
 
 struct ChainEffect {
-  std::string kind;  ///< viscous, coulomb, armature, torque_offset
+  std::string kind;  ///< viscous, coulomb, armature, spring, torque_offset
   int joint = 0;     ///< 0-based
   double value = 0.0;
 };
@@ -36,10 +36,10 @@ ChainEffect parse_chain_effect(const std::string& text, int joints) {
   require(mark != std::string::npos, who + "expected KIND_jN:VALUE, e.g. coulomb_j3:0.4");
   ChainEffect e;
   e.kind = id.substr(0, mark);
-  require(
-      e.kind == "viscous" || e.kind == "coulomb" || e.kind == "armature" ||
-          e.kind == "torque_offset",
-      who + "unknown kind '" + e.kind + "'; on a chain: viscous, coulomb, armature, torque_offset");
+  require(e.kind == "viscous" || e.kind == "coulomb" || e.kind == "armature" ||
+              e.kind == "spring" || e.kind == "torque_offset",
+          who + "unknown kind '" + e.kind +
+              "'; on a chain: viscous, coulomb, armature, spring, torque_offset");
   const std::string number = id.substr(mark + 2);
   int joint = 0;
   const auto parsed = std::from_chars(number.data(), number.data() + number.size(), joint);
@@ -94,27 +94,34 @@ SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& o, std::mt19937_
   }
 
   const Transmission direct(n);
-  const ChainModel model(
-      robot.chain, robot.joint_names,
-      drive_terms({DriveTermKind::Viscous, DriveTermKind::Coulomb, DriveTermKind::Armature},
-                  direct),
-      direct, o.coulomb_epsilon);
+  // Springs only when asked: the model (and the theta it returns) is otherwise what it was.
+  const bool springs = std::any_of(effects.begin(), effects.end(),
+                                   [](const ChainEffect& e) { return e.kind == "spring"; });
+  std::vector<DriveTermKind> kinds = {DriveTermKind::Viscous, DriveTermKind::Coulomb,
+                                      DriveTermKind::Armature};
+  if (springs) kinds.push_back(DriveTermKind::Spring);
+  const auto per_joint = static_cast<Eigen::Index>(kinds.size());
+  const ChainModel model(robot.chain, robot.joint_names, drive_terms(kinds, direct), direct,
+                         o.coulomb_epsilon);
   // theta: the URDF's links, its <dynamics> damping and friction, then the effects on top.
   Eigen::VectorXd theta = Eigen::VectorXd::Zero(model.parameters());
   theta.head(model.rigid_body_parameters()) = robot.link_parameters;
   Eigen::VectorXd offset = Eigen::VectorXd::Zero(n);
   const Eigen::Index drives = model.rigid_body_parameters();
   for (int j = 0; j < n; ++j) {
-    theta[drives + 3 * j] = robot.damping[j];
-    theta[drives + 3 * j + 1] = robot.friction[j];
+    theta[drives + per_joint * j] = robot.damping[j];
+    theta[drives + per_joint * j + 1] = robot.friction[j];
   }
   for (const ChainEffect& e : effects) {
     if (e.kind == "torque_offset") {
       offset[e.joint] = e.value;
       continue;
     }
-    const int slot = e.kind == "viscous" ? 0 : e.kind == "coulomb" ? 1 : 2;
-    theta[drives + 3 * e.joint + slot] += e.value;
+    const int slot = e.kind == "viscous"    ? 0
+                     : e.kind == "coulomb"  ? 1
+                     : e.kind == "armature" ? 2
+                                            : 3;
+    theta[drives + per_joint * e.joint + slot] += e.value;
   }
 
   FourierTrajectory desired;

@@ -232,7 +232,7 @@ TEST_F(IdentifyRobot, SimulateRobotRefusesWhatItCannotSimulate) {
     EXPECT_NE(r.err.find(words), std::string::npos) << r.err;
   };
   refused("--robot " + urdf, "add a rotor, e.g. --effect armature_j6");
-  refused("--robot " + urdf + " --effect spring_j2:1", "unknown kind 'spring'");
+  refused("--robot " + urdf + " --effect stribeck_j2:1", "unknown kind 'stribeck'");
   refused("--robot " + urdf + " --effect coulomb_j9:1", "the joint must be 1..6");
   refused("--robot " + urdf + " --effect coulomb_j2:-1", "coulomb must be > 0");
   refused("--robot " + urdf + " --excitation multisine", "random Fourier series");

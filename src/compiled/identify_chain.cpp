@@ -1,2 +1,5 @@
-// The compiled library: the definitions of <sid/identify_chain.hpp>, compiled once.
+// The compiled library: the definitions of <sid/identify_chain.hpp> and <sid/diagnose_chain.hpp>,
+// compiled once.
 #include <sid/identify_chain-inl.hpp>
+// The chain diagnosis shares identify_chain's equation builders: compiled in the same unit.
+#include <sid/diagnose_chain-inl.hpp>

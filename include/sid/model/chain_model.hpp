@@ -29,14 +29,15 @@
 
 namespace sid {
 
-/// @brief What a drive adds to the torque of the joint (or motor combination) it acts on, with v
-/// its rate and a its acceleration.
+/// @brief What a drive adds to the torque of the joint (or motor combination) it acts on, with x
+/// its angle, v its rate and a its acceleration.
 enum class DriveTermKind {
   Viscous,           ///< fv v
   Coulomb,           ///< fc c(v), c = tanh(v / epsilon) (sign(v) when epsilon = 0)
   CoulombAsymmetry,  ///< fa |c(v)|: a Coulomb level that differs between the two directions
   Offset,            ///< a constant torque (the drive's current offset)
   Armature,          ///< Ia a: the rotor's inertia seen through the gear
+  Spring,            ///< k x, x its angle: a spring or a cable that pulls back to zero
 };
 
 /// @brief One drive term; on_motor: it acts on motor `index`'s combination of joint rates
@@ -60,6 +61,8 @@ inline const char* drive_term_keyword(DriveTermKind kind) {
       return "offset";
     case DriveTermKind::Armature:
       return "armature";
+    case DriveTermKind::Spring:
+      return "spring";
   }
   return "?";
 }
@@ -72,16 +75,16 @@ inline std::vector<DriveTermKind> parse_drive_term_kinds(const std::string& text
   if (text == "none") return kinds;
   std::stringstream in(text);
   std::string word;
-  const DriveTermKind all[] = {DriveTermKind::Viscous, DriveTermKind::Coulomb,
+  const DriveTermKind all[] = {DriveTermKind::Viscous,          DriveTermKind::Coulomb,
                                DriveTermKind::CoulombAsymmetry, DriveTermKind::Offset,
-                               DriveTermKind::Armature};
+                               DriveTermKind::Armature,         DriveTermKind::Spring};
   while (std::getline(in, word, ',')) {
     const auto found = std::find_if(std::begin(all), std::end(all),
                                     [&](DriveTermKind k) { return word == drive_term_keyword(k); });
     if (found == std::end(all))
       throw std::invalid_argument(
           "unknown drive term '" + word +
-          "'; known: viscous, coulomb, coulomb_asymmetry, offset, armature, or none");
+          "'; known: viscous, coulomb, coulomb_asymmetry, offset, armature, spring, or none");
     if (std::find(kinds.begin(), kinds.end(), *found) != kinds.end())
       throw std::invalid_argument("drive term '" + word + "' is given twice");
     kinds.push_back(*found);
@@ -167,7 +170,8 @@ class ChainModel {
   const std::vector<DriveTerm>& terms() const noexcept { return terms_; }
   const Transmission& transmission() const noexcept { return transmission_; }
   double coulomb_epsilon() const noexcept { return epsilon_; }
-  /// @brief m_1, mx_1, ..., Izz_n, then per term fv_j, fc_j, fa_j, off_j, Ia_j (motors: fv_mj ...).
+  /// @brief m_1, mx_1, ..., Izz_n, then per term fv_j, fc_j, fa_j, off_j, Ia_j, k_j (motors:
+  /// fv_mj ...).
   const std::vector<std::string>& parameter_names() const noexcept { return names_; }
   /// @brief The model itself: its terms, inverse and forward dynamics, mass matrix.
   const Model<double, Eigen::Dynamic>& model() const noexcept { return model_; }
@@ -213,11 +217,12 @@ class ChainModel {
         if (rotor)
           armature[t.index] += value;
         else
-          applied[t.index] -= value * term_value(t.kind, epsilon_, qd[t.index], 0.0);
+          applied[t.index] -= value * term_value(t.kind, epsilon_, q[t.index], qd[t.index], 0.0);
       } else if (!rotor) {
+        const double angle = directions_.row(t.index).dot(q);
         const double rate = directions_.row(t.index).dot(qd);
         applied -= directions_.row(t.index).transpose() *
-                   (value * term_value(t.kind, epsilon_, rate, 0.0));
+                   (value * term_value(t.kind, epsilon_, angle, rate, 0.0));
       } else if (value != 0.0) {
         const Eigen::Index m = motors.cols();
         motors.conservativeResize(n, m + 1);
@@ -261,23 +266,24 @@ class ChainModel {
     if (!t.on_motor)
       return {name,
               {name},
-              [t, epsilon = epsilon_](const Vector&, const Vector& qd, const Vector& qdd,
+              [t, epsilon = epsilon_](const Vector& q, const Vector& qd, const Vector& qdd,
                                       RegressorView<double, Eigen::Dynamic> out) {
                 out.setZero();
-                out(t.index, 0) = term_value(t.kind, epsilon, qd[t.index], qdd[t.index]);
+                out(t.index, 0) =
+                    term_value(t.kind, epsilon, q[t.index], qd[t.index], qdd[t.index]);
               }};
     // The motor turns with direction . qd; its torque reaches every joint it turns.
     const Eigen::VectorXd direction = directions_.row(t.index).transpose();
     return {name,
             {name},
-            [t, epsilon = epsilon_, direction](const Vector&, const Vector& qd, const Vector& qdd,
+            [t, epsilon = epsilon_, direction](const Vector& q, const Vector& qd, const Vector& qdd,
                                                RegressorView<double, Eigen::Dynamic> out) {
-              out.col(0) =
-                  direction * term_value(t.kind, epsilon, direction.dot(qd), direction.dot(qdd));
+              out.col(0) = direction * term_value(t.kind, epsilon, direction.dot(q),
+                                                  direction.dot(qd), direction.dot(qdd));
             }};
   }
 
-  static double term_value(DriveTermKind kind, double epsilon, double v, double a) {
+  static double term_value(DriveTermKind kind, double epsilon, double x, double v, double a) {
     const auto coulomb = [&] {
       return epsilon > 0.0 ? std::tanh(v / epsilon) : double((v > 0.0) - (v < 0.0));
     };
@@ -292,6 +298,8 @@ class ChainModel {
         return 1.0;
       case DriveTermKind::Armature:
         return a;
+      case DriveTermKind::Spring:
+        return x;
     }
     return 0.0;
   }
@@ -301,7 +309,7 @@ class ChainModel {
   }
 
   static std::string term_name(const DriveTerm& t) {
-    static const char* const prefix[] = {"fv_", "fc_", "fa_", "off_", "Ia_"};
+    static const char* const prefix[] = {"fv_", "fc_", "fa_", "off_", "Ia_", "k_"};
     return prefix[static_cast<int>(t.kind)] + std::string(t.on_motor ? "m" : "") +
            std::to_string(t.index + 1);
   }

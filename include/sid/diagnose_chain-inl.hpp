@@ -1,0 +1,428 @@
+#pragma once
+// Definitions of sid/diagnose_chain.hpp (see sid/config.hpp). The compiled library holds them in
+// the same unit as identify_chain's, whose equation builders they share.
+
+#include <sid/diagnose_chain.hpp>
+#include <sid/diagnosis/hac.hpp>
+#include <sid/diagnosis/noise_floor.hpp>
+#include <sid/identify_chain-inl.hpp>
+#include <sid/smoothing_spline.hpp>
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <chrono>
+#include <iomanip>
+#include <sstream>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace sid {
+
+SID_INLINE std::string drive_term_id(const DriveTerm& term) {
+  return std::string(drive_term_keyword(term.kind)) + (term.on_motor ? "_m" : "_j") +
+         std::to_string(term.index + 1);
+}
+
+namespace detail {
+
+inline const char* drive_term_unit(DriveTermKind kind) {
+  switch (kind) {
+    case DriveTermKind::Viscous:
+      return "N m s/rad";
+    case DriveTermKind::Coulomb:
+    case DriveTermKind::CoulombAsymmetry:
+    case DriveTermKind::Offset:
+      return "N m";
+    case DriveTermKind::Armature:
+      return "kg m^2";
+    case DriveTermKind::Spring:
+      return "N m/rad";
+  }
+  return "";
+}
+
+inline bool same_place(const DriveTerm& a, const DriveTerm& b) {
+  return a.kind == b.kind && a.index == b.index && a.on_motor == b.on_motor;
+}
+
+/// The candidates: every kind on every joint and coupled motor the nominal model lacks.
+inline std::vector<DriveTerm> chain_candidates(const ChainModel& nominal,
+                                               const std::vector<DriveTermKind>& kinds) {
+  std::vector<DriveTerm> out;
+  for (const DriveTerm& t : drive_terms(kinds, nominal.transmission())) {
+    const bool present = std::any_of(nominal.terms().begin(), nominal.terms().end(),
+                                     [&](const DriveTerm& n) { return same_place(n, t); });
+    if (!present) out.push_back(t);
+  }
+  return out;
+}
+
+/// Every equation of the runs on every column the diagnosis may use (the nominal model's base
+/// columns, then one per candidate), each column scaled to unit norm so that the fold Gram
+/// matrices of the cross-validation stay well conditioned.
+struct ChainDiagnosisEquations {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd scale;  ///< the columns' norms before scaling
+  Eigen::VectorXd y, y_measured;
+  std::vector<int> joint;
+  std::vector<Eigen::Index> run_rows;   ///< first row of each run, then the row count
+  std::vector<Eigen::Index> at;         ///< sample position of each row within its run
+  std::vector<Eigen::Index> positions;  ///< sample positions per run
+  /// Per cross-validation fold (contiguous sample blocks of one run): rows [begin, end), X_fᵀX_f,
+  /// X_fᵀy_f and y_fᵀy_f over all columns.
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> folds;
+  std::vector<Eigen::MatrixXd> gram;
+  std::vector<Eigen::VectorXd> moment;
+  std::vector<double> energy;
+  Eigen::MatrixXd gram_total;
+  Eigen::VectorXd moment_total;
+  int joints = 0;
+};
+
+inline ChainDiagnosisEquations chain_diagnosis_equations(const std::vector<ChainEquations>& runs,
+                                                         int joints, int blocks) {
+  ChainDiagnosisEquations d;
+  d.joints = joints;
+  Eigen::Index rows = 0;
+  for (const auto& e : runs) rows += e.y.size();
+  const Eigen::Index columns = runs.front().x.cols();
+  d.x.resize(rows, columns);
+  d.y.resize(rows);
+  d.y_measured.resize(rows);
+  Eigen::Index at = 0;
+  for (const auto& e : runs) {
+    d.run_rows.push_back(at);
+    const Eigen::Index m = e.y.size();
+    d.x.middleRows(at, m) = e.x;
+    d.y.segment(at, m) = e.y;
+    d.y_measured.segment(at, m) = e.y_unfiltered;
+    d.joint.insert(d.joint.end(), e.joint.begin(), e.joint.end());
+    d.at.insert(d.at.end(), e.at.begin(), e.at.end());
+    const Eigen::Index positions = e.at.empty() ? 0 : e.at.back() + 1;
+    d.positions.push_back(positions);
+    // Rows run sample by sample, so a block of samples is a block of rows.
+    Eigen::Index begin = 0;
+    for (int b = 1; b <= blocks; ++b) {
+      const Eigen::Index last_position = positions * b / blocks;
+      Eigen::Index end = begin;
+      while (end < m && e.at[static_cast<std::size_t>(end)] < last_position) ++end;
+      if (end > begin) d.folds.emplace_back(at + begin, at + end);
+      begin = end;
+    }
+    at += m;
+  }
+  d.run_rows.push_back(rows);
+  d.scale = d.x.colwise().norm().transpose().cwiseMax(1e-300);
+  d.x = d.x * d.scale.cwiseInverse().asDiagonal();
+  d.gram_total = Eigen::MatrixXd::Zero(columns, columns);
+  d.moment_total = Eigen::VectorXd::Zero(columns);
+  for (const auto& [begin, end] : d.folds) {
+    const auto xf = d.x.middleRows(begin, end - begin);
+    const auto yf = d.y.segment(begin, end - begin);
+    d.gram.push_back(xf.transpose() * xf);
+    d.moment.push_back(xf.transpose() * yf);
+    d.energy.push_back(yf.squaredNorm());
+    d.gram_total += d.gram.back();
+    d.moment_total += d.moment.back();
+  }
+  return d;
+}
+
+/// Blocked cross-validation error of the model on `columns`: each fold predicted by the fit on
+/// all others, from the fold Gram matrices (one small solve per fold).
+inline double chain_cv_error(const ChainDiagnosisEquations& d,
+                             const std::vector<Eigen::Index>& columns) {
+  const Eigen::MatrixXd g = d.gram_total(columns, columns);
+  const Eigen::VectorXd b = d.moment_total(columns);
+  double error = 0.0;
+  for (std::size_t f = 0; f < d.folds.size(); ++f) {
+    const Eigen::MatrixXd gf = d.gram[f](columns, columns);
+    const Eigen::VectorXd bf = d.moment[f](columns);
+    const Eigen::VectorXd theta = (g - gf).ldlt().solve(b - bf);
+    error += d.energy[f] - 2.0 * theta.dot(bf) + theta.dot(gf * theta);
+  }
+  return error;
+}
+
+/// Per-joint sums of squares of a vector over the equations.
+inline Eigen::VectorXd per_joint_squares(const ChainDiagnosisEquations& d,
+                                         const Eigen::Ref<const Eigen::VectorXd>& v) {
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(d.joints);
+  for (Eigen::Index r = 0; r < v.size(); ++r)
+    out[d.joint[static_cast<std::size_t>(r)]] += v[r] * v[r];
+  return out;
+}
+
+/// The HAC long-run sum of scores x_r e_r summed per sample (a sample's joints are one
+/// observation), runs independent.
+inline Eigen::MatrixXd chain_long_run(const ChainDiagnosisEquations& d,
+                                      const Eigen::Ref<const Eigen::MatrixXd>& x,
+                                      const Eigen::Ref<const Eigen::VectorXd>& e) {
+  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(x.cols(), x.cols());
+  for (std::size_t run = 0; run + 1 < d.run_rows.size(); ++run) {
+    Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(d.positions[run], x.cols());
+    for (Eigen::Index r = d.run_rows[run]; r < d.run_rows[run + 1]; ++r)
+      scores.row(d.at[static_cast<std::size_t>(r)]) += e[r] * x.row(r);
+    sum += hac_long_run_sum(scores);
+  }
+  return sum;
+}
+
+/// The fit of one selection round.
+struct ChainRound {
+  std::vector<Eigen::Index> columns;
+  Eigen::MatrixXd q;  ///< orthonormal basis of the columns
+  Eigen::VectorXd theta, residual, rss;
+  double cv_error = 0;
+
+  ChainRound(const ChainDiagnosisEquations& d, std::vector<Eigen::Index> cols)
+      : columns(std::move(cols)) {
+    const Eigen::MatrixXd x = d.x(Eigen::all, columns);
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(x);
+    q = qr.householderQ() * Eigen::MatrixXd::Identity(x.rows(), x.cols());
+    theta = qr.solve(d.y);
+    residual = d.y - x * theta;
+    rss = per_joint_squares(d, residual);
+    cv_error = chain_cv_error(d, columns);
+  }
+};
+
+inline void check_chain_diagnose_options(const ChainDiagnoseOptions& o, int joints) {
+  const std::string who = "sid::diagnose_chain: ";
+  check_chain_options(o.identify, joints, "sid::diagnose_chain");
+  if (o.candidate_kinds.empty()) throw std::invalid_argument(who + "no candidate kinds given");
+  if (!(o.family_alpha > 0.0 && o.family_alpha < 1.0))
+    throw std::invalid_argument(who + "family_alpha must be in (0, 1)");
+  if (o.cv_blocks < 2) throw std::invalid_argument(who + "cv_blocks must be >= 2");
+  if (!(o.min_cv_gain >= 0.0 && o.min_cv_gain < 1.0))
+    throw std::invalid_argument(who + "min_cv_gain must be in [0, 1)");
+  if (!(o.separability_r2 > 0.0 && o.separability_r2 < 1.0))
+    throw std::invalid_argument(who + "separability_r2 must be in (0, 1)");
+  if (!(o.negligible_size >= 0.0 && o.negligible_size < 1.0))
+    throw std::invalid_argument(who + "negligible_size must be in [0, 1)");
+}
+
+/// Per joint, the cutoff of the GCV smoothing spline of its angles (geometric mean over the
+/// runs, within the options' search range): chosen from the angles alone, because a cutoff
+/// chosen by the nominal model's torque prediction bends towards hiding what the model lacks.
+inline std::vector<double> gcv_cutoffs(const ChainModel& model,
+                                       const std::vector<ChainTrajectory<double>>& runs,
+                                       const ChainIdentifyOptions& o) {
+  const int n = model.joints();
+  std::vector<double> log_sum(static_cast<std::size_t>(n), 0.0);
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const ChainTrajectory<double>& run = runs[r];
+    check_chain_run(model, run, "sid::diagnose_chain: run " + std::to_string(r + 1));
+    const double h = (run.t[run.size() - 1] - run.t[0]) / static_cast<double>(run.size() - 1);
+    const SmoothingSpline<double> spline(run.t);
+    for (int j = 0; j < n; ++j) {
+      const double lambda = spline.fit_cross_validated(run.q.col(j)).lambda;
+      const double cutoff = std::pow(1.0 / (h * lambda), 0.25) / (2.0 * 3.14159265358979323846);
+      log_sum[static_cast<std::size_t>(j)] +=
+          std::log(std::clamp(cutoff, o.min_cutoff_hz, o.max_cutoff_hz));
+    }
+  }
+  std::vector<double> cutoff;
+  for (const double s : log_sum) cutoff.push_back(std::exp(s / static_cast<double>(runs.size())));
+  return cutoff;
+}
+
+inline std::string significant(double value, int digits) {
+  std::ostringstream out;
+  out << std::setprecision(digits) << value;
+  return out.str();
+}
+
+inline std::string percent(double fraction) {
+  std::string s = std::to_string(std::round(1000.0 * fraction) / 10.0);
+  s.erase(s.find_last_not_of('0') + 1);
+  if (!s.empty() && s.back() == '.') s.pop_back();
+  return s;
+}
+
+}  // namespace detail
+
+SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
+                                         const std::vector<ChainTrajectory<double>>& runs,
+                                         const ChainDiagnoseOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  const int n = nominal.joints();
+  detail::check_chain_diagnose_options(options, n);
+  if (runs.empty()) throw std::invalid_argument("sid::diagnose_chain: no runs given");
+  ChainIdentifyOptions given = options.identify;
+  if (given.cutoff_hz.empty()) given.cutoff_hz = detail::gcv_cutoffs(nominal, runs, given);
+  const ChainIdentification id = identify_chain(nominal, runs, given);
+  if (!id.fit.ok())
+    throw std::invalid_argument("sid::diagnose_chain: the nominal model's fit failed: " +
+                                id.fit.message);
+
+  ChainDiagnosis result;
+  result.cutoff_hz = id.cutoff_hz;
+  const std::vector<DriveTerm> candidates =
+      detail::chain_candidates(nominal, options.candidate_kinds);
+  std::vector<DriveTerm> all_terms = nominal.terms();
+  all_terms.insert(all_terms.end(), candidates.begin(), candidates.end());
+  const ChainModel full(nominal.chain(), nominal.joint_names(), all_terms, nominal.transmission(),
+                        nominal.coulomb_epsilon());
+
+  std::vector<detail::SmoothedChainRun> smoothed =
+      detail::smoothed_runs(full, runs, given, "sid::diagnose_chain");
+  for (auto& s : smoothed)
+    for (int j = 0; j < n; ++j) s.smooth_joint(j, id.cutoff_hz[j], given.filter_torque);
+  std::vector<Eigen::Index> columns = id.base.independent;
+  const auto base_count = static_cast<Eigen::Index>(columns.size());
+  for (std::size_t c = 0; c < candidates.size(); ++c)
+    columns.push_back(nominal.parameters() + static_cast<Eigen::Index>(c));
+  const detail::ChainDiagnosisEquations d = detail::chain_diagnosis_equations(
+      detail::all_equations(full, smoothed, columns, given.rest_fraction), n, options.cv_blocks);
+  result.equations = d.y.size();
+  const auto log_rows = std::log(static_cast<double>(d.y.size()));
+  Eigen::VectorXd joint_rows = Eigen::VectorXd::Zero(n);
+  for (const int j : d.joint) joint_rows[j] += 1.0;
+
+  // Practical sizes are judged against the torque noise: the fits use filtered torques, whose
+  // residual is far below it.
+  result.noise_floor = Eigen::VectorXd::Zero(n);
+  for (const auto& run : runs)
+    for (int j = 0; j < n; ++j) {
+      const double sigma = noise_sigma_gcv(run.t, run.tau.col(j));
+      result.noise_floor[j] += sigma * sigma / static_cast<double>(runs.size());
+    }
+  result.noise_floor = result.noise_floor.cwiseSqrt().cwiseMax(1e-300);
+  std::vector<Eigen::Index> selected(static_cast<std::size_t>(base_count));
+  for (Eigen::Index c = 0; c < base_count; ++c) selected[static_cast<std::size_t>(c)] = c;
+  std::vector<Eigen::Index> remaining;  // positions in `candidates`
+  for (std::size_t c = 0; c < candidates.size(); ++c)
+    remaining.push_back(static_cast<Eigen::Index>(c));
+  const auto make_test = [&](Eigen::Index c) {
+    ChainEffectTest t;
+    t.term = candidates[static_cast<std::size_t>(c)];
+    t.id = drive_term_id(t.term);
+    t.unit = detail::drive_term_unit(t.term.kind);
+    t.practical_size = Eigen::VectorXd::Zero(n);
+    return t;
+  };
+
+  std::vector<ChainEffectTest> last_round;
+  while (!remaining.empty()) {
+    const detail::ChainRound round(d, selected);
+    std::vector<ChainEffectTest> tests;
+    std::vector<Eigen::Index> tested;
+    std::vector<double> p_raw;
+    for (auto it = remaining.begin(); it != remaining.end();) {
+      const Eigen::Index column = base_count + *it;
+      ChainEffectTest t = make_test(*it);
+      const Eigen::VectorXd z = d.x.col(column);
+      const Eigen::VectorXd zr = z - round.q * (round.q.transpose() * z);
+      const double zz = zr.squaredNorm();
+      if (!(zz > (1.0 - options.separability_r2) * z.squaredNorm())) {
+        t.reason = "not separable: the model's columns explain its column (R^2 > " +
+                   detail::significant(options.separability_r2, 6) + ")";
+        result.not_named.push_back(std::move(t));
+        it = remaining.erase(it);
+        continue;
+      }
+      const double gamma = zr.dot(round.residual) / zz;
+      const Eigen::VectorXd change = gamma * zr;
+      const Eigen::VectorXd e = round.residual - change;
+      const double variance = detail::chain_long_run(d, zr, e)(0, 0) / (zz * zz);
+      t.value = gamma / d.scale[column];
+      t.std = std::sqrt(std::max(variance, 0.0)) / d.scale[column];
+      t.wald = variance > 0.0 ? gamma * gamma / variance : 0.0;
+      p_raw.push_back(chi_square_tail(t.wald, 1.0));
+      const Eigen::VectorXd rss = detail::per_joint_squares(d, e);
+      t.bic_drop = -log_rows;
+      for (int j = 0; j < n; ++j)
+        if (joint_rows[j] > 0.0 && rss[j] > 0.0)
+          t.bic_drop += joint_rows[j] * std::log(round.rss[j] / rss[j]);
+      std::vector<Eigen::Index> with = selected;
+      with.push_back(column);
+      t.cv_drop = (round.cv_error - detail::chain_cv_error(d, with)) / round.cv_error;
+      const Eigen::VectorXd changed = detail::per_joint_squares(d, change);
+      for (int j = 0; j < n; ++j)
+        t.practical_size[j] = joint_rows[j] > 0.0
+                                  ? std::sqrt(changed[j] / joint_rows[j]) / result.noise_floor[j]
+                                  : 0.0;
+      tests.push_back(std::move(t));
+      tested.push_back(*it);
+      ++it;
+    }
+    if (tests.empty()) break;
+    const std::vector<double> p = holm_adjusted(p_raw);
+    int best = -1;
+    for (std::size_t i = 0; i < tests.size(); ++i) {
+      ChainEffectTest& t = tests[i];
+      t.p_value = p[i];
+      const bool positive = t.term.kind == DriveTermKind::Offset || t.value > 0.0;
+      if (!(t.p_value < options.family_alpha))
+        t.reason =
+            "not significant (HAC Wald p = " + detail::significant(t.p_value, 2) + " after Holm)";
+      else if (!(t.bic_drop > 0.0))
+        t.reason = "no BIC drop";
+      else if (!(t.cv_drop > options.min_cv_gain))
+        t.reason = "blocked-CV error drops by " + detail::percent(t.cv_drop) +
+                   " %, not more than " + detail::percent(options.min_cv_gain) + " %";
+      else if (!positive)
+        t.reason = "not admissible: the value is not positive";
+      else if (t.practical_size.maxCoeff() < options.negligible_size)
+        t.reason = "significant but negligible: it would change the torque prediction by " +
+                   detail::percent(t.practical_size.maxCoeff()) +
+                   " % of the torque noise at most (below " +
+                   detail::percent(options.negligible_size) + " %)";
+      if (t.reason.empty() &&
+          (best < 0 || t.bic_drop > tests[static_cast<std::size_t>(best)].bic_drop))
+        best = static_cast<int>(i);
+    }
+    if (best < 0) {
+      last_round = std::move(tests);
+      break;
+    }
+    const Eigen::Index chosen = tested[static_cast<std::size_t>(best)];
+    ChainEffectTest named = std::move(tests[static_cast<std::size_t>(best)]);
+    named.reason.clear();
+    result.named.push_back(std::move(named));
+    selected.push_back(base_count + chosen);
+    remaining.erase(std::find(remaining.begin(), remaining.end(), chosen));
+  }
+  result.not_named.insert(result.not_named.end(), last_round.begin(), last_round.end());
+
+  // The final fit: values and HAC standard deviations of the named terms.
+  const detail::ChainRound final_round(d, selected);
+  const Eigen::MatrixXd x = d.x(Eigen::all, selected);
+  const Eigen::MatrixXd bread =
+      (x.transpose() * x).ldlt().solve(Eigen::MatrixXd::Identity(x.cols(), x.cols()));
+  const Eigen::MatrixXd covariance =
+      bread * detail::chain_long_run(d, x, final_round.residual) * bread;
+  result.final_terms = nominal.terms();
+  for (std::size_t i = 0; i < result.named.size(); ++i) {
+    const std::size_t k = static_cast<std::size_t>(base_count) + i;
+    const Eigen::Index column = selected[k];
+    ChainEffectTest& t = result.named[i];
+    t.value = final_round.theta[static_cast<Eigen::Index>(k)] / d.scale[column];
+    t.std = std::sqrt(std::max(
+                covariance(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k)), 0.0)) /
+            d.scale[column];
+    result.final_terms.push_back(t.term);
+  }
+
+  const auto measured_rms = [&](const detail::ChainRound& round) {
+    const Eigen::VectorXd e = d.y_measured - d.x(Eigen::all, round.columns) * round.theta;
+    return Eigen::VectorXd(
+        (detail::per_joint_squares(d, e).array() / joint_rows.array().max(1.0)).sqrt());
+  };
+  result.nominal_residual_rms = measured_rms(detail::ChainRound(
+      d, std::vector<Eigen::Index>(selected.begin(), selected.begin() + base_count)));
+  result.final_residual_rms = measured_rms(final_round);
+  result.unexplained_rms =
+      (result.final_residual_rms.array().square() - result.noise_floor.array().square())
+          .max(0.0)
+          .sqrt();
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace sid
