@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <iostream>
 #include <random>
 #include <string>
 #include <vector>
@@ -165,6 +166,16 @@ long simulate_robot(const ChainSimulateOptions& o) {
   const Eigen::VectorXd& theta = simulated.theta;
   const int n = model.joints();
   const Eigen::Index drives = model.rigid_body_parameters();
+  // The excitation is scaled to the position and rate limits; the torque it takes is known only
+  // now. A run beyond a drive's <limit effort> is still written (the user may want it), but said.
+  for (int j = 0; j < n && j < static_cast<int>(robot.limits.size()); ++j) {
+    const double effort = robot.limits[static_cast<std::size_t>(j)].effort;
+    const double peak = simulated.truth.tau.col(j).cwiseAbs().maxCoeff();
+    if (std::isfinite(effort) && effort > 0.0 && peak > effort)
+      std::cerr << "sid_simulate: warning: joint '" << robot.joint_names[j] << "' needs up to "
+                << shortest_number(peak) << " N m, above its <limit effort> of "
+                << shortest_number(effort) << "; lower --qd-max or --q-range\n";
+  }
   ChainTrajectory<double> sensed{simulated.truth.t, simulated.truth.q, simulated.truth.tau};
   for (int j = 0; j < n; ++j) sensed.tau.col(j).array() += simulated.torque_offset[j];
   const ChainTrajectory<double> measured =

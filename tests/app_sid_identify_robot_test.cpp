@@ -8,6 +8,7 @@
 #include "app_test_support.hpp"
 #include "chain_simulation.hpp"
 #include "csv.hpp"
+#include "test_support.hpp"
 
 #include <gtest/gtest.h>
 
@@ -237,6 +238,22 @@ TEST_F(IdentifyRobot, SimulateRobotRefusesWhatItCannotSimulate) {
   refused("--robot " + urdf + " --effect coulomb_j2:-1", "coulomb must be > 0");
   refused("--robot " + urdf + " --excitation multisine", "random Fourier series");
   refused("--robot '" SID_SOURCE_DIR "/examples/dfki_double_pendulum.dh'", "give a URDF");
+}
+
+// A run that needs more torque than a drive's <limit effort> is written, with a warning naming
+// the joint.
+TEST_F(IdentifyRobot, SimulateRobotWarnsAboveTheEffortLimit) {
+  std::string urdf = sid_test::read_text("staubli_tx40/tx40_mdh_modified.urdf");
+  const std::string shoulder = R"(effort="131.84" lower="-2.18")";
+  ASSERT_NE(urdf.find(shoulder), std::string::npos);
+  urdf.replace(urdf.find(shoulder), shoulder.size(), R"(effort="5" lower="-2.18")");
+  write("weak.urdf", urdf);
+  const sid_test::AppRun r = shell(app("sid_simulate") + " --robot weak.urdf --T 2 --Ts 0.01" +
+                                   " --effect armature_j6:0.01 -q -o x.csv");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: joint 'joint_2' needs up to"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("<limit effort> of 5"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("joint_3"), std::string::npos) << r.err;
 }
 
 // Asked for more than the URDF allows, the excitation stays within 90 % of every <limit>.

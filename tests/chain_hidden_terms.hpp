@@ -1,8 +1,8 @@
 #pragma once
 // Data of a six-axis arm (the TX40's URDF) with drive terms hidden from its nominal model, for the
 // chain diagnosis's tests and bench: rigid bodies, viscous friction 0.5 and a rotor of 0.01 on
-// every joint, plus what is hidden; 10 s at 500 Hz of a random Fourier excitation, σq = 1e-4 rad,
-// σ_τ = 0.1 N m.
+// every joint, plus what is hidden; 10 s (by default) at 500 Hz of a random Fourier excitation,
+// σq = 1e-4 rad, σ_τ = 0.1 N m.
 
 #include <sid/cvode/chain_experiment.hpp>
 #include <sid/fourier_trajectory.hpp>
@@ -46,7 +46,7 @@ struct HiddenTerm {
 };
 
 inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<HiddenTerm>& hidden,
-                                                         unsigned seed) {
+                                                         unsigned seed, double duration = 10.0) {
   const sid::Transmission direct(6);
   std::vector<sid::DriveTerm> terms =
       sid::drive_terms({sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature}, direct);
@@ -70,7 +70,7 @@ inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<Hidde
       Eigen::VectorXd::Zero(6), 5, 0.1, Eigen::VectorXd::Constant(6, 1.2),
       Eigen::VectorXd::Constant(6, 2.0), rng);
   sid::ChainExperiment experiment;
-  experiment.duration = 10.0;
+  experiment.duration = duration;
   experiment.sample_time = 0.002;
   const sid::ChainExperimentResult run =
       sid::simulate_chain_experiment(truth, theta, desired, experiment);

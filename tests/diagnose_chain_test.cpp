@@ -82,6 +82,20 @@ TEST(DiagnoseChain, ReportsASignificantButNegligibleTermWithoutNamingIt) {
   EXPECT_TRUE(reported);
 }
 
+// Three runs or more: each run is predicted from the fit on the others.
+TEST(DiagnoseChain, JudgesSeveralRunsByTheRunsTheyWereNotFittedOn) {
+#ifndef SID_SANITIZED_TESTS
+  const HiddenTerm offset{{sid::DriveTermKind::Offset, 1, false}, 0.3};
+  std::vector<sid::ChainTrajectory<double>> runs;
+  for (unsigned seed = 4; seed <= 6; ++seed)
+    runs.push_back(tx40_hidden_term_run({offset}, seed, 4.0));
+  const sid::ChainDiagnosis r = sid::diagnose_chain(tx40_nominal(), runs);
+  ASSERT_EQ(named_ids(r), std::vector<std::string>{"offset_j2"});
+  EXPECT_NEAR(r.named[0].value, 0.3, std::max(0.015, 4.0 * r.named[0].std));
+  EXPECT_GT(r.named[0].cv_drop, 0.5);
+#endif
+}
+
 TEST(DiagnoseChain, ThrowsOnBadInput) {
   const sid::ChainModel nominal = tx40_nominal();
   sid_test::expect_invalid_argument([&] { (void)sid::diagnose_chain(nominal, {}); },

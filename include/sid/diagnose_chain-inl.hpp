@@ -104,10 +104,13 @@ inline ChainDiagnosisEquations chain_diagnosis_equations(const std::vector<Chain
     d.at.insert(d.at.end(), e.at.begin(), e.at.end());
     const Eigen::Index positions = e.at.empty() ? 0 : e.at.back() + 1;
     d.positions.push_back(positions);
-    // Rows run sample by sample, so a block of samples is a block of rows.
+    // Rows run sample by sample, so a block of samples is a block of rows. With three runs or
+    // more each run is a fold: the terms are judged by how they predict runs they were not
+    // fitted on.
+    const int per_run = runs.size() >= 3 ? 1 : blocks;
     Eigen::Index begin = 0;
-    for (int b = 1; b <= blocks; ++b) {
-      const Eigen::Index last_position = positions * b / blocks;
+    for (int b = 1; b <= per_run; ++b) {
+      const Eigen::Index last_position = positions * b / per_run;
       Eigen::Index end = begin;
       while (end < m && e.at[static_cast<std::size_t>(end)] < last_position) ++end;
       if (end > begin) d.folds.emplace_back(at + begin, at + end);

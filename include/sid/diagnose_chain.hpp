@@ -38,7 +38,8 @@ struct ChainDiagnoseOptions {
                                                 DriveTermKind::Viscous};
   double family_alpha = 0.01;  ///< of the HAC Wald tests, Holm over a round's candidates
   /// Contiguous time blocks per run of the blocked cross-validation (each predicted from the fit
-  /// on all other blocks of all runs), >= 2.
+  /// on all other blocks of all runs), >= 2. With three runs or more, each run is one block:
+  /// every run is predicted from the fit on the others.
   int cv_blocks = 5;
   /// ... and that error must drop by more than this fraction. On measured logs the residuals
   /// are correlated and differ along the run, and a term that absorbs a piece of the model's
