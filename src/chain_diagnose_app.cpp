@@ -1,11 +1,15 @@
 #include "chain_diagnose_app.hpp"
 
+#include <sid/chain_consistency.hpp>
+#include <sid/cvode/chain_free_simulation.hpp>
 #include <sid/diagnose_chain.hpp>
 
 #include "app.hpp"
 
 #include <nlohmann/json.hpp>
 
+#include <chrono>
+#include <cmath>
 #include <iostream>
 #include <sstream>
 
@@ -15,8 +19,74 @@ namespace {
 
 std::string number(const char* format, double v) { return format_number(format, v); }
 
+/// The free simulations of the nominal and the final model (each at its physically consistent
+/// fit), their angle error per joint over all runs.
+struct FreeSimulations {
+  std::string note;     ///< why there are none
+  std::string failure;  ///< the first failed segment's message
+  Eigen::VectorXd nominal, final;
+  Eigen::Index segments = 0, failed_nominal = 0, failed_final = 0;
+  double seconds = 0.0;
+};
+
+FreeSimulations free_simulations(const LoadedChain& loaded, const sid::ChainDiagnosis& r,
+                                 const sid::ChainDiagnoseOptions& options,
+                                 const std::vector<sid::ChainTrajectory<double>>& runs) {
+  const auto start = std::chrono::steady_clock::now();
+  FreeSimulations out;
+  if (loaded.robot.link_parameters.size() == 0) {
+    out.note = "no free simulation: a DH table has no link inertias";
+    return out;
+  }
+  sid::ChainIdentifyOptions given = options.identify;
+  given.cutoff_hz.assign(r.cutoff_hz.data(), r.cutoff_hz.data() + r.cutoff_hz.size());
+  const sid::ChainModel& nominal = loaded.model;
+  const sid::ChainModel final_model(nominal.chain(), nominal.joint_names(), r.final_terms,
+                                    nominal.transmission(), nominal.coulomb_epsilon());
+  const int n = nominal.joints();
+  for (const bool is_final : {false, true}) {
+    const sid::ChainModel& model = is_final ? final_model : nominal;
+    const sid::ChainIdentification id = sid::identify_chain(model, runs, given);
+    if (!id.fit.ok()) {
+      out.note = "no free simulation: " + id.fit.message;
+      return out;
+    }
+    const sid::ChainConsistentFit fit =
+        sid::consistent_chain_parameters(model, id, description_prior(loaded.robot, model));
+    Eigen::VectorXd squares = Eigen::VectorXd::Zero(n), counts = Eigen::VectorXd::Zero(n);
+    for (const auto& k : r.kinematics) {
+      // Compared at up to 500 samples per second: enough for the motion, and CVODE stops at
+      // every output time.
+      const double period = (k.t[k.t.size() - 1] - k.t[0]) / static_cast<double>(k.t.size() - 1);
+      const auto stride = static_cast<Eigen::Index>(std::max(1.0, std::round(0.002 / period)));
+      const Eigen::Index rows = (k.t.size() + stride - 1) / stride;
+      const auto every = Eigen::seqN(0, rows, stride);
+      sid::ChainKinematics<double> sampled;
+      sampled.t = k.t(every);
+      sampled.q = k.q(every, Eigen::all);
+      sampled.qd = k.qd(every, Eigen::all);
+      sampled.qdd = k.qdd(every, Eigen::all);
+      sampled.tau = k.tau(every, Eigen::all);
+      const sid::ChainFreeSimulation sim = sid::free_chain_simulation(model, fit.theta, sampled);
+      (is_final ? out.failed_final : out.failed_nominal) += sim.failed_segments;
+      if (out.failure.empty() && !sim.ok())
+        out.failure = std::string(is_final ? "final" : "nominal") + " model, " + sim.message;
+      if (!is_final) out.segments += sim.segments;
+      for (Eigen::Index i = 0; i < sim.error.rows(); ++i)
+        for (int j = 0; j < n; ++j)
+          if (std::isfinite(sim.error(i, j))) {
+            squares[j] += sim.error(i, j) * sim.error(i, j);
+            counts[j] += 1.0;
+          }
+    }
+    (is_final ? out.final : out.nominal) = (squares.array() / counts.array().max(1.0)).sqrt();
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
 std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel& nominal,
-                        const sid::ChainDiagnosis& r) {
+                        const sid::ChainDiagnosis& r, const FreeSimulations& sim) {
   std::ostringstream out;
   out << "robot " << o.chain.robot << ": " << nominal.joints() << " joints; nominal model: rigid "
       << "bodies";
@@ -45,12 +115,25 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
   double unexplained = 0.0;
   for (Eigen::Index j = 0; j < r.unexplained_rms.size(); ++j)
     unexplained = std::max(unexplained, r.unexplained_rms[j] / r.noise_floor[j]);
+  if (sim.nominal.size()) {
+    out << "\nfree simulation (" << sim.segments
+        << " segments of 1 s from the smoothed state, driven by the smoothed torque; each model "
+           "at its physically consistent fit): angle error RMS nominal -> final [rad]\n";
+    for (int j = 0; j < nominal.joints(); ++j)
+      out << "  " << nominal.joint_names()[static_cast<std::size_t>(j)] << ": "
+          << number("%.3g", sim.nominal[j]) << " -> " << number("%.3g", sim.final[j]) << "\n";
+    if (sim.failed_nominal + sim.failed_final > 0)
+      out << "  segments that blew up or failed: nominal " << sim.failed_nominal << ", final "
+          << sim.failed_final << " (first: " << sim.failure << ")\n";
+  }
+  if (!sim.note.empty()) out << "\n" << sim.note << "\n";
   out << "\n"
       << (unexplained > 0.5
               ? "what remains above the noise (unexplained, per joint above) is not a tried drive "
                 "term: look at the rigid-body model, the kinematics or effects not in the library\n"
               : "what remains is at the noise\n")
-      << "time " << number("%.2f", r.seconds) << " s\n";
+      << "time " << number("%.2f", r.seconds) << " s (the free simulations "
+      << number("%.2f", sim.seconds) << " s)\n";
   return out.str();
 }
 
@@ -68,7 +151,7 @@ nlohmann::json test_json(const sid::ChainEffectTest& t) {
 }
 
 nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainModel& nominal,
-                           const sid::ChainDiagnosis& r) {
+                           const sid::ChainDiagnosis& r, const FreeSimulations& sim) {
   nlohmann::json j;
   j["robot"] = o.chain.robot;
   j["joint_names"] = nominal.joint_names();
@@ -82,6 +165,14 @@ nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainMod
   for (const auto& e : r.named) j["named"].push_back(test_json(e));
   j["not_named"] = nlohmann::json::array();
   for (const auto& t : r.not_named) j["not_named"].push_back(test_json(t));
+  if (sim.nominal.size())
+    j["free_simulation"] = {{"segments", sim.segments},
+                            {"error_rms_nominal", to_json_array(sim.nominal)},
+                            {"error_rms_final", to_json_array(sim.final)},
+                            {"failed_segments_nominal", sim.failed_nominal},
+                            {"failed_segments_final", sim.failed_final}};
+  else
+    j["free_simulation"] = sim.note;
   j["seconds"] = r.seconds;
   return j;
 }
@@ -116,9 +207,10 @@ int diagnose_robot(const ChainDiagnoseAppOptions& o) {
   } catch (const std::invalid_argument& e) {
     throw InputError(e.what());
   }
+  const FreeSimulations sim = free_simulations(loaded, result, options, runs);
   (o.chain.json == "-" ? std::cerr : std::cout)
-      << report_text(o, loaded.model, result) << std::flush;
-  if (!o.chain.json.empty()) write_json(o.chain.json, report_json(o, loaded.model, result));
+      << report_text(o, loaded.model, result, sim) << std::flush;
+  if (!o.chain.json.empty()) write_json(o.chain.json, report_json(o, loaded.model, result, sim));
   return kExitOk;
 }
 

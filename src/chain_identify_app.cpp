@@ -193,6 +193,21 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
 
 }  // namespace
 
+Eigen::VectorXd description_prior(const RobotDescription& robot, const sid::ChainModel& model) {
+  if (robot.link_parameters.size() == 0) return {};
+  Eigen::VectorXd prior = Eigen::VectorXd::Zero(model.parameters());
+  prior.head(robot.link_parameters.size()) = robot.link_parameters;
+  Eigen::Index column = model.rigid_body_parameters();
+  for (const sid::DriveTerm& t : model.terms()) {
+    if (!t.on_motor && t.kind == sid::DriveTermKind::Viscous)
+      prior[column] = robot.damping[t.index];
+    if (!t.on_motor && t.kind == sid::DriveTermKind::Coulomb)
+      prior[column] = robot.friction[t.index];
+    ++column;
+  }
+  return prior;
+}
+
 LoadedChain load_chain(const ChainIdentifyAppOptions& o,
                        const std::vector<sid::DriveTermKind>& default_kinds) {
   RobotDescription robot =
@@ -273,22 +288,9 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
     }
     validation.back().source = r.file;
   }
-  // The consistent fit stays near the description where the data say nothing: its links, and
-  // its joints' <dynamics> damping and friction for the viscous and Coulomb terms.
-  Eigen::VectorXd prior;
-  if (robot.link_parameters.size()) {
-    prior = Eigen::VectorXd::Zero(model.parameters());
-    prior.head(robot.link_parameters.size()) = robot.link_parameters;
-    Eigen::Index column = model.rigid_body_parameters();
-    for (const sid::DriveTerm& t : model.terms()) {
-      if (!t.on_motor && t.kind == sid::DriveTermKind::Viscous)
-        prior[column] = robot.damping[t.index];
-      if (!t.on_motor && t.kind == sid::DriveTermKind::Coulomb)
-        prior[column] = robot.friction[t.index];
-      ++column;
-    }
-  }
-  const sid::ChainConsistentFit consistent = sid::consistent_chain_parameters(model, id, prior);
+  // The consistent fit stays near the description where the data say nothing.
+  const sid::ChainConsistentFit consistent =
+      sid::consistent_chain_parameters(model, id, description_prior(robot, model));
   std::string written;
   if (!o.write_urdf.empty()) {
     std::vector<sid::LinkParameters<double>> phi;

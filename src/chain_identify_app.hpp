@@ -56,6 +56,11 @@ struct LoadedChain {
 LoadedChain load_chain(const ChainIdentifyAppOptions& options,
                        const std::vector<sid::DriveTermKind>& default_kinds);
 
+/// @brief What the description says of model's parameters: its links, and its joints'
+/// <dynamics> damping and friction for the viscous and Coulomb terms (0 elsewhere); empty for a
+/// DH table, which has no inertias. The prior a physically consistent fit stays near.
+Eigen::VectorXd description_prior(const RobotDescription& robot, const sid::ChainModel& model);
+
 /// @brief Runs the identification and prints the report (the JSON too with --json).
 /// @return the exit code; bad input throws InputError.
 int identify_robot(const ChainIdentifyAppOptions& options, const char* app_name);

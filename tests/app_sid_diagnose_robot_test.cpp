@@ -1,5 +1,6 @@
 // Tests of sid_diagnose --robot as a user runs it: a simulated TX40 log with a hidden spring
-// (sid_simulate --robot) diagnosed from its URDF, and bad options refused with a message.
+// (sid_simulate --robot) diagnosed from its URDF and checked by free simulation, and bad
+// options refused with a message.
 
 #include <nlohmann/json.hpp>
 
@@ -35,6 +36,13 @@ TEST_F(DiagnoseRobot, NamesTheSpringHiddenInASimulatedLog) {
   const double value = j["named"][0]["value"].get<double>(), std = j["named"][0]["std"];
   EXPECT_LT(std::abs(value - 1.5), std::max(4.0 * std, 0.05 * 1.5)) << value << " +- " << std;
   EXPECT_EQ(j["noise_floor"].size(), 6u);
+  // The free simulation through the O(n) dynamics: the named spring brings joint 5's simulated
+  // angles closer to the measured ones.
+  const auto& free = j["free_simulation"];
+  ASSERT_TRUE(free.is_object()) << free.dump();
+  EXPECT_EQ(free["failed_segments_final"], 0);
+  EXPECT_LT(free["error_rms_final"][4].get<double>(),
+            0.5 * free["error_rms_nominal"][4].get<double>());
   // Nothing the user gave is overwritten.
   const sid_test::AppRun again =
       shell(app("sid_diagnose") + " --robot " + urdf() + " --json d.json sim.csv");

@@ -7,11 +7,13 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace sid {
@@ -80,18 +82,21 @@ inline Eigen::VectorXd consistency_prior(const ChainModel& model, const Eigen::V
 }
 
 /// The convex problem of the file comment: F(θ) = ‖A (P θ − β̂)‖² + Σ w2 (θ − θ₀)² (β = P θ
-/// the base parameters) and the barrier −Σ log det J_i of the real bodies.
+/// the base parameters) and the barrier −Σ log det J_i of the real bodies, − Σ log θ_k of the
+/// drive terms that are real only when positive.
 struct ConsistencyProblem {
   int links = 0;
-  Eigen::MatrixXd ap;  ///< A P
-  Eigen::VectorXd ab;  ///< A β̂
+  std::vector<Eigen::Index> positive;  ///< rotor inertias and friction levels
+  Eigen::MatrixXd ap;                  ///< A P
+  Eigen::VectorXd ab;                  ///< A β̂
   Eigen::VectorXd w2, prior;
   Eigen::MatrixXd hessian;                ///< of F
   std::array<Eigen::Matrix4d, 10> basis;  ///< J = Σ_k φ_k E_k, linear in a link's ten
 
   ConsistencyProblem(const ChainIdentification& id, const Eigen::MatrixXd& a,
-                     const Eigen::VectorXd& prior_in, int link_count, double gamma_rss)
-      : links(link_count), prior(prior_in) {
+                     const Eigen::VectorXd& prior_in, int link_count, double gamma_rss,
+                     std::vector<Eigen::Index> positive_terms)
+      : links(link_count), positive(std::move(positive_terms)), prior(prior_in) {
     const Eigen::Index r = id.base.rank(), p = prior.size();
     Eigen::MatrixXd pm = Eigen::MatrixXd::Zero(r, p);
     for (Eigen::Index c = 0; c < r; ++c)
@@ -127,9 +132,20 @@ struct ConsistencyProblem {
     return 2.0 * ap.transpose() * (ap * t - ab) + 2.0 * w2.cwiseProduct(t - prior);
   }
 
-  /// −Σ log det J_i, adding its gradient and Hessian to g and h when given; +∞ outside.
+  /// The number of scalar constraints the barrier stands for (4 per link).
+  double size() const { return 4.0 * links + static_cast<double>(positive.size()); }
+
+  /// −Σ log det J_i − Σ log θ_k, adding its gradient and Hessian to g and h when given; +∞
+  /// outside.
   double barrier(const Eigen::VectorXd& t, Eigen::VectorXd* g, Eigen::MatrixXd* h) const {
     double value = 0.0;
+    for (const Eigen::Index k : positive) {
+      if (!(t[k] > 0.0)) return std::numeric_limits<double>::infinity();
+      value -= std::log(t[k]);
+      if (!g) continue;
+      (*g)[k] -= 1.0 / t[k];
+      (*h)(k, k) += 1.0 / (t[k] * t[k]);
+    }
     for (int i = 0; i < links; ++i) {
       const Eigen::LLT<Eigen::Matrix4d> llt(
           pseudo_inertia(LinkParameters<double>(t.segment<10>(10 * i))));
@@ -207,10 +223,22 @@ SID_INLINE ChainConsistentFit consistent_chain_parameters(const ChainModel& mode
   // γ in units of the fit's residual sum of squares: a unit relative change of a parameter the
   // data do not see costs prior_weight of it, whatever the log's length and units.
   const double rss = std::max(id.fit.residual.squaredNorm(), 1e-300);
-  const detail::ConsistencyProblem problem(id, a, prior, n, options.prior_weight * rss);
+  // A rotor's inertia and a friction level are real only when positive (a negative rotor makes
+  // the mass matrix indefinite, negative friction feeds energy in): the drive of a real arm.
+  std::vector<Eigen::Index> positive;
+  Eigen::Index column = model.rigid_body_parameters();
+  for (const DriveTerm& term : model.terms()) {
+    if (term.kind == DriveTermKind::Armature || term.kind == DriveTermKind::Viscous ||
+        term.kind == DriveTermKind::Coulomb) {
+      positive.push_back(column);
+      theta[column] = std::max(theta[column], 1e-3 * (1.0 + std::abs(prior[column])));
+    }
+    ++column;
+  }
+  const detail::ConsistencyProblem problem(id, a, prior, n, options.prior_weight * rss, positive);
 
-  // Interior point: the centre at t is within 4n / t of the optimum of F over the real bodies.
-  const double barrier_size = 4.0 * n;
+  // Interior point: the centre at t is within size / t of the optimum of F over the real bodies.
+  const double barrier_size = problem.size();
   double t = barrier_size / std::max(problem.cost(theta), 1e-300);
   out.iterations = 0;
   while (problem.centre(t, theta, out.iterations, options.max_iterations)) {

@@ -7,8 +7,9 @@
 ///
 /// A link's ten parameters are a real body exactly when its pseudo-inertia
 /// J = [[Σ, h], [hᵀ, m]] (Σ = tr(I)/2 · 1 − I about the frame's origin, h = m c) is positive
-/// semidefinite (Wensing, Kim & Slotine 2018). The log-Cholesky parametrisation (Rucker &
-/// Wensing 2022) writes J = U Uᵀ with U upper triangular, U = e^α [[e^d1, s12, s13, t1],
+/// semidefinite (Wensing, Kim & Slotine 2018); a drive is real when its rotor inertia and its
+/// viscous and Coulomb friction are positive (a log barrier each). The log-Cholesky parametrisation
+/// (Rucker & Wensing 2022) writes J = U Uᵀ with U upper triangular, U = e^α [[e^d1, s12, s13, t1],
 /// [0, e^d2, s23, t2], [0, 0, e^d3, t3], [0, 0, 0, 1]]: every one of its ten unconstrained
 /// numbers gives a real body (J positive definite), and every real body with J positive definite
 /// has one. The fit minimises
@@ -47,7 +48,8 @@ struct ChainConsistencyOptions {
 
 /// @brief What consistent_chain_parameters found.
 struct ChainConsistentFit {
-  /// Every parameter of the model: ten per link (each a real body), then the drive terms.
+  /// Every parameter of the model: ten per link (each a real body), then the drive terms (rotor
+  /// inertias and friction levels positive).
   Eigen::VectorXd theta;
   Eigen::VectorXd beta;  ///< the base parameters they give
   /// The relative residual ‖τ − Yθ‖ / ‖τ‖ over the identification's equations, and the

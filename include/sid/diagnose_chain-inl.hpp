@@ -424,6 +424,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
       (result.final_residual_rms.array().square() - result.noise_floor.array().square())
           .max(0.0)
           .sqrt();
+  for (auto& run : smoothed) result.kinematics.push_back(std::move(run.k));
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

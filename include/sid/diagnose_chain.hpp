@@ -86,6 +86,9 @@ struct ChainDiagnosis {
   /// sqrt(max(0, rms² − floor²)): what no tried effect explains [N m].
   Eigen::VectorXd nominal_residual_rms, final_residual_rms, unexplained_rms;
   Eigen::VectorXd cutoff_hz;  ///< the smoothing used, per joint
+  /// Each run smoothed at cutoff_hz (angles, rates, accelerations, and the torque when
+  /// identify.filter_torque): the states a free simulation restarts from and its drive.
+  std::vector<ChainKinematics<double>> kinematics;
   Eigen::Index equations = 0;
   double seconds = 0;
 };
