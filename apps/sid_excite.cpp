@@ -3,7 +3,6 @@
 // starting and ending at rest, compared with a random excitation within the same limits.
 
 #include <CLI/CLI.hpp>
-#include <charconv>
 #include <cstdint>
 #include <string>
 #include <system_error>
@@ -91,16 +90,6 @@ void define_options(CLI::App& cli, Options& options) {
   cli.add_flag("--force", o.force, "overwrite the output file if it exists");
 }
 
-// CLI11 would wrap "-1" around to 2^64 - 1; a seed is digits only.
-std::uint64_t parse_seed(const std::string& text) {
-  std::uint64_t seed = 0;
-  const char* end = text.data() + text.size();
-  const auto result = std::from_chars(text.data(), end, seed);
-  sid::app::require(!text.empty() && result.ec == std::errc() && result.ptr == end,
-                    "--seed must be an integer from 0 to 18446744073709551615, got '" + text + "'");
-  return seed;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -108,7 +97,7 @@ int main(int argc, char** argv) {
   return sid::app::run_app(
       kName, kDescription, argc, argv, [&](CLI::App& cli) { define_options(cli, options); },
       [&] {
-        options.excite.seed = parse_seed(options.seed);
+        options.excite.seed = sid::app::parse_seed(options.seed);
         return sid::app::excite_robot(options.excite, kName);
       });
 }

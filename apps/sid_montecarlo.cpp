@@ -6,7 +6,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -200,16 +199,6 @@ std::string short_number(double v) {
   return buffer;
 }
 
-// CLI11 would wrap "-1" around to 2^64 - 1; a seed is digits only.
-std::uint64_t parse_seed(const std::string& text) {
-  std::uint64_t seed = 0;
-  const char* end = text.data() + text.size();
-  const auto result = std::from_chars(text.data(), end, seed);
-  sid::app::require(!text.empty() && result.ec == std::errc() && result.ptr == end,
-                    "--seed must be an integer from 0 to 18446744073709551615, got '" + text + "'");
-  return seed;
-}
-
 std::vector<sid::StudyMethod> parse_methods(const std::string& text) {
   constexpr const char* kExpected = "raw, filtered, css, css_gcv, css_wls, css_iv, css_tcv, oracle";
   std::vector<sid::StudyMethod> methods;
@@ -249,7 +238,7 @@ sid::MonteCarloOptions study_options(const Options& o) {
   study.sigma_tau2 = o.sigma_tau2;
   study.methods = parse_methods(o.methods);
   study.refine = sid::instrumental_variable_step();
-  study.seed = parse_seed(o.seed);
+  study.seed = sid::app::parse_seed(o.seed);
   require(o.threads >= 0,
           "--threads must be >= 0 (0 = all cores), got " + std::to_string(o.threads));
   study.threads = o.threads;

@@ -5,7 +5,6 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
-#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -252,16 +251,6 @@ sid::TwoLinkParameters<double> choose_theta(const Options& o) {
   return sid::paper_arm_parameters();
 }
 
-// CLI11 would wrap "-1" around to 2^64 - 1; a seed is digits only.
-std::uint64_t parse_seed(const std::string& text) {
-  std::uint64_t seed = 0;
-  const char* end = text.data() + text.size();
-  const auto result = std::from_chars(text.data(), end, seed);
-  sid::app::require(!text.empty() && result.ec == std::errc() && result.ptr == end,
-                    "--seed must be an integer from 0 to 18446744073709551615, got '" + text + "'");
-  return seed;
-}
-
 void check_options(const Options& o) {
   using sid::app::require;
   require(std::isfinite(o.Ts) && o.Ts > 0.0,
@@ -337,7 +326,7 @@ int simulate_robot(const Options& o) {
   c.sample_time = o.Ts;
   c.sigma_q2 = o.sigma_q2;
   c.sigma_tau2 = o.sigma_tau2;
-  c.seed = parse_seed(o.seed);
+  c.seed = sid::app::parse_seed(o.seed);
   c.effects = o.effects;
   c.harmonics = o.harmonics;
   c.base_frequency = o.base_frequency;
@@ -362,7 +351,7 @@ int simulate(const Options& o) {
   check_options(o);
   require(o.trajectory.empty() || !o.robot.empty(), "--trajectory needs --robot");
   if (!o.robot.empty()) return simulate_robot(o);
-  const std::uint64_t seed = parse_seed(o.seed);
+  const std::uint64_t seed = sid::app::parse_seed(o.seed);
   const std::vector<sid::EffectSpec> effects = parse_effects(o.effects);
   const sid::TwoLinkParameters<double> theta = choose_theta(o);
   const std::string source = !o.physical.empty() ? "--physical" : "--theta";

@@ -288,3 +288,16 @@ std::string format_number(const char* format, double v) {
 }
 
 }  // namespace sid::app
+
+namespace sid::app {
+
+std::uint64_t parse_seed(const std::string& text) {
+  std::uint64_t seed = 0;
+  const char* end = text.data() + text.size();
+  const auto result = std::from_chars(text.data(), end, seed);
+  require(!text.empty() && result.ec == std::errc() && result.ptr == end,
+          "--seed must be an integer from 0 to 18446744073709551615, got '" + text + "'");
+  return seed;
+}
+
+}  // namespace sid::app

@@ -9,6 +9,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <sid/model/effect.hpp>
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -68,6 +69,10 @@ std::string ensure_output_directory(const std::string& dir, bool force);
 
 /// @brief dir + "/" + file (std::filesystem join, as a string).
 std::string path_in(const std::string& dir, const std::string& file);
+
+/// @brief A seed given as text: digits only (CLI11 would wrap "-1" around to 2^64 - 1).
+/// @throws InputError naming --seed and the text.
+std::uint64_t parse_seed(const std::string& text);
 
 /// @brief The shortest text that reads back as exactly v (for settings recorded in a file).
 std::string shortest_number(double v);
