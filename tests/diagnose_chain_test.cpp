@@ -61,6 +61,10 @@ TEST(DiagnoseChain, NamesTheHiddenDriveTermOnItsJointAndNothingWithoutOne) {
 // named by default; with the threshold above its size it is reported as significant but
 // negligible instead, and the model is left as it was.
 TEST(DiagnoseChain, ReportsASignificantButNegligibleTermWithoutNamingIt) {
+#ifdef SID_SANITIZED_TESTS
+  // Three diagnoses of the same data: the sanitizers check the paths in the test above.
+  GTEST_SKIP() << "numbers only; the paths run in NamesTheHiddenDriveTermOnItsJoint...";
+#endif
   const sid::ChainModel nominal = tx40_nominal();
   const sid::DriveTerm coulomb{sid::DriveTermKind::Coulomb, 5, false};
   const sid::ChainTrajectory<double> data = tx40_hidden_term_run({{coulomb, 0.04}}, 3);
