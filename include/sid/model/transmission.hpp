@@ -8,6 +8,7 @@
 /// The drives' power is the joints' power, tau_motor . qd_motor = tau . qd, so the joint torques
 /// are tau = G^T tau_motor. This is FIGAROH's convention (its Rq is G, its Rt is G^T).
 
+#include <sid/config.hpp>
 #include <sid/trajectory.hpp>
 
 #include <Eigen/Core>
@@ -32,26 +33,7 @@ class Transmission {
   ///        encoder's zero in the model's convention.
   /// @throws std::invalid_argument if G is not square, not finite or singular, or zero's size
   ///         does not match.
-  Transmission(const Eigen::MatrixXd& ratio, const Eigen::VectorXd& zero)
-      : ratio_(ratio), zero_(zero) {
-    const std::string who = "sid::Transmission: ";
-    if (ratio.rows() == 0 || ratio.rows() != ratio.cols())
-      throw std::invalid_argument(who + "the ratio matrix must be square and not empty, got " +
-                                  std::to_string(ratio.rows()) + " x " +
-                                  std::to_string(ratio.cols()));
-    if (!ratio.allFinite() || !zero.allFinite())
-      throw std::invalid_argument(who + "a ratio or zero offset is not finite");
-    if (zero.size() != ratio.rows())
-      throw std::invalid_argument(who + "the zero offsets have " + std::to_string(zero.size()) +
-                                  " entries for " + std::to_string(ratio.rows()) + " joints");
-    for (Eigen::Index i = 0; i < ratio.rows(); ++i)
-      if (ratio(i, i) == 0.0)
-        throw std::invalid_argument(who + "motor " + std::to_string(i + 1) +
-                                    " has no ratio to its own joint");
-    const Eigen::FullPivLU<Eigen::MatrixXd> lu(ratio);
-    if (!lu.isInvertible()) throw std::invalid_argument(who + "the ratio matrix is singular");
-    inverse_ = lu.inverse();
-  }
+  SID_INLINE Transmission(const Eigen::MatrixXd& ratio, const Eigen::VectorXd& zero);
 
   int joints() const noexcept { return static_cast<int>(ratio_.rows()); }
   const Eigen::MatrixXd& ratio() const noexcept { return ratio_; }
@@ -78,19 +60,7 @@ class Transmission {
 
   /// @brief The log on the joint side: q = G^-1 q_motor + zero, tau = G^T tau_motor.
   /// @throws std::invalid_argument if the log is invalid or has another number of joints.
-  ChainTrajectory<double> joint_side(const ChainTrajectory<double>& motor) const {
-    motor.validate("sid::Transmission::joint_side");
-    if (motor.joints() != joints())
-      throw std::invalid_argument("sid::Transmission::joint_side: the log has " +
-                                  std::to_string(motor.joints()) + " joints, the transmission " +
-                                  std::to_string(joints()));
-    ChainTrajectory<double> out;
-    out.t = motor.t;
-    out.q = motor.q * inverse_.transpose();
-    out.q.rowwise() += zero_.transpose();
-    out.tau = motor.tau * ratio_;
-    return out;
-  }
+  SID_INLINE ChainTrajectory<double> joint_side(const ChainTrajectory<double>& motor) const;
 
  private:
   Eigen::MatrixXd ratio_;
@@ -99,3 +69,7 @@ class Transmission {
 };
 
 }  // namespace sid
+
+#ifdef SID_HEADER_ONLY
+#include <sid/model/transmission-inl.hpp>
+#endif
