@@ -13,6 +13,7 @@
 #include <iostream>
 #include <random>
 #include <sid/cvode/experiment.hpp>
+#include <sid/cvode/chain_instrumental_variables.hpp>
 #include <sid/cvode/instrumental_variables.hpp>
 #include <sid/model/two_link_arm.hpp>
 #include <sid/study/chain_montecarlo.hpp>
@@ -109,8 +110,8 @@ t < 0.25 s and the last 0.25 s) and fits the base parameters of the chain's mode
 ten parameters each, viscous and Coulomb friction and armature per joint: the base parameters
 are the combinations the data can tell apart, as sid_identify --robot names them) by least
 squares; css_tcv is sid_identify --robot's own pipeline on the run (cutoffs chosen by held-out
-torque prediction, torques filtered alike, equations at rest left out). css_iv is the
-two-link arm's only. The report gives, per level and method, the median and largest |bias|
+torque prediction, torques filtered alike, equations at rest left out); css_iv simulates the
+estimated base parameters (their mass matrix and bias) for its instruments. The report gives, per level and method, the median and largest |bias|
 and std over the base parameters in % of each true value (parameters whose true value is 0
 have none), the RMS relative error, and how the estimate predicts the true torque at the true
 motion (100 |tau - Y beta-hat| / |tau|, mean and largest over the runs). --json FILE writes
@@ -314,10 +315,7 @@ sid::ChainMonteCarloOptions chain_study_options(const Options& o) {
   sid::MonteCarloOptions shared = study_options(o);
   sid::ChainMonteCarloOptions chain;
   static_cast<sid::StudySettings&>(chain) = shared;
-  for (const sid::StudyMethod m : chain.methods)
-    require(m != sid::StudyMethod::CssIv,
-            "--methods: css_iv needs instruments from the two-link simulator; with --robot "
-            "choose among raw, filtered, css, css_gcv, css_wls, css_tcv, oracle");
+  chain.refine = sid::chain_instrumental_variable_step();
   require(std::isfinite(o.duration) && o.duration > 1.0 && o.duration <= 3600.0,
           "--duration must be in (1, 3600] s (every method drops 0.25 s at each end; the "
           "filtered one 1.75 s at the start), got " +

@@ -280,7 +280,7 @@ TEST_F(SidMonteCarlo, RobotRunsTheStudyOnAChainOfAUrdf) {
   const std::string robot = "--robot '" SID_TEST_DATA_DIR "/urdf/arm_hand.urdf' --tip link2 ";
   const std::string study = robot +
                             "--duration 3 --rate 200 --runs 3 --levels 1e-6 --seed 3 "
-                            "--methods raw,css,oracle ";
+                            "--methods raw,css,css_iv,oracle ";
   const AppRun one = run(study + "--threads 1 --json one.json");
   ASSERT_EQ(one.exit_code, 0) << one.err;
   const AppRun two = run(study + "--threads 2 --json two.json -q");
@@ -299,7 +299,7 @@ TEST_F(SidMonteCarlo, RobotRunsTheStudyOnAChainOfAUrdf) {
   const std::size_t p = a["parameter_names"].size();
   EXPECT_EQ(a["true_beta"].size(), p);
   const auto& methods = a["levels"][0]["methods"];
-  for (const char* m : {"raw", "css", "oracle"}) {
+  for (const char* m : {"raw", "css", "css_iv", "oracle"}) {
     ASSERT_TRUE(methods.contains(m)) << m;
     EXPECT_EQ(methods[m]["failed_runs"], 0) << m;
     EXPECT_EQ(methods[m]["mean"].size(), p) << m;
@@ -314,7 +314,6 @@ TEST_F(SidMonteCarlo, RobotOptionsAreCheckedBeforeAnyWork) {
   const std::string robot = "--robot '" SID_TEST_DATA_DIR "/urdf/arm_hand.urdf' --tip link2 ";
   expect_input_error("--tip link2", "--tip is an option of --robot");
   expect_input_error("--duration 5", "--duration is an option of --robot");
-  expect_input_error(robot + "--methods css,css_iv", "css_iv");
   expect_input_error(robot + "--plots figs", "--plots");
   expect_input_error(robot + "--rate 10", "--rate");
   expect_input_error(robot + "--duration 0.5", "--duration");

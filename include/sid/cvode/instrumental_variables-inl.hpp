@@ -7,29 +7,18 @@ namespace sid {
 
 namespace detail {
 
-SID_INLINE MatrixX2<double> smoothed_torque(const Kinematics<double>& k) {
-  MatrixX2<double> drive(k.size(), 2);
-  const SmoothingSpline<double> smoother(k.t);
-  for (int j = 0; j < 2; ++j) {
-    const VectorX<double> tau = k.tau.col(j);
-    const SmoothingFit<double> fit =
-        smoother.fit_cross_validated(tau, 1.0, SmoothingCriterion::Gcv);
-    fit.spline.derivatives_at_knots(0, drive.col(j));
-  }
-  return drive;
-}
-
 SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
                                    const Eigen::MatrixXd& w, const Eigen::VectorXd& scale,
-                                   const Eigen::VectorXd& theta, LeastSquaresResult<double>& fit) {
-  const Eigen::Index m = x.rows(), p = x.cols(), per_joint = m / 2;
+                                   const Eigen::VectorXd& theta, LeastSquaresResult<double>& fit,
+                                   int joints) {
+  const Eigen::Index m = x.rows(), p = x.cols(), per_joint = m / joints;
   fit.status = LeastSquaresStatus::Success;
   fit.theta = theta;
   fit.residual = y - x * theta;
-  fit.residual_rms.resize(2);
-  fit.sigma2_per_joint.resize(2);
-  const double dof_share = static_cast<double>(m - p) / 2.0;
-  for (int j = 0; j < 2; ++j) {
+  fit.residual_rms.resize(joints);
+  fit.sigma2_per_joint.resize(joints);
+  const double dof_share = static_cast<double>(m - p) / joints;
+  for (int j = 0; j < joints; ++j) {
     const double rss = fit.residual.segment(j * per_joint, per_joint).squaredNorm();
     fit.residual_rms[j] = std::sqrt(rss / static_cast<double>(per_joint));
     fit.sigma2_per_joint[j] = rss / dof_share;
@@ -72,17 +61,6 @@ SID_INLINE void check_iv_inputs(const Kinematics<double>& k,
     throw std::invalid_argument(std::string(who) + ": segment must be > 0");
   if (!(options.tolerance > 0.0))
     throw std::invalid_argument(std::string(who) + ": tolerance must be > 0");
-}
-
-/// The drive at `time`: linear between the samples at t, held beyond the ends.
-SID_INLINE Vector2<double> drive_at(const VectorX<double>& t, const MatrixX2<double>& drive,
-                                    double time) {
-  const Eigen::Index n = t.size();
-  if (time <= t[0]) return Vector2<double>(drive.row(0).transpose());
-  if (time >= t[n - 1]) return Vector2<double>(drive.row(n - 1).transpose());
-  const Eigen::Index i = std::upper_bound(t.data(), t.data() + n, time) - t.data() - 1;
-  const double a = (time - t[i]) / (t[i + 1] - t[i]);
-  return Vector2<double>((1.0 - a) * drive.row(i).transpose() + a * drive.row(i + 1).transpose());
 }
 
 /// Kinematics at k's times, driven by `drive`, with room for the simulated states.
@@ -146,15 +124,12 @@ SID_INLINE void fill_simulated_accelerations(const TwoLinkParameters<double>& th
             .transpose();
 }
 
-/// The IV estimate θ of (WᵀX) θ = Wᵀy, solved with both sides column-scaled by `scale`
-/// (x_scaled = X diag(scale)⁻¹) into `next`. False, with the failure in result (`it` numbers
-/// the iteration), if WᵀX is singular or θ not finite.
 SID_INLINE bool solve_iv(const Eigen::MatrixXd& w, const Eigen::MatrixXd& x_scaled,
                          const Eigen::VectorXd& y, const Eigen::VectorXd& scale, const char* who,
                          int it, Eigen::VectorXd& next, InstrumentalVariableResult& result) {
   const Eigen::MatrixXd w_scaled = w * scale.cwiseInverse().asDiagonal();
   const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(w_scaled.transpose() * x_scaled);
-  if (qr.rank() < 7) {
+  if (qr.rank() < x_scaled.cols()) {
     result.failed = true;
     result.message = std::string(who) + ": the instruments of iteration " + std::to_string(it) +
                      " are not correlated with every regressor column (W^T X is singular)";

@@ -72,12 +72,44 @@ struct [[nodiscard]] InstrumentalVariableResult {
 namespace detail {
 
 /// The measured torque smoothed by GCV, per joint: the drive of the instrument simulation.
-SID_INLINE MatrixX2<double> smoothed_torque(const Kinematics<double>& k);
+template <int Joints>
+JointSamples<double, Joints> smoothed_torque(const Kinematics<double, Joints>& k) {
+  JointSamples<double, Joints> drive(k.size(), k.joints());
+  const SmoothingSpline<double> smoother(k.t);
+  for (Eigen::Index j = 0; j < k.joints(); ++j) {
+    const VectorX<double> tau = k.tau.col(j);
+    const SmoothingFit<double> fit =
+        smoother.fit_cross_validated(tau, 1.0, SmoothingCriterion::Gcv);
+    fit.spline.derivatives_at_knots(0, drive.col(j));
+  }
+  return drive;
+}
 
-/// The IV statistics for a given θ (fills everything least_squares would).
+/// The drive at `time`: linear between the samples at t, held beyond the ends.
+template <int Joints>
+JointVector<double, Joints> drive_at(const VectorX<double>& t,
+                                     const JointSamples<double, Joints>& drive, double time) {
+  const Eigen::Index n = t.size();
+  if (time <= t[0]) return drive.row(0).transpose();
+  if (time >= t[n - 1]) return drive.row(n - 1).transpose();
+  const Eigen::Index i = std::upper_bound(t.data(), t.data() + n, time) - t.data() - 1;
+  const double a = (time - t[i]) / (t[i + 1] - t[i]);
+  return (1.0 - a) * drive.row(i).transpose() + a * drive.row(i + 1).transpose();
+}
+
+/// The IV statistics for a given θ (fills everything least_squares would); the rows are joint
+/// by joint, `joints` blocks of equal length.
 SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
                                    const Eigen::MatrixXd& w, const Eigen::VectorXd& scale,
-                                   const Eigen::VectorXd& theta, LeastSquaresResult<double>& fit);
+                                   const Eigen::VectorXd& theta, LeastSquaresResult<double>& fit,
+                                   int joints = 2);
+
+/// The IV estimate θ of (WᵀX) θ = Wᵀy, solved with both sides column-scaled by `scale`
+/// (x_scaled = X diag(scale)⁻¹) into `next`. False, with the failure in result (`it` numbers
+/// the iteration), if WᵀX is singular or θ not finite.
+SID_INLINE bool solve_iv(const Eigen::MatrixXd& w, const Eigen::MatrixXd& x_scaled,
+                         const Eigen::VectorXd& y, const Eigen::VectorXd& scale, const char* who,
+                         int it, Eigen::VectorXd& next, InstrumentalVariableResult& result);
 
 }  // namespace detail
 

@@ -16,38 +16,6 @@
 
 namespace sid {
 
-SID_INLINE ChainRegression chain_study_regression(const ChainModel& model,
-                                                  const std::vector<Eigen::Index>& columns,
-                                                  const ChainKinematics<double>& k,
-                                                  double rate_hz) {
-  const Eigen::Index n = k.size();
-  const int joints = model.joints();
-  std::vector<Eigen::Index> samples;
-  if (n > 0) {
-    const double period = n > 1 ? (k.t[n - 1] - k.t[0]) / static_cast<double>(n - 1) : 1.0;
-    const auto stride =
-        static_cast<Eigen::Index>(std::max(1.0, std::round(1.0 / (period * rate_hz))));
-    for (Eigen::Index i = 0; i < n; i += stride) samples.push_back(i);
-  }
-  const auto m = static_cast<Eigen::Index>(samples.size());
-  ChainRegression r{Eigen::MatrixXd(m * joints, static_cast<Eigen::Index>(columns.size())),
-                    Eigen::VectorXd(m * joints)};
-  Eigen::MatrixXd y(joints, model.parameters());
-  Eigen::VectorXd q(joints), qd(joints), qdd(joints);
-  for (Eigen::Index a = 0; a < m; ++a) {
-    const Eigen::Index i = samples[static_cast<std::size_t>(a)];
-    q = k.q.row(i).transpose();
-    qd = k.qd.row(i).transpose();
-    qdd = k.qdd.row(i).transpose();
-    model.regressor(q, qd, qdd, y);
-    for (int j = 0; j < joints; ++j) {
-      r.x.row(j * m + a) = y.row(j)(columns);
-      r.y[j * m + a] = k.tau(i, j);
-    }
-  }
-  return r;
-}
-
 namespace detail {
 
 /// The window every method but css_tcv fits: [t0 + skip, t_end - skip_end] of the true samples
@@ -67,10 +35,11 @@ SID_INLINE LeastSquaresResult<double> fit_chain_study_method(
     const ChainMonteCarloOptions& options) {
   const char* who = "sid::fit_chain_study_method";
   LeastSquaresOptions ls = options.least_squares;
-  if (method == StudyMethod::CssIv)
-    throw std::invalid_argument(std::string(who) +
-                                ": css_iv needs instruments from the two-link simulator; a "
-                                "chain has none yet");
+  if (method == StudyMethod::CssIv && !options.refine)
+    throw std::invalid_argument(
+        std::string(who) +
+        ": css_iv needs the IV step (sid::chain_instrumental_variable_step() "
+        "from sid/cvode/chain_instrumental_variables.hpp)");
   if (method == StudyMethod::CssTorqueCv) {
     // sid_identify --robot's pipeline: cutoffs chosen by held-out torque prediction, torque
     // filtered alike, equations at rest left out.
@@ -81,18 +50,21 @@ SID_INLINE LeastSquaresResult<double> fit_chain_study_method(
                                   " base parameters undetermined");
     return id.fit;
   }
-  const ChainKinematics<double> k =
-      detail::method_kinematics(method, truth, measured, sigma_q2, options.kinematics);
+  const ChainKinematics<double> k = detail::method_kinematics(
+      method, truth, measured, sigma_q2, options.kinematics, kChainInstrumentalVariableLambdaScale);
   const auto [from, to] = detail::chain_study_window(method, truth, options.kinematics);
-  const ChainRegression r =
-      chain_study_regression(model, base.independent, detail::window_rows(k, from, to),
-                             options.identify.regression_rate_hz);
+  const ChainKinematics<double> kept = detail::window_rows(k, from, to);
+  const std::vector<Eigen::Index> samples =
+      chain_regression_samples(kept.t, options.identify.regression_rate_hz);
+  const ChainRegression r = chain_regression(model, base.independent, kept, samples);
   if (r.x.rows() <= r.x.cols())
     throw std::invalid_argument(std::string(who) + ": " + std::to_string(r.x.rows()) +
                                 " equations for " + std::to_string(r.x.cols()) +
                                 " base parameters; the window is too short");
   const auto joints = static_cast<Eigen::Index>(model.joints());
   LeastSquaresResult<double> fit = least_squares(r.x, r.y, joints, ls);
+  if (method == StudyMethod::CssIv && fit.ok())
+    return options.refine(model, base, kept, samples, fit);
   if (method != StudyMethod::CssWls || !fit.ok() || !(fit.sigma2_per_joint.array() > 0.0).all())
     return fit;
   // Gautier's IDIM-WLS, as fit_two_link_weighted: each joint's rows by 1/σ̂_j² of a first fit.
@@ -111,10 +83,11 @@ SID_INLINE void check_chain_monte_carlo_input(const ChainModel& model, const Eig
   const char* who = "sid::run_chain_monte_carlo";
   check_study_settings(options, who);
   for (StudyMethod m : options.methods)
-    if (m == StudyMethod::CssIv)
+    if (m == StudyMethod::CssIv && !options.refine)
       throw std::invalid_argument(std::string(who) +
-                                  ": method css_iv needs instruments from the two-link "
-                                  "simulator; a chain has none yet");
+                                  ": method css_iv needs the IV step "
+                                  "(sid::chain_instrumental_variable_step() from "
+                                  "sid/cvode/chain_instrumental_variables.hpp)");
   if (theta.size() != model.parameters() || !theta.allFinite())
     throw std::invalid_argument(std::string(who) + ": theta must hold " +
                                 std::to_string(model.parameters()) +
@@ -159,10 +132,11 @@ SID_INLINE ChainMonteCarloResult run_chain_monte_carlo(const ChainModel& model,
   // The true torque at the true motion over the widest window (the prediction each estimate is
   // scored on): the same equations for every method.
   const double t0 = truth.t[0], t_end = truth.t[truth.size() - 1];
-  const ChainRegression exact = chain_study_regression(
-      model, base.independent,
-      detail::window_rows(truth, t0 + options.kinematics.skip, t_end - options.kinematics.skip_end),
-      options.identify.regression_rate_hz);
+  const ChainKinematics<double> scored =
+      detail::window_rows(truth, t0 + options.kinematics.skip, t_end - options.kinematics.skip_end);
+  const ChainRegression exact =
+      chain_regression(model, base.independent, scored,
+                       chain_regression_samples(scored.t, options.identify.regression_rate_hz));
   if (exact.x.rows() <= exact.x.cols())
     throw std::invalid_argument(
         "sid::run_chain_monte_carlo: the window [skip, end - skip_end] "

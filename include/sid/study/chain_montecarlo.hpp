@@ -10,13 +10,15 @@
 /// same numbers), the same kinematics per method (detail::method_kinematics) and the same
 /// summaries (MethodSummary). A chain's ten parameters per link are not identifiable, so the
 /// study estimates and summarises the base parameters (sid::chain_base_parameters). Methods raw,
-/// filtered, css, css_gcv, css_wls, css_tcv and oracle; css_iv's instruments come from the
-/// two-link simulator and are not available for a chain.
+/// filtered, css, css_gcv, css_wls, css_iv (its IV step given as a function, e.g.
+/// sid::chain_instrumental_variable_step() of sid/cvode/chain_instrumental_variables.hpp),
+/// css_tcv and oracle.
 ///
-/// The true trajectory is an input (e.g. sid::simulate_chain_experiment), so this header needs
-/// no SUNDIALS.
+/// The true trajectory is an input (e.g. sid::simulate_chain_experiment) and the IV step a
+/// function, so this header needs no SUNDIALS.
 
 #include <sid/base_parameters.hpp>
+#include <sid/chain_regression.hpp>
 #include <sid/config.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/least_squares.hpp>
@@ -32,6 +34,12 @@
 
 namespace sid {
 
+/// @brief The chain study's css_iv smooths with GCV's own λ, not the two-link arm's 0.25 × λ
+/// (kInstrumentalVariableLambdaScale): on a six-axis arm the noisier first estimate of the
+/// smaller λ leaves the IV iteration unconverged. UR5, 6 runs at σq² = 1e-4: mean torque error
+/// 1.53 % at 0.25 (one run 7.8 %), 0.21 % at 1, css_gcv 0.31 %; at 1e-6: 0.052 % and 0.036 %.
+inline constexpr double kChainInstrumentalVariableLambdaScale = 1.0;
+
 /// @brief Settings of the chain study; runs, levels, methods, seed and threads as the paper's.
 struct ChainMonteCarloOptions : StudySettings {
   /// The kinematics of the methods: skip, skip_end, filtered_skip, filters (cutoffs relative to
@@ -42,6 +50,8 @@ struct ChainMonteCarloOptions : StudySettings {
   /// the whole of method css_tcv, which is sid::identify_chain on the run as measured.
   ChainIdentifyOptions identify;
   LeastSquaresOptions least_squares;
+  /// The IV step of method css_iv (sid::chain_instrumental_variable_step()); required by css_iv.
+  ChainEstimateRefinement refine;
 
   /// The paper's windows, and the last 0.25 s left out too: a natural spline's q̈ is wrong
   /// over its last samples unless the motion stops there, and a random excitation does not.
@@ -70,21 +80,10 @@ struct ChainMonteCarloResult {
   int threads_used = 1;
 };
 
-/// @brief The equations of a chain on given kinematics: the samples at most at rate_hz, rows
-/// joint-major (joint 1's rows at every sample, then joint 2's, ...), the columns of the base
-/// parameters.
-struct ChainRegression {
-  Eigen::MatrixXd x;
-  Eigen::VectorXd y;
-};
-SID_INLINE ChainRegression chain_study_regression(const ChainModel& model,
-                                                  const std::vector<Eigen::Index>& columns,
-                                                  const ChainKinematics<double>& k, double rate_hz);
-
 /// @brief β̂ of one method on one noisy data set (windowed as options say); NaN-free on success.
 /// @param base the base parameters (chain_base_parameters(model, options.identify)).
-/// @throws std::invalid_argument for css_iv, too few equations, or a css_tcv fit whose run
-///         leaves a base parameter undetermined.
+/// @throws std::invalid_argument for css_iv without options.refine, too few equations, or a
+///         css_tcv fit whose run leaves a base parameter undetermined.
 SID_INLINE LeastSquaresResult<double> fit_chain_study_method(
     StudyMethod method, const ChainModel& model, const BaseParameters<double>& base,
     const ChainKinematics<double>& truth, const ChainTrajectory<double>& measured, double sigma_q2,
@@ -93,7 +92,8 @@ SID_INLINE LeastSquaresResult<double> fit_chain_study_method(
 /// @brief Runs the study on the true trajectory of model at parameters theta (t, q, q̇, q̈, τ at
 /// the samples, τ = Y θ).
 /// @throws std::invalid_argument on the settings run_monte_carlo refuses, css_iv among the
-///         methods, a theta or a truth whose sizes disagree with the model, or a window too short.
+///         methods without options.refine, a theta or a truth whose sizes disagree with the model,
+///         or a window too short.
 SID_INLINE ChainMonteCarloResult run_chain_monte_carlo(const ChainModel& model,
                                                        const Eigen::VectorXd& theta,
                                                        const ChainKinematics<double>& truth,

@@ -255,12 +255,13 @@ int run_study_jobs(const StudySettings& settings, std::vector<LevelSummary>& lev
 
 /// The kinematics of every method but css_tcv (which needs the model to choose its cutoff) for
 /// any joint count: the paper's arm (Joints = 2) and a chain (Eigen::Dynamic) alike. `base`
-/// gives the filters and the cross-validation's settings; δq = σq on every joint.
+/// gives the filters and the cross-validation's settings; δq = σq on every joint; css_iv
+/// smooths with GCV's λ times iv_lambda_scale.
 template <int Joints>
-Kinematics<double, Joints> method_kinematics(StudyMethod method,
-                                             const Kinematics<double, Joints>& truth,
-                                             const Trajectory<double, Joints>& measured,
-                                             double sigma_q2, const IdentifyOptions& base) {
+Kinematics<double, Joints> method_kinematics(
+    StudyMethod method, const Kinematics<double, Joints>& truth,
+    const Trajectory<double, Joints>& measured, double sigma_q2, const IdentifyOptions& base,
+    double iv_lambda_scale = kInstrumentalVariableLambdaScale) {
   if (method == StudyMethod::Oracle) {
     Kinematics<double, Joints> k = truth;
     k.tau = measured.tau;
@@ -276,8 +277,7 @@ Kinematics<double, Joints> method_kinematics(StudyMethod method,
   const bool gcv = method == StudyMethod::CssGcv || method == StudyMethod::CssWls ||
                    method == StudyMethod::CssIv;
   options.smoothing = gcv ? SmoothingMode::Gcv : SmoothingMode::SConstraint;
-  if (method == StudyMethod::CssIv)
-    options.cross_validation_lambda_scale = kInstrumentalVariableLambdaScale;
+  if (method == StudyMethod::CssIv) options.cross_validation_lambda_scale = iv_lambda_scale;
   const Eigen::VectorXd sigma_q = Eigen::VectorXd::Constant(measured.joints(), std::sqrt(sigma_q2));
   return estimate_joint_kinematics(measured, options, sigma_q, nullptr, "sid::estimate_kinematics");
 }

@@ -1,0 +1,240 @@
+#pragma once
+/// @file
+/// @brief IDIM-IV for any chain: the chain's counterpart of sid/cvode/instrumental_variables.hpp,
+/// with the same two choices (the simulation is driven by the measured torque smoothed by GCV,
+/// and restarts from the smoothed state every `segment` seconds).
+///
+/// What is simulated is the physically consistent model nearest to the current estimate
+/// (sid::consistent_chain_parameters), through the O(n) articulated-body dynamics. The estimate
+/// itself is of base parameters, whose mass matrix is not positive definite on an arm with
+/// light wrist links (the UR5's, with a noisy first fit) and cannot be simulated there. The
+/// consistent model reproduces the estimate wherever the data see it, and instruments only
+/// need to follow the noise-free motion, not to be exact: the IV estimate stays consistent.
+
+#include <sid/base_parameters.hpp>
+#include <sid/chain_consistency.hpp>
+#include <sid/chain_regression.hpp>
+#include <sid/cvode/instrumental_variables.hpp>
+#include <sid/cvode/simulator.hpp>
+#include <sid/identify_chain.hpp>
+#include <sid/least_squares.hpp>
+#include <sid/model/chain_model.hpp>
+#include <sid/trajectory.hpp>
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cstddef>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace sid {
+
+/// @brief Settings of refine_chain_instrumental_variables().
+struct ChainInstrumentalVariableOptions {
+  int max_iterations = 10;  ///< >= 1; the result reports how many were needed
+  /// Stop when the largest change of a base parameter, times its column's norm, falls below this
+  /// fraction of the largest such product: a parameter near zero must not keep the iteration
+  /// going on round-off. The consistent model is solved to a tolerance of its own, so the
+  /// estimate keeps moving by about 1e-4 of that scale (UR5): 1e-3 stops in 3 to 5 iterations.
+  double tolerance = 1e-3;
+  double segment = 0.5;  ///< [s], > 0: each simulated segment starts from the smoothed state
+  /// The consistent model's prior where the data say nothing (consistent_chain_parameters);
+  /// empty: its default.
+  Eigen::VectorXd prior;
+  ChainConsistencyOptions consistency;
+  /// The instruments need far less accuracy than generating a data set does; BDF for the stiff
+  /// damping that friction terms can add.
+  SimulatorOptions simulator = [] {
+    SimulatorOptions o;
+    o.rtol = o.atol = 1e-7;
+    o.method = IntegrationMethod::Bdf;
+    return o;
+  }();
+};
+
+namespace detail {
+
+inline void check_chain_iv_inputs(const ChainModel& model, const BaseParameters<double>& base,
+                                  const ChainKinematics<double>& k,
+                                  const std::vector<Eigen::Index>& samples,
+                                  const LeastSquaresResult<double>& first,
+                                  const ChainInstrumentalVariableOptions& options,
+                                  const char* who) {
+  const Eigen::Index n = k.size();
+  if (static_cast<Eigen::Index>(base.independent.size() + base.dependent.size()) !=
+      model.parameters())
+    throw std::invalid_argument(std::string(who) + ": the base parameters are not the model's");
+  if (!first.ok() || first.theta.size() != base.rank() || !first.theta.allFinite() ||
+      first.r.rows() != base.rank())
+    throw std::invalid_argument(std::string(who) +
+                                ": the first fit must be a successful least-squares fit of " +
+                                std::to_string(base.rank()) + " base parameters");
+  if (n < 8 || k.q.rows() != n || k.qd.rows() != n || k.qdd.rows() != n || k.tau.rows() != n)
+    throw std::invalid_argument(std::string(who) +
+                                ": the kinematics need at least 8 samples with equal lengths");
+  for (const auto* m : {&k.q, &k.qd, &k.qdd, &k.tau})
+    if (m->cols() != model.joints())
+      throw std::invalid_argument(std::string(who) + ": the kinematics have " +
+                                  std::to_string(m->cols()) + " joint columns, the model " +
+                                  std::to_string(model.joints()));
+  for (std::size_t a = 0; a < samples.size(); ++a)
+    if (samples[a] < 0 || samples[a] >= n || (a > 0 && samples[a] <= samples[a - 1]))
+      throw std::invalid_argument(std::string(who) +
+                                  ": the samples must be increasing indices of the kinematics");
+  if (options.max_iterations < 1 || !(options.tolerance > 0.0) || !(options.segment > 0.0))
+    throw std::invalid_argument(std::string(who) +
+                                ": max_iterations must be >= 1, tolerance and segment > 0");
+}
+
+/// The states of the chain at theta (every parameter, a real arm), at the times of `samples`,
+/// driven by `drive`; each segment starts from k's state. False, with the failure in result, if
+/// a simulation failed.
+inline bool simulate_chain_states(const ChainModel& model, const Eigen::VectorXd& theta,
+                                  const ChainKinematics<double>& k,
+                                  const JointSamples<double, Eigen::Dynamic>& drive,
+                                  const std::vector<Eigen::Index>& samples,
+                                  const ChainInstrumentalVariableOptions& options, const char* who,
+                                  int it, ChainKinematics<double>& simulated,
+                                  InstrumentalVariableResult& result) {
+  using Vector = ChainModel::Vector;
+  const int n = model.joints();
+  const auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
+                       Eigen::Map<Eigen::VectorXd>& xdot) {
+    const Vector q = x.head(n), qd = x.tail(n);
+    xdot.head(n) = qd;
+    xdot.tail(n) = model.forward_dynamics(theta, q, qd, drive_at(k.t, drive, time));
+  };
+  const auto count = static_cast<Eigen::Index>(samples.size());
+  // Segments [begin, end] of the chosen samples share their boundary sample.
+  for (Eigen::Index begin = 0; begin < count - 1;) {
+    Eigen::Index end = begin + 1;
+    while (end < count - 1 && simulated.t[end] < simulated.t[begin] + options.segment) ++end;
+    const Eigen::Index at = samples[static_cast<std::size_t>(begin)];
+    Eigen::VectorXd start(2 * n);
+    start << k.q.row(at).transpose(), k.qd.row(at).transpose();
+    const SimulationResult sim =
+        simulate(rhs, start, simulated.t.segment(begin, end - begin + 1), options.simulator);
+    if (!sim.ok()) {
+      result.failed = true;
+      result.message = std::string(who) + ": the simulation of iteration " + std::to_string(it) +
+                       " failed at t = " + std::to_string(k.t[at]) + " s (" + sim.flag_name +
+                       "): " + sim.message;
+      return false;
+    }
+    simulated.q.middleRows(begin, end - begin + 1) = sim.states.leftCols(n);
+    simulated.qd.middleRows(begin, end - begin + 1) = sim.states.rightCols(n);
+    begin = end;
+  }
+  for (Eigen::Index a = 0; a < count; ++a) {
+    const Vector q = simulated.q.row(a).transpose(), qd = simulated.qd.row(a).transpose(),
+                 tau = simulated.tau.row(a).transpose();
+    simulated.qdd.row(a) = model.forward_dynamics(theta, q, qd, tau).transpose();
+  }
+  return true;
+}
+
+}  // namespace detail
+
+/// @brief Refines a first base-parameter estimate of `model` on the kinematics k (the windowed
+/// samples the estimator kept, with the measured τ) by IDIM-IV.
+///
+/// The rows are chain_regression() at `samples`, the fit's; each iteration simulates the current
+/// estimate (see the file comment) and takes the same rows at the simulated states as instruments
+/// W, then solves (WᵀX) β = Wᵀy column-scaled. A failed simulation or singular instruments stop the
+/// iteration with the last good estimate and a message; reaching max_iterations is reported as not
+/// converged.
+/// @param base the model's base parameters (chain_base_parameters()).
+/// @param samples the samples of k the fit's rows are at (e.g. chain_regression_samples()).
+/// @param first the least-squares fit of the base parameters at those samples to start from.
+/// @throws std::invalid_argument on inconsistent sizes, a first fit that is not a success, or
+///         bad options.
+inline InstrumentalVariableResult refine_chain_instrumental_variables(
+    const ChainModel& model, const BaseParameters<double>& base, const ChainKinematics<double>& k,
+    const std::vector<Eigen::Index>& samples, const LeastSquaresResult<double>& first,
+    const ChainInstrumentalVariableOptions& options = {}) {
+  const char* who = "sid::refine_chain_instrumental_variables";
+  detail::check_chain_iv_inputs(model, base, k, samples, first, options, who);
+  const int joints = model.joints();
+  const std::vector<Eigen::Index>& columns = base.independent;
+  const ChainRegression measured = chain_regression(model, columns, k, samples);
+  if (measured.x.rows() <= measured.x.cols())
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(measured.x.rows()) +
+                                " equations for " + std::to_string(measured.x.cols()) +
+                                " base parameters");
+  const Eigen::VectorXd scale = measured.x.colwise().norm().cwiseMax(1e-300).transpose();
+  const Eigen::MatrixXd x_scaled = measured.x * scale.cwiseInverse().asDiagonal();
+
+  const JointSamples<double, Eigen::Dynamic> drive = detail::smoothed_torque(k);
+  ChainKinematics<double> simulated;
+  const auto count = static_cast<Eigen::Index>(samples.size());
+  simulated.t.resize(count);
+  simulated.tau.resize(count, joints);
+  for (Eigen::Index a = 0; a < count; ++a) {
+    simulated.t[a] = k.t[samples[static_cast<std::size_t>(a)]];
+    simulated.tau.row(a) = drive.row(samples[static_cast<std::size_t>(a)]);
+  }
+  simulated.q.resize(count, joints);
+  simulated.qd.resize(count, joints);
+  simulated.qdd.resize(count, joints);
+  std::vector<Eigen::Index> all(samples.size());
+  for (std::size_t a = 0; a < all.size(); ++a) all[a] = static_cast<Eigen::Index>(a);
+
+  // The consistent model of each estimate is measured by the growth of the least-squares
+  // fit's residual (its triangular factor), whatever the estimate.
+  ChainIdentification estimate;
+  estimate.base = base;
+  estimate.fit = first;
+  estimate.fitted.relative_residual = first.residual.norm() / std::max(measured.y.norm(), 1e-300);
+
+  InstrumentalVariableResult result;
+  result.fit = first;
+  for (int it = 1; it <= options.max_iterations; ++it) {
+    estimate.fit.theta = result.fit.theta;
+    const ChainConsistentFit physical =
+        consistent_chain_parameters(model, estimate, options.prior, options.consistency);
+    if (!detail::simulate_chain_states(model, physical.theta, k, drive, samples, options, who, it,
+                                       simulated, result))
+      return result;
+    const ChainRegression instruments = chain_regression(model, columns, simulated, all);
+    Eigen::VectorXd next;
+    if (!detail::solve_iv(instruments.x, x_scaled, measured.y, scale, who, it, next, result))
+      return result;
+    const Eigen::VectorXd scaled_next = next.cwiseProduct(scale);
+    const double change =
+        (scaled_next - result.fit.theta.cwiseProduct(scale)).cwiseAbs().maxCoeff() /
+        std::max(scaled_next.cwiseAbs().maxCoeff(), 1e-300);
+    detail::fill_iv_statistics(measured.x, measured.y, instruments.x, scale, next, result.fit,
+                               joints);
+    result.fit.message.clear();
+    result.fit.ill_conditioned = false;
+    result.iterations = it;
+    if (change < options.tolerance) {
+      result.converged = true;
+      return result;
+    }
+  }
+  result.message = std::string(who) + ": the estimate still changed by more than the tolerance " +
+                   "after " + std::to_string(options.max_iterations) + " iterations";
+  return result;
+}
+
+/// @brief The IV step as the chain study's hook: throws std::runtime_error when the iteration
+/// stopped on a failure, so that the study counts the run as failed instead of silently
+/// reporting the first estimate.
+inline ChainEstimateRefinement chain_instrumental_variable_step(
+    const ChainInstrumentalVariableOptions& options = {}) {
+  return [options](const ChainModel& model, const BaseParameters<double>& base,
+                   const ChainKinematics<double>& k, const std::vector<Eigen::Index>& samples,
+                   const LeastSquaresResult<double>& first) {
+    InstrumentalVariableResult iv =
+        refine_chain_instrumental_variables(model, base, k, samples, first, options);
+    if (!iv.ok()) throw std::runtime_error(iv.message);
+    return std::move(iv.fit);
+  };
+}
+
+}  // namespace sid
