@@ -64,7 +64,9 @@ std::string fixed(double v, int width, int digits) {
     std::snprintf(buffer, sizeof buffer, "%*s", width, "n/a");
   else
     std::snprintf(buffer, sizeof buffer, "%*.*f", width, digits, v);
-  return buffer;
+  // A number wider than its column still stands apart from its neighbour.
+  const std::string text = buffer;
+  return text.size() >= static_cast<std::size_t>(width) ? " " + text : text;
 }
 
 nlohmann::json number_or_null(double v) {
@@ -112,7 +114,7 @@ std::string chain_montecarlo_tables(const sid::ChainMonteCarloResult& result) {
   out << "\ntorque: 100 |tau - Y beta-hat| / |tau| at the true motion, over runs\n";
   for (const auto& level : result.levels) {
     out << "\nsigma_q2 = " << level_label(level.sigma_q2) << " rad^2\n"
-        << "  method     |bias| median     max   std median     max   rms err   torque mean"
+        << "  method     |bias| median       max   std median       max   rms err   torque mean"
            "     max  failed  largest |bias|\n";
     for (const auto& s : level.methods) {
       const MethodFigures f = figures_of(s, result.parameter_names);
@@ -120,8 +122,8 @@ std::string chain_montecarlo_tables(const sid::ChainMonteCarloResult& result) {
       method.resize(9, ' ');
       char failed[16];
       std::snprintf(failed, sizeof failed, "%8d", s.failed_runs);
-      out << "  " << method << fixed(f.median_bias, 14, 2) << fixed(f.max_bias, 8, 2)
-          << fixed(f.median_std, 13, 2) << fixed(f.max_std, 8, 2)
+      out << "  " << method << fixed(f.median_bias, 14, 2) << fixed(f.max_bias, 10, 2)
+          << fixed(f.median_std, 13, 2) << fixed(f.max_std, 10, 2)
           << fixed(s.rms_rel_error_pct, 10, 2) << fixed(f.mean_torque, 14, 3)
           << fixed(f.max_torque, 8, 3) << failed << "  " << f.max_bias_name << "\n";
     }
