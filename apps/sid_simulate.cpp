@@ -76,8 +76,12 @@ links and <dynamics> damping and friction, every joint tracking a random Fourier
 from --seed) under computed torque with a PD correction. Effects on a chain: viscous_jN:fv,
 coulomb_jN:Fc (tanh, --coulomb-epsilon), armature_jN:Ia (a rotor; needed where a link has no
 inertia about its own axis), spring_jN:k (k q), torque_offset_jN:b. --trajectory FILE tracks
-the Fourier series sid_excite wrote instead of the random one. Output: t,q1..qn,tau1..taun (with --truth
-also q1_true.., qd1.., qdd1.., tau1_true..), the log sid_identify --robot reads.
+the Fourier series sid_excite wrote instead of the random one. --torque FILE drives the arm
+open loop with the torque of a CSV (columns t, tau1..taun; linear between its rows, which are
+the log's times) from rest at --q0 (default: the middle of each <limit>); nothing holds it
+there, so the torque must (a warning names a joint that leaves its <limit>). Output:
+t,q1..qn,tau1..taun (with --truth also q1_true.., qd1.., qdd1.., tau1_true..), the log
+sid_identify --robot reads.
 
 Exit codes: 0 success, 2 bad options or a failed simulation (message on standard error),
 1 internal error.
@@ -88,6 +92,7 @@ Examples:
   sid_simulate --effect coulomb_j2:0.1 --effect angle_offset_q1:0.05 --excitation multisine
   sid_simulate --effect stribeck_j1:0.1,0.3,0.2 --truth -o stribeck.csv
   sid_simulate --robot arm.urdf --effect coulomb_j3:0.4 --Ts 0.001 -o arm.csv
+  sid_simulate --robot arm.urdf --torque torque.csv --q0 0,0.5,-0.3 -o driven.csv
   sid_simulate --sigma-q2 0 --sigma-tau2 0 --physical 0.2675,0.0398,0.0392,0.4347,0.4322,0.0024,0.0024,0.6189,0.6189
 )";
 
@@ -115,6 +120,7 @@ struct Options {
   double q_range = 1.0;
   double qd_max = 1.5;
   std::string trajectory;
+  std::string torque, q0;
 };
 
 // The effect list of --help, written from the library so that it cannot fall out of step.
@@ -205,6 +211,14 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--trajectory", o.trajectory,
                  "--robot: track this Fourier trajectory (sid_excite -o) instead of a random one")
       ->check(CLI::ExistingFile);
+  auto* torque = cli.add_option("--torque", o.torque,
+                                "--robot: drive the arm open loop with this CSV's torque "
+                                "(t,tau1..taun) instead of tracking an excitation")
+                     ->check(CLI::ExistingFile);
+  cli.add_option("--q0", o.q0,
+                 "--robot --torque: the angles to start from at rest, comma-separated "
+                 "(default: the middle of each joint's <limit>)");
+  torque->excludes("--trajectory");
 }
 
 std::string short_number(double v) {
@@ -333,6 +347,8 @@ int simulate_robot(const Options& o) {
   c.q_range = o.q_range;
   c.qd_max = o.qd_max;
   c.trajectory = o.trajectory;
+  c.torque = o.torque;
+  c.q0 = o.q0;
   c.coulomb_epsilon = o.coulomb_epsilon;
   c.rtol = o.rtol;
   c.atol = o.atol;
@@ -350,6 +366,8 @@ int simulate(const Options& o) {
   using sid::app::require;
   check_options(o);
   require(o.trajectory.empty() || !o.robot.empty(), "--trajectory needs --robot");
+  require(o.torque.empty() || !o.robot.empty(), "--torque needs --robot");
+  require(o.q0.empty() || !o.torque.empty(), "--q0 needs --torque (and --robot)");
   if (!o.robot.empty()) return simulate_robot(o);
   const std::uint64_t seed = sid::app::parse_seed(o.seed);
   const std::vector<sid::EffectSpec> effects = parse_effects(o.effects);

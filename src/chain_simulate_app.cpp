@@ -22,6 +22,13 @@ namespace sid::app {
 
 namespace {
 
+std::string joined(const Eigen::RowVectorXd& values) {
+  std::string text;
+  for (Eigen::Index j = 0; j < values.size(); ++j)
+    text += (j ? "," : "") + shortest_number(values[j]);
+  return text;
+}
+
 struct ChainEffect {
   std::string kind;  ///< viscous, coulomb, armature, spring, torque_offset
   int joint = 0;     ///< 0-based
@@ -52,6 +59,52 @@ ChainEffect parse_chain_effect(const std::string& text, int joints) {
   require(e.kind == "torque_offset" || e.value > 0.0,
           who + e.kind + " must be > 0, got " + shortest_number(e.value));
   return e;
+}
+
+/// Refuses a chain with a joint that moves no inertia at q: its acceleration is undefined.
+void require_inertia_on_every_joint(const std::string& source, const ChainModel& model,
+                                    const Eigen::VectorXd& theta, const ChainModel::Vector& q) {
+  const Eigen::VectorXd inertia = model.model().mass_matrix(theta, q).diagonal();
+  Eigen::Index least = 0;
+  const double smallest = inertia.minCoeff(&least);
+  require(smallest > 0.0,
+          source +
+              ": a joint of the chain moves no inertia (a link with none about its axis); add "
+              "a rotor, e.g. --effect armature_j" +
+              std::to_string(least + 1) + ":0.01");
+}
+
+/// The run of sid_simulate --robot --torque: open loop from rest at q0, at the file's times.
+SimulatedRobot driven_by_torque(const ChainSimulateOptions& o, const RobotDescription& robot,
+                                const ChainModel& model, const Eigen::VectorXd& theta,
+                                const Eigen::VectorXd& offset) {
+  require(o.trajectory.empty(), "--torque and --trajectory are two inputs; give one");
+  const int n = model.joints();
+  const CsvTable table = read_csv(o.torque);
+  require(table.rows() >= 2, o.torque + ": needs at least 2 rows of t,tau1..tau" +
+                                 std::to_string(n) + ", got " + std::to_string(table.rows()));
+  require_strictly_increasing(table, "t");
+  Eigen::MatrixXd tau(table.rows(), n);
+  for (int j = 0; j < n; ++j) tau.col(j) = table.column("tau" + std::to_string(j + 1));
+  Eigen::VectorXd x0 = Eigen::VectorXd::Zero(2 * n);
+  if (o.q0.empty()) {
+    x0.head(n) = excitation_room(robot, o.robot, o.q_range, o.qd_max).q0;
+  } else {
+    const std::vector<double> q0 = parse_doubles(o.q0, "--q0", static_cast<std::size_t>(n));
+    x0.head(n) = Eigen::Map<const Eigen::VectorXd>(q0.data(), n);
+  }
+  require_inertia_on_every_joint(o.robot, model, theta, x0.head(n));
+  SimulatorOptions simulator;
+  simulator.rtol = o.rtol;
+  simulator.atol = o.atol;
+  const ChainExperimentResult run =
+      simulate_chain_torque(model, theta, table.column("t"), tau, x0, simulator);
+  require(run.ok(), "the simulation under the torque of " + o.torque + " stopped at t = " +
+                        shortest_number(run.truth.t.size() > 0 ? run.truth.t[run.truth.size() - 1]
+                                                               : table.column("t")[0]) +
+                        " s (" + run.message +
+                        "); the torque does not hold the arm (gravity?) or spins it away");
+  return SimulatedRobot{robot, model, theta, offset, run.truth};
 }
 
 }  // namespace
@@ -125,6 +178,7 @@ SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& o, std::mt19937_
     theta[drives + per_joint * e.joint + slot] += e.value;
   }
 
+  if (!o.torque.empty()) return driven_by_torque(o, robot, model, theta, offset);
   FourierTrajectory desired;
   if (o.trajectory.empty()) {
     const ExcitationRoom room = excitation_room(robot, o.robot, o.q_range, o.qd_max);
@@ -141,14 +195,7 @@ SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& o, std::mt19937_
   {
     ChainModel::Vector q(n), qd(n), qdd(n);
     desired.evaluate(0.0, q, qd, qdd);
-    const Eigen::VectorXd inertia = model.model().mass_matrix(theta, q).diagonal();
-    Eigen::Index least = 0;
-    const double smallest = inertia.minCoeff(&least);
-    require(smallest > 0.0,
-            o.robot +
-                ": a joint of the chain moves no inertia (a link with none about its axis); add "
-                "a rotor, e.g. --effect armature_j" +
-                std::to_string(least + 1) + ":0.01");
+    require_inertia_on_every_joint(o.robot, model, theta, q);
   }
   const ChainExperimentResult run = simulate_chain_experiment(model, theta, desired, experiment);
   require(run.ok(), std::string("the simulation failed (") + to_string(run.status) +
@@ -175,6 +222,18 @@ long simulate_robot(const ChainSimulateOptions& o) {
       std::cerr << "sid_simulate: warning: joint '" << robot.joint_names[j] << "' needs up to "
                 << shortest_number(peak) << " N m, above its <limit effort> of "
                 << shortest_number(effort) << "; lower --qd-max or --q-range\n";
+  }
+  // A given torque takes the arm wherever it goes; a Fourier excitation stays inside.
+  for (int j = 0; j < n && j < static_cast<int>(robot.limits.size()); ++j) {
+    const UrdfJointLimits& limit = robot.limits[static_cast<std::size_t>(j)];
+    const double low = simulated.truth.q.col(j).minCoeff(),
+                 high = simulated.truth.q.col(j).maxCoeff();
+    if ((std::isfinite(limit.lower) && low < limit.lower) ||
+        (std::isfinite(limit.upper) && high > limit.upper))
+      std::cerr << "sid_simulate: warning: joint '" << robot.joint_names[j] << "' moves over ["
+                << shortest_number(low) << ", " << shortest_number(high)
+                << "], beyond its <limit> of [" << shortest_number(limit.lower) << ", "
+                << shortest_number(limit.upper) << "]\n";
   }
   ChainTrajectory<double> sensed{simulated.truth.t, simulated.truth.q, simulated.truth.tau};
   for (int j = 0; j < n; ++j) sensed.tau.col(j).array() += simulated.torque_offset[j];
@@ -213,16 +272,22 @@ long simulate_robot(const ChainSimulateOptions& o) {
   for (const std::string& text : o.effects) effect_list += (effect_list.empty() ? "" : " ") + text;
   const std::vector<std::string> comments{
       "sid_simulate --robot " + o.robot + ": " + std::to_string(n) + " joints (" + joint_list +
-          "), the description's links, computed torque tracking a Fourier excitation",
-      !o.trajectory.empty()
+          "), the description's links, " +
+          (o.torque.empty() ? "computed torque tracking a Fourier excitation"
+                            : "driven open loop by a given torque"),
+      !o.torque.empty() ? "excitation: the torque of " + o.torque +
+                              " from rest at q0 = " + joined(simulated.truth.q.row(0))
+      : !o.trajectory.empty()
           ? "excitation: the Fourier trajectory of " + o.trajectory
           : "excitation: " + std::to_string(o.harmonics) + " harmonics of " +
                 shortest_number(o.base_frequency) +
                 " Hz about the middle of each joint's <limit>, |q - q0| <= " +
                 shortest_number(o.q_range) + ", |qd| <= " + shortest_number(o.qd_max) +
                 " (and 90 % of the limits), from the seed",
-      "T = " + shortest_number(o.duration) + " s, Ts = " + shortest_number(o.sample_time) +
-          " s, samples = " + std::to_string(measured.size()),
+      o.torque.empty()
+          ? "T = " + shortest_number(o.duration) + " s, Ts = " + shortest_number(o.sample_time) +
+                " s, samples = " + std::to_string(measured.size())
+          : "the torque file's times, samples = " + std::to_string(measured.size()),
       "seed = " + std::to_string(o.seed) + " (std::mt19937_64), sigma_q2 = " +
           shortest_number(o.sigma_q2) + ", sigma_tau2 = " + shortest_number(o.sigma_tau2),
       "drive terms = " + (parameters.empty() ? std::string("none") : parameters) +

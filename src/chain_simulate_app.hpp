@@ -1,6 +1,7 @@
 #pragma once
 // sid_simulate --robot: an identification experiment on any serial chain of a URDF, simulated
-// with CVODE under a random Fourier excitation, written as the log sid_identify --robot reads.
+// with CVODE under a random Fourier excitation or a given torque, written as the log
+// sid_identify --robot reads.
 
 #include <sid/model/chain_model.hpp>
 #include <sid/trajectory.hpp>
@@ -34,6 +35,10 @@ struct ChainSimulateOptions {
   /// A Fourier trajectory file (sid_excite -o) to track instead of the random one; then the
   /// harmonics, base frequency and ranges above are the file's.
   std::string trajectory;
+  /// A CSV of t, tau1..taun to drive the arm with open loop instead (its times are the log's);
+  /// the arm starts at rest at q0 (empty: the middle of each joint's <limit>).
+  std::string torque;
+  std::string q0;
 };
 
 /// @brief Where an excitation of the robot may go: q0 about the middle of each joint's <limit>,
@@ -59,7 +64,8 @@ struct SimulatedRobot {
 };
 
 /// Reads the description and simulates it under the random Fourier excitation drawn from rng
-/// (the options' seed is not used here). Noise, columns and output are ignored.
+/// (the options' seed is not used here), the trajectory file or the torque file. Noise, columns
+/// and output are ignored.
 /// @throws InputError naming the problem (a DH table, an unknown effect, a failed simulation).
 SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& options, std::mt19937_64& rng);
 

@@ -256,6 +256,58 @@ TEST_F(IdentifyRobot, SimulateRobotWarnsAboveTheEffortLimit) {
   EXPECT_EQ(r.err.find("joint_3"), std::string::npos) << r.err;
 }
 
+// --torque drives the arm open loop at the file's times from rest at --q0; a joint the torque
+// takes beyond its <limit> is named in a warning.
+TEST_F(IdentifyRobot, SimulateRobotDrivesTheArmWithAGivenTorque) {
+  const std::string urdf = data("tx40_mdh_modified.urdf");
+  // A torque pulse turns joint 1 (to 0.7 rad in 1 s, the falling arm's reaction included);
+  // joints 2 and 3, unheld, fall and swing past their limits.
+  std::vector<Eigen::VectorXd> columns(7, Eigen::VectorXd::Zero(101));
+  columns[0] = Eigen::VectorXd::LinSpaced(101, 0.0, 1.0);
+  for (Eigen::Index i = 0; i < 101; ++i) columns[1][i] = columns[0][i] < 0.2 ? 2.0 : 0.0;
+  sid::app::write_csv(file("torque.csv"), {"t", "tau1", "tau2", "tau3", "tau4", "tau5", "tau6"},
+                      columns);
+  const std::string options = "--robot " + urdf +
+                              " --torque torque.csv --effect armature_j6:0.01 --sigma-q2 0"
+                              " --sigma-tau2 0 --truth ";
+  const std::string driven = app("sid_simulate") + " " + options;
+  const sid_test::AppRun r = shell(driven + "--q0 0.3,0,0,0,0,0 -q -o run.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const sid::app::CsvTable table = sid::app::read_csv(file("run.csv"));
+  ASSERT_EQ(table.rows(), 101);
+  EXPECT_EQ(table.column("t"), columns[0]);
+  EXPECT_EQ(table.column("tau1_true"), columns[1]);
+  EXPECT_DOUBLE_EQ(table.column("q1")[0], 0.3);
+  EXPECT_EQ(table.column("qd1")[0], 0.0);
+  EXPECT_GT(table.column("q1")[100], 0.3);  // the pulse turned it, and nothing stopped it
+  EXPECT_GT(table.column("qd1")[100], 0.0);
+  EXPECT_NE(read(file("run.csv")).find("driven open loop by a given torque"), std::string::npos);
+  // A q0 beyond joint 2's <limit> of +-2.18 rad: warned, still written.
+  const sid_test::AppRun beyond = shell(driven + "--q0 0,2.5,0,0,0,0 -q -o beyond.csv");
+  EXPECT_EQ(beyond.exit_code, 0) << beyond.err;
+  EXPECT_NE(beyond.err.find("warning: joint 'joint_2' moves over"), std::string::npos)
+      << beyond.err;
+  EXPECT_NE(r.err.find("joint_3' moves over"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("joint_1' moves over"), std::string::npos) << r.err;
+
+  const auto refused = [&](const std::string& options, const std::string& words) {
+    const sid_test::AppRun bad = shell(app("sid_simulate") + " " + options + " -o x.csv");
+    EXPECT_EQ(bad.exit_code, 2) << options;
+    EXPECT_NE(bad.err.find(words), std::string::npos) << options << "\n" << bad.err;
+  };
+  refused("--torque torque.csv", "--torque needs --robot");
+  refused(options + "--q0 0,0,0", "--q0 needs 6 values");
+  sid::app::write_csv(file("five.csv"), {"t", "tau1", "tau2", "tau3", "tau4", "tau5"},
+                      {columns.begin(), columns.begin() + 6});
+  refused("--robot " + urdf + " --torque five.csv --effect armature_j6:0.01", "tau6");
+  std::vector<Eigen::VectorXd> backwards = columns;
+  backwards[0][50] = backwards[0][49];
+  sid::app::write_csv(file("backwards.csv"), {"t", "tau1", "tau2", "tau3", "tau4", "tau5", "tau6"},
+                      backwards);
+  refused("--robot " + urdf + " --torque backwards.csv --effect armature_j6:0.01",
+          "strictly increasing");
+}
+
 // Asked for more than the URDF allows, the excitation stays within 90 % of every <limit>.
 TEST_F(IdentifyRobot, SimulatedChainStaysWithinTheDescriptionsLimits) {
   const std::string path = SID_TEST_DATA_DIR "/staubli_tx40/tx40_mdh_modified.urdf";

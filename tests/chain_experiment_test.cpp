@@ -226,6 +226,47 @@ TEST(ChainFreeSimulation, ExactModelReproducesTheMotionAndAMissingFrictionDrifts
   EXPECT_LT((one.q.topRows(100) - exact.q.topRows(100)).cwiseAbs().maxCoeff(), 1e-6);
 }
 
+TEST(ChainExperiment, GivenTorqueDrivesTheArmWhereTheTrackedRunWent) {
+  // The torque a tracked run applied, given back open loop from the same start: the same motion,
+  // up to the torque's linear interpolation between the 2 ms samples.
+  const Experiment e(1.0);
+  const Eigen::Index m = 501;  // the first second
+  Eigen::VectorXd x0(12);
+  x0 << e.truth.q.row(0).transpose(), e.truth.qd.row(0).transpose();
+  const sid::ChainExperimentResult run =
+      sid::simulate_chain_torque(e.model, e.theta, e.truth.t.head(m), e.truth.tau.topRows(m), x0);
+  ASSERT_TRUE(run.ok()) << run.message;
+  ASSERT_EQ(run.truth.t.size(), m);
+  EXPECT_LT((run.truth.q - e.truth.q.topRows(m)).cwiseAbs().maxCoeff(), 1e-4);
+  EXPECT_LT((run.truth.qd - e.truth.qd.topRows(m)).cwiseAbs().maxCoeff(), 1e-3);
+  EXPECT_EQ(run.truth.tau, e.truth.tau.topRows(m));
+  // The recorded accelerations are the model's at the recorded states.
+  for (Eigen::Index k = 0; k < m; k += 100) {
+    const sid::ChainModel::Vector q = run.truth.q.row(k).transpose(),
+                                  qd = run.truth.qd.row(k).transpose(),
+                                  qdd = run.truth.qdd.row(k).transpose();
+    EXPECT_LT(
+        (e.model.model().inverse_dynamics(e.theta, q, qd, qdd) - run.truth.tau.row(k).transpose())
+            .cwiseAbs()
+            .maxCoeff(),
+        1e-8);
+  }
+  // A torque that spins the first joint away stops at the blow-up bound, as a failure.
+  Eigen::MatrixXd spin = e.truth.tau.topRows(m);
+  spin.col(0).setConstant(1e7);
+  const sid::ChainExperimentResult away =
+      sid::simulate_chain_torque(e.model, e.theta, e.truth.t.head(m), spin, x0);
+  EXPECT_FALSE(away.ok());
+  EXPECT_NE(away.message.find("blow-up"), std::string::npos) << away.message;
+  EXPECT_LT(away.truth.t.size(), m);
+  sid_test::expect_invalid_argument(
+      [&] {
+        (void)sid::simulate_chain_torque(e.model, e.theta, e.truth.t.head(m),
+                                         e.truth.tau.topRows(m - 1), x0);
+      },
+      "sid::simulate_chain_torque", "times");
+}
+
 TEST(ChainFreeSimulation, ThrowsOnBadInput) {
   const Experiment e(0.5);
   sid_test::expect_invalid_argument(

@@ -296,6 +296,12 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
       result.noise_floor[j] += sigma * sigma / static_cast<double>(runs.size());
     }
   result.noise_floor = result.noise_floor.cwiseSqrt().cwiseMax(1e-300);
+  // The residual against the measured torque, per joint: the figure the report compares.
+  const auto measured_rms = [&](const detail::ChainRound& round) {
+    const Eigen::VectorXd e = d.y_measured - d.x(Eigen::all, round.columns) * round.theta;
+    return Eigen::VectorXd(
+        (detail::per_joint_squares(d, e).array() / joint_rows.array().max(1.0)).sqrt());
+  };
   std::vector<Eigen::Index> selected(static_cast<std::size_t>(base_count));
   for (Eigen::Index c = 0; c < base_count; ++c) selected[static_cast<std::size_t>(c)] = c;
   std::vector<Eigen::Index> remaining;  // positions in `candidates`
@@ -313,6 +319,8 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   std::vector<ChainEffectTest> last_round;
   while (!remaining.empty()) {
     const detail::ChainRound round(d, selected);
+    // The first round fits the nominal model alone.
+    if (result.nominal_residual_rms.size() == 0) result.nominal_residual_rms = measured_rms(round);
     std::vector<ChainEffectTest> tests;
     std::vector<Eigen::Index> tested;
     std::vector<double> p_raw;
@@ -412,13 +420,8 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     result.final_terms.push_back(t.term);
   }
 
-  const auto measured_rms = [&](const detail::ChainRound& round) {
-    const Eigen::VectorXd e = d.y_measured - d.x(Eigen::all, round.columns) * round.theta;
-    return Eigen::VectorXd(
-        (detail::per_joint_squares(d, e).array() / joint_rows.array().max(1.0)).sqrt());
-  };
-  result.nominal_residual_rms = measured_rms(detail::ChainRound(
-      d, std::vector<Eigen::Index>(selected.begin(), selected.begin() + base_count)));
+  if (result.nominal_residual_rms.size() == 0)  // no candidate was tried: nothing was named
+    result.nominal_residual_rms = measured_rms(final_round);
   result.final_residual_rms = measured_rms(final_round);
   result.unexplained_rms =
       (result.final_residual_rms.array().square() - result.noise_floor.array().square())

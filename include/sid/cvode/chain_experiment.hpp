@@ -2,8 +2,8 @@
 /// @file
 /// @brief An identification experiment on any serial chain, simulated with CVODE: the arm
 /// (a ChainModel at given parameters, drive terms included) tracks a Fourier excitation under
-/// computed torque with a PD correction, and q, qd, qdd and the applied torque are sampled on a
-/// uniform grid. The true trajectory that measurement noise is added to.
+/// computed torque with a PD correction, or is driven open loop by a given torque, and q, qd, qdd
+/// and the applied torque are sampled. The true trajectory that measurement noise is added to.
 
 #include <sid/cvode/experiment.hpp>
 #include <sid/cvode/simulator.hpp>
@@ -13,6 +13,8 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -108,6 +110,73 @@ inline ChainExperimentResult simulate_chain_experiment(const ChainModel& model,
     const Vector tau = applied(t[k], q, qd);
     truth.tau.row(k) = tau.transpose();
     truth.qdd.row(k) = model.forward_dynamics(theta, q, qd, tau).transpose();
+  }
+  return result;
+}
+
+/// @brief Simulates model at parameters theta open loop from the state x0 = (q, qd), driven by
+/// the torque `tau` given at the times t (one row per time; linear between them), and samples it
+/// at t. The arm goes wherever the torque takes it: nothing holds it within its limits.
+/// @param blow_up a state entry above this in magnitude stops the run as failed (an arm that
+///        falls or spins away), > 0.
+/// @throws std::invalid_argument for sizes that disagree, fewer than 2 times, times that do not
+///         increase, or values that are not finite.
+inline ChainExperimentResult simulate_chain_torque(
+    const ChainModel& model, const Eigen::VectorXd& theta, const Eigen::VectorXd& t,
+    const Eigen::MatrixXd& tau, const Eigen::VectorXd& x0,
+    const SimulatorOptions& simulator = {1e-9, 1e-9}, double blow_up = 1e4) {
+  const std::string who = "sid::simulate_chain_torque: ";
+  const int n = model.joints();
+  if (theta.size() != model.parameters() || tau.cols() != n || x0.size() != 2 * n ||
+      tau.rows() != t.size())
+    throw std::invalid_argument(who + "the model has " + std::to_string(n) + " joints and " +
+                                std::to_string(model.parameters()) + " parameters; theta has " +
+                                std::to_string(theta.size()) + " entries, tau " +
+                                std::to_string(tau.rows()) + " x " + std::to_string(tau.cols()) +
+                                " for " + std::to_string(t.size()) + " times, x0 " +
+                                std::to_string(x0.size()) + " entries");
+  if (t.size() < 2) throw std::invalid_argument(who + "needs at least 2 times");
+  if (!theta.allFinite() || !tau.allFinite() || !x0.allFinite() || !t.allFinite())
+    throw std::invalid_argument(who + "theta, t, tau and x0 must be finite");
+  for (Eigen::Index i = 1; i < t.size(); ++i)
+    if (!(t[i] > t[i - 1]))
+      throw std::invalid_argument(who + "times must increase (time " + std::to_string(i) + ")");
+  if (!(blow_up > 0.0)) throw std::invalid_argument(who + "blow_up must be > 0");
+
+  using Vector = ChainModel::Vector;
+  const auto applied = [&](double time) {
+    const Eigen::Index last = t.size() - 1;
+    const Eigen::Index i = std::clamp<Eigen::Index>(
+        std::upper_bound(t.data(), t.data() + t.size(), time) - t.data() - 1, 0, last - 1);
+    const double s = std::clamp((time - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0);
+    return Vector(((1.0 - s) * tau.row(i) + s * tau.row(i + 1)).transpose());
+  };
+  auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
+                 Eigen::Map<Eigen::VectorXd>& xdot) {
+    if (x.cwiseAbs().maxCoeff() > blow_up)
+      throw std::runtime_error("the state passed the blow-up bound " + std::to_string(blow_up));
+    const Vector q = x.head(n), qd = x.tail(n);
+    xdot.head(n) = qd;
+    xdot.tail(n) = model.forward_dynamics(theta, q, qd, applied(time));
+  };
+  const SimulationResult sim = simulate(rhs, x0, t, simulator);
+
+  ChainExperimentResult result;
+  result.status = sim.status;
+  result.flag_name = sim.flag_name;
+  result.message = sim.message;
+  result.statistics = sim.statistics;
+  const Eigen::Index samples = sim.completed;
+  ChainKinematics<double>& truth = result.truth;
+  truth.t = t.head(samples);
+  truth.q = sim.states.topLeftCorner(samples, n);
+  truth.qd = sim.states.block(0, n, samples, n);
+  truth.tau = tau.topRows(samples);
+  truth.qdd.resize(samples, n);
+  for (Eigen::Index k = 0; k < samples; ++k) {
+    const Vector q = truth.q.row(k).transpose(), qd = truth.qd.row(k).transpose(),
+                 torque = truth.tau.row(k).transpose();
+    truth.qdd.row(k) = model.forward_dynamics(theta, q, qd, torque).transpose();
   }
   return result;
 }
