@@ -32,7 +32,8 @@ limit). They hold on the grid of --rate points per second over a period, tighten
 and qdd hold between the points too; the report checks all four on a grid four times finer.
 
 Objective: the base regressor W_b (the model sid_identify --robot fits: the links, viscous and
-Coulomb friction, offset and rotor per joint) over one period; the design minimizes the mean
+Coulomb friction, offset and rotor per joint, and per coupled motor with --transmission) over
+one period; the design minimizes the mean
 variance inflation factor of its columns, which bounds the condition number of W_b with unit
 columns (the one sid_identify reports and the one printed here). NLopt (SLSQP by default) runs
 from the random excitation of --seed, within --max-evaluations; the result depends on the options
@@ -47,6 +48,7 @@ Exit codes: 0 success, 2 bad options or input (message on standard error), 1 int
 Examples:
   sid_excite --robot arm.urdf -o excitation.csv
   sid_excite --robot arm.urdf --random --seed 3
+  sid_excite --robot tx40.urdf --transmission drives.yaml -o excitation.csv
   sid_simulate --robot arm.urdf --trajectory excitation.csv --T 10 -o run.csv
 )";
 
@@ -64,6 +66,10 @@ void define_options(CLI::App& cli, Options& options) {
   cli.add_option("--base", o.base, "the chain's first link (default: the root)");
   cli.add_option("--tip", o.tip, "the chain's last link (default: the one end link)");
   cli.add_option("--hold", o.hold, "JOINT=VALUE,... for joints off the chain");
+  cli.add_option("--transmission", o.transmission,
+                 "the drives' transmission (YAML or URDF, as sid_identify --robot): the "
+                 "coupled motors' friction and rotors join the regressor")
+      ->check(CLI::ExistingFile);
   cli.add_option("--harmonics", o.harmonics, "harmonics H of the Fourier series, 2..50")
       ->capture_default_str();
   cli.add_option("--base-frequency", o.base_frequency, "f [Hz]; the period is 1 / f")

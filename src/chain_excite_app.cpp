@@ -5,6 +5,7 @@
 #include <sid/model/chain_model.hpp>
 
 #include "app.hpp"
+#include "chain_identify_app.hpp"
 #include "chain_simulate_app.hpp"
 #include "csv.hpp"
 #include "robot_description.hpp"
@@ -114,19 +115,15 @@ int excite_robot(const ChainExciteOptions& o, const char* app_name) {
   require(robot.link_parameters.size() > 0,
           o.robot + ": a DH table has no link inertias to compute torques with; give a URDF");
   const int n = robot.chain.joints();
-  // The model sid_identify --robot fits to a joint-side log; torques from the description's
-  // links and <dynamics> damping and friction.
-  const sid::Transmission direct(n);
+  // The model sid_identify --robot fits to the arm's log (with the transmission's coupled motors);
+  // torques from the description's links and <dynamics> damping and friction.
+  const sid::Transmission transmission = o.transmission.empty()
+                                             ? sid::Transmission(n)
+                                             : read_transmission(o.transmission, robot.joint_names);
   const sid::ChainModel model(robot.chain, robot.joint_names,
-                              sid::drive_terms(sid::default_drive_term_kinds(), direct), direct);
-  Eigen::VectorXd theta = Eigen::VectorXd::Zero(model.parameters());
-  theta.head(model.rigid_body_parameters()) = robot.link_parameters;
-  Eigen::Index column = model.rigid_body_parameters();
-  for (const sid::DriveTerm& t : model.terms()) {
-    if (t.kind == sid::DriveTermKind::Viscous) theta[column] = robot.damping[t.index];
-    if (t.kind == sid::DriveTermKind::Coulomb) theta[column] = robot.friction[t.index];
-    ++column;
-  }
+                              sid::drive_terms(sid::default_drive_term_kinds(), transmission),
+                              transmission);
+  const Eigen::VectorXd theta = description_prior(robot, model);
   const std::vector<Eigen::Index> columns = sid::chain_base_parameters(model).independent;
 
   const ExcitationRoom room = excitation_room(robot, o.robot, o.q_range, o.qd_max);
@@ -199,7 +196,8 @@ int excite_robot(const ChainExciteOptions& o, const char* app_name) {
     write_fourier_trajectory(
         o.output, result,
         {std::string(app_name) + " --robot " + o.robot + ": " + std::to_string(n) + " joints (" +
-             joint_list + ")",
+             joint_list + ")" +
+             (o.transmission.empty() ? "" : ", the coupled motors of " + o.transmission),
          "q_j(t) = q0_j + sum_l a_jl / (l w) sin(l w t) - b_jl / (l w) cos(l w t), w = 2 pi f; "
          "at rest at t = k / f",
          comment,

@@ -15,6 +15,9 @@ namespace sid::app {
 /// @brief The options of sid_excite.
 struct ChainExciteOptions {
   std::string robot, base, tip, hold;
+  /// The drives' transmission (YAML or URDF, as sid_identify --robot takes it): the model
+  /// then has the drive terms of each coupled motor too. Empty: each joint its own motor.
+  std::string transmission;
   int harmonics = 5;
   double base_frequency = 0.1;   ///< [Hz]
   double q_range = 1.0;          ///< largest |q - q0| [rad or m], and 90 % of the <limit>

@@ -518,6 +518,24 @@ TEST_F(SidExcite, NeverOverwritesWithoutForce) {
   EXPECT_EQ(sid::app::read_csv(file("c.csv")).rows(), 6);
 }
 
+// With the TX40's transmission the coupled wrist motor's friction and rotor join the regressor:
+// the 61 base parameters sid_identify --robot fits to its motor-side log, not 58.
+TEST_F(SidExcite, TransmissionPutsTheCoupledMotorsTermsInTheRegressor) {
+  const std::string design = std::string("--robot ") + kTx40 +
+                             " --harmonics 3 --base-frequency 0.5 --rate 50 --max-evaluations 20";
+  const AppRun direct = run(design);
+  ASSERT_EQ(direct.exit_code, 0) << direct.err;
+  EXPECT_NE(direct.out.find("58 base parameters of 84"), std::string::npos) << direct.out;
+  const AppRun coupled = run(design + " --transmission '" SID_TEST_DATA_DIR
+                                      "/staubli_tx40/tx40_transmission.yaml' -o d.csv");
+  ASSERT_EQ(coupled.exit_code, 0) << coupled.err;
+  EXPECT_NE(coupled.out.find("61 base parameters of 87"), std::string::npos) << coupled.out;
+  EXPECT_NE(read(file("d.csv")).find("the coupled motors of"), std::string::npos);
+  const AppRun missing = run(design + " --transmission no_such.yaml");
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("no_such.yaml"), std::string::npos) << missing.err;
+}
+
 // A short design on the TX40, written, simulated through sid_simulate --trajectory: the run
 // starts and ends (after one period) at rest, and the same seed gives the same file.
 TEST_F(SidExcite, WritesCoefficientsSidSimulateTracksFromRestToRest) {
