@@ -212,4 +212,18 @@ nlohmann::json chain_montecarlo_json(const sid::ChainMonteCarloResult& result,
   return j;
 }
 
+void write_chain_montecarlo_csv(const std::string& dir, const sid::ChainMonteCarloResult& result) {
+  // The combinations hold spaces, signs and products: a plain name heads each column, and the
+  // comments say what it is.
+  std::vector<std::string> names,
+      comments{"seed = " + std::to_string(result.seed) + ", runs = " + std::to_string(result.runs) +
+               "; nan = a failed run"};
+  for (std::size_t k = 0; k < result.parameter_combinations.size(); ++k) {
+    names.push_back("beta" + std::to_string(k + 1));
+    comments.push_back(names.back() + " = " + result.parameter_combinations[k] + " (true " +
+                       format_double(result.beta[static_cast<Eigen::Index>(k)]) + ")");
+  }
+  write_estimates_csv(dir, result.levels, names, comments, "base-parameter estimate");
+}
+
 }  // namespace sid::app

@@ -46,4 +46,8 @@ nlohmann::json chain_montecarlo_json(const sid::ChainMonteCarloResult& result,
                                      const sid::ChainMonteCarloOptions& options,
                                      const ChainStudySetup& setup);
 
+/// @brief Every β̂ of every run as CSV in dir, the files montecarlo_csv_files names: columns
+/// beta1..betaP, the comment lines saying which combination of the model's parameters each is.
+void write_chain_montecarlo_csv(const std::string& dir, const sid::ChainMonteCarloResult& result);
+
 }  // namespace sid::app

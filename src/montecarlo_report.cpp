@@ -379,7 +379,7 @@ nlohmann::json montecarlo_json(const sid::MonteCarloResult& result,
   return j;
 }
 
-std::vector<std::string> montecarlo_csv_files(const sid::MonteCarloOptions& options) {
+std::vector<std::string> montecarlo_csv_files(const sid::StudySettings& options) {
   std::vector<std::string> files{"estimates.csv"};
   for (double level : options.sigma_q2_levels)
     for (auto m : options.methods)
@@ -387,18 +387,21 @@ std::vector<std::string> montecarlo_csv_files(const sid::MonteCarloOptions& opti
   return files;
 }
 
-void write_montecarlo_csv(const std::string& dir, const sid::MonteCarloResult& result) {
-  const auto names = montecarlo_parameter_names();
+void write_estimates_csv(const std::string& dir, const std::vector<sid::LevelSummary>& levels,
+                         const std::vector<std::string>& names,
+                         const std::vector<std::string>& comments, const std::string& what) {
   const std::string all = path_in(dir, "estimates.csv");
   {
     std::ofstream out(all, std::ios::binary);
     if (!out) throw std::runtime_error("cannot write '" + all + "'");
-    out << "# sid_montecarlo: every theta-hat of every run; seed = " << result.seed
-        << ", runs = " << result.runs << "; nan = a failed run\n";
+    out << "# sid_montecarlo: every " << what << " of every run";
+    for (std::size_t c = 0; c < comments.size(); ++c)
+      out << (c == 0 ? "; " : "\n# ") << comments[c];
+    out << "\n";
     out << "level,method,run";
     for (const auto& n : names) out << "," << n;
     out << "\n";
-    for (const auto& level : result.levels)
+    for (const auto& level : levels)
       for (const auto& s : level.methods)
         for (Eigen::Index r = 0; r < s.estimates.rows(); ++r) {
           out << format_double(level.sigma_q2) << "," << sid::study_method_name(s.method) << ","
@@ -409,7 +412,7 @@ void write_montecarlo_csv(const std::string& dir, const sid::MonteCarloResult& r
         }
     if (!out.flush()) throw std::runtime_error("cannot write '" + all + "'");
   }
-  for (const auto& level : result.levels)
+  for (const auto& level : levels)
     for (const auto& s : level.methods) {
       std::vector<std::string> columns_names{"run"};
       columns_names.insert(columns_names.end(), names.begin(), names.end());
@@ -419,13 +422,19 @@ void write_montecarlo_csv(const std::string& dir, const sid::MonteCarloResult& r
         columns.emplace_back(s.estimates.col(p));
       const std::string file = path_in(dir, std::string(sid::study_method_name(s.method)) + "_" +
                                                 level_label(level.sigma_q2) + ".csv");
-      write_csv(file, columns_names, columns,
-                {"sid_montecarlo: theta-hat of every run, method " +
-                     std::string(sid::study_method_name(s.method)) +
-                     ", sigma_q2 = " + level_label(level.sigma_q2) + " rad^2",
-                 "seed = " + std::to_string(result.seed) +
-                     ", runs = " + std::to_string(result.runs) + "; nan = a failed run"});
+      std::vector<std::string> lines{"sid_montecarlo: " + what + " of every run, method " +
+                                     std::string(sid::study_method_name(s.method)) +
+                                     ", sigma_q2 = " + level_label(level.sigma_q2) + " rad^2"};
+      lines.insert(lines.end(), comments.begin(), comments.end());
+      write_csv(file, columns_names, columns, lines);
     }
+}
+
+void write_montecarlo_csv(const std::string& dir, const sid::MonteCarloResult& result) {
+  write_estimates_csv(dir, result.levels, montecarlo_parameter_names(),
+                      {"seed = " + std::to_string(result.seed) +
+                       ", runs = " + std::to_string(result.runs) + "; nan = a failed run"},
+                      "theta-hat");
 }
 
 std::vector<std::string> montecarlo_plot_files() {

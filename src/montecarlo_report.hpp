@@ -45,13 +45,19 @@ nlohmann::json montecarlo_json(const sid::MonteCarloResult& result,
 
 /// @brief The files write_montecarlo_csv writes in its directory: "estimates.csv" (all runs,
 /// long format) and one "<method>_<level>.csv" per level and method.
-std::vector<std::string> montecarlo_csv_files(const sid::MonteCarloOptions& options);
+std::vector<std::string> montecarlo_csv_files(const sid::StudySettings& options);
 
 /// @brief Writes every theta-hat of every run (a failed run's row is nan):
 /// - estimates.csv: level,method,run,theta1..theta7 (method by name; one row per level, method
 ///   and run);
 /// - <method>_<level>.csv: run,theta1..theta7, numeric only (readable by sid's CSV reader).
 void write_montecarlo_csv(const std::string& dir, const sid::MonteCarloResult& result);
+
+/// @brief The same files for any study: `names` head the estimate columns, `comments` follow
+/// the first comment line ("every <what> of every run").
+void write_estimates_csv(const std::string& dir, const std::vector<sid::LevelSummary>& levels,
+                         const std::vector<std::string>& names,
+                         const std::vector<std::string>& comments, const std::string& what);
 
 /// @brief The files write_montecarlo_plots writes in its directory (PNG, data and script of
 /// every figure).

@@ -281,8 +281,20 @@ TEST_F(SidMonteCarlo, RobotRunsTheStudyOnAChainOfAUrdf) {
   const std::string study = robot +
                             "--duration 3 --rate 200 --runs 3 --levels 1e-6 --seed 3 "
                             "--methods raw,css,css_iv,oracle ";
-  const AppRun one = run(study + "--threads 1 --json one.json");
+  const AppRun one = run(study + "--threads 1 --json one.json --csv-dir est");
   ASSERT_EQ(one.exit_code, 0) << one.err;
+  // Every estimate of every run: estimates.csv and one file per method and level.
+  std::size_t files = 0;
+  for (const auto& entry : fs::directory_iterator(file("est"))) {
+    ++files;
+    const std::string name = entry.path().filename().string();
+    if (name == "estimates.csv") continue;
+    const sid::app::CsvTable table = sid::app::read_csv(entry.path().string());
+    EXPECT_EQ(table.rows(), 3) << name;
+    EXPECT_TRUE(table.has("run") && table.has("beta1")) << name;
+  }
+  EXPECT_EQ(files, 5u);
+  EXPECT_NE(read(file("est/estimates.csv")).find("# beta1 = "), std::string::npos);
   const AppRun two = run(study + "--threads 2 --json two.json -q");
   ASSERT_EQ(two.exit_code, 0) << two.err;
   EXPECT_EQ(without_wall_time(one.out), without_wall_time(two.out));
@@ -315,6 +327,9 @@ TEST_F(SidMonteCarlo, RobotOptionsAreCheckedBeforeAnyWork) {
   expect_input_error("--tip link2", "--tip is an option of --robot");
   expect_input_error("--duration 5", "--duration is an option of --robot");
   expect_input_error(robot + "--plots figs", "--plots");
+  fs::create_directories(file("taken"));
+  std::ofstream(file("taken/estimates.csv")) << "keep";
+  expect_input_error(robot + "--runs 2 --csv-dir taken", "--force");
   expect_input_error(robot + "--rate 10", "--rate");
   expect_input_error(robot + "--duration 0.5", "--duration");
   expect_input_error(robot + "--harmonics 0", "--harmonics");
