@@ -158,7 +158,7 @@ and the one end link) or a DH table (docs/serial-arms.md). Runs have columns t, 
 tau1..taun in the joint order of the description (--columns renames them, e.g.
 t=time,q1=pos_1,tau1=effort_1). The model is the links' rigid-body parameters plus, per joint,
 the drive terms of --effects (default viscous,coulomb,offset,armature; also coulomb_asymmetry,
-or none); a --transmission file (YAML: gear_ratios, couplings, joint_zero; or a URDF with
+spring, stribeck (width 0.1 rad/s), or none); a --transmission file (YAML: gear_ratios, couplings, joint_zero; or a URDF with
 ros_control <transmission> elements, e.g. the robot's own) makes the runs motor-side and adds the coupled motors' friction and inertia. Each joint's smoothing cutoff is
 chosen by held-out torque prediction (or --cutoff F for all), the torque goes through its
 joint's smoother too, and equations at rest are left out (--rest-fraction). The report names

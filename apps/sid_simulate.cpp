@@ -74,14 +74,15 @@ links and <dynamics> damping and friction, every joint tracking a random Fourier
 (--harmonics, --base-frequency; about the middle of the joint's <limit>, scaled so that
 |q_j - q0_j| <= --q-range and |qd_j| <= --qd-max and within 90 % of the <limit>s, drawn
 from --seed) under computed torque with a PD correction. Effects on a chain: viscous_jN:fv,
-coulomb_jN:Fc (tanh, --coulomb-epsilon), armature_jN:Ia (a rotor; needed where a link has no
-inertia about its own axis), spring_jN:k (k q), torque_offset_jN:b. --trajectory FILE tracks
-the Fourier series sid_excite wrote instead of the random one. --torque FILE drives the arm
-open loop with the torque of a CSV (columns t, tau1..taun; linear between its rows, which are
-the log's times) from rest at --q0 (default: the middle of each <limit>); nothing holds it
-there, so the torque must (a warning names a joint that leaves its <limit>). Output:
-t,q1..qn,tau1..taun (with --truth also q1_true.., qd1.., qdd1.., tau1_true..), the log
-sid_identify --robot reads.
+coulomb_jN:Fc (tanh, --coulomb-epsilon), stribeck_jN:Fc,Fs,vs (as for two joints),
+armature_jN:Ia (a rotor; needed where a link has no inertia about its own axis), spring_jN:k
+(k q), torque_offset_jN:b (a torque sensor bias) and angle_offset_qN:d (measured q = q - d).
+--trajectory FILE tracks the Fourier series sid_excite wrote instead of the random one.
+--torque FILE drives the arm open loop with the torque of a CSV (columns t, tau1..taun; linear
+between its rows, which are the log's times) from rest at --q0 (default: the middle of each
+<limit>); nothing holds it there, so the torque must (a warning names a joint that leaves its
+<limit>). Output: t,q1..qn,tau1..taun (with --truth also q1_true.., qd1.., qdd1..,
+tau1_true..), the log sid_identify --robot reads.
 
 Exit codes: 0 success, 2 bad options or a failed simulation (message on standard error),
 1 internal error.

@@ -30,24 +30,30 @@ std::string joined(const Eigen::RowVectorXd& values) {
 }
 
 struct ChainEffect {
-  std::string kind;  ///< viscous, coulomb, armature, spring, torque_offset
-  int joint = 0;     ///< 0-based
-  double value = 0.0;
+  /// viscous, coulomb, armature, spring, stribeck, torque_offset (a sensor bias) or
+  /// angle_offset (an encoder offset)
+  std::string kind;
+  int joint = 0;  ///< 0-based
+  std::vector<double> values;
 };
 
 ChainEffect parse_chain_effect(const std::string& text, int joints) {
   const std::string who = "--effect '" + text + "': ";
+  const std::string form = "expected KIND_jN:VALUE (angle_offset_qN:VALUE), e.g. coulomb_j3:0.4";
   const auto colon = text.find(':');
-  require(colon != std::string::npos, who + "expected KIND_jN:VALUE, e.g. coulomb_j3:0.4");
+  require(colon != std::string::npos, who + form);
   const std::string id = text.substr(0, colon), value = text.substr(colon + 1);
-  const auto mark = id.rfind("_j");
-  require(mark != std::string::npos, who + "expected KIND_jN:VALUE, e.g. coulomb_j3:0.4");
+  const bool angle = id.rfind("angle_offset_q", 0) == 0;
+  const auto mark = angle ? std::string("angle_offset").size() : id.rfind("_j");
+  require(mark != std::string::npos, who + form);
   ChainEffect e;
   e.kind = id.substr(0, mark);
   require(e.kind == "viscous" || e.kind == "coulomb" || e.kind == "armature" ||
-              e.kind == "spring" || e.kind == "torque_offset",
+              e.kind == "spring" || e.kind == "stribeck" || e.kind == "torque_offset" ||
+              e.kind == "angle_offset",
           who + "unknown kind '" + e.kind +
-              "'; on a chain: viscous, coulomb, armature, spring, torque_offset");
+              "'; on a chain: viscous, coulomb, armature, spring, stribeck, torque_offset, "
+              "angle_offset");
   const std::string number = id.substr(mark + 2);
   int joint = 0;
   const auto parsed = std::from_chars(number.data(), number.data() + number.size(), joint);
@@ -55,9 +61,15 @@ ChainEffect parse_chain_effect(const std::string& text, int joints) {
               parsed.ptr == number.data() + number.size() && joint >= 1 && joint <= joints,
           who + "the joint must be 1.." + std::to_string(joints) + ", got '" + number + "'");
   e.joint = joint - 1;
-  e.value = parse_doubles(value, "--effect " + id, 1)[0];
-  require(e.kind == "torque_offset" || e.value > 0.0,
-          who + e.kind + " must be > 0, got " + shortest_number(e.value));
+  if (e.kind == "stribeck") {
+    e.values = parse_doubles(value, "--effect " + id, 3);
+    require(e.values[0] > 0.0 && e.values[1] > e.values[0] && e.values[2] > 0.0,
+            who + "stribeck takes Fc,Fs,vs with 0 < Fc < Fs [N m] and vs > 0 [rad/s]");
+    return e;
+  }
+  e.values = parse_doubles(value, "--effect " + id, 1);
+  require(e.kind == "torque_offset" || e.kind == "angle_offset" || e.values[0] > 0.0,
+          who + e.kind + " must be > 0, got " + shortest_number(e.values[0]));
   return e;
 }
 
@@ -77,7 +89,8 @@ void require_inertia_on_every_joint(const std::string& source, const ChainModel&
 /// The run of sid_simulate --robot --torque: open loop from rest at q0, at the file's times.
 SimulatedRobot driven_by_torque(const ChainSimulateOptions& o, const RobotDescription& robot,
                                 const ChainModel& model, const Eigen::VectorXd& theta,
-                                const Eigen::VectorXd& offset) {
+                                const Eigen::VectorXd& torque_offset,
+                                const Eigen::VectorXd& angle_offset) {
   require(o.trajectory.empty(), "--torque and --trajectory are two inputs; give one");
   const int n = model.joints();
   const CsvTable table = read_csv(o.torque);
@@ -104,7 +117,7 @@ SimulatedRobot driven_by_torque(const ChainSimulateOptions& o, const RobotDescri
                                                                : table.column("t")[0]) +
                         " s (" + run.message +
                         "); the torque does not hold the arm (gravity?) or spins it away");
-  return SimulatedRobot{robot, model, theta, offset, run.truth};
+  return SimulatedRobot{robot, model, theta, torque_offset, angle_offset, run.truth};
 }
 
 }  // namespace
@@ -155,30 +168,40 @@ SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& o, std::mt19937_
                                       DriveTermKind::Armature};
   if (springs) kinds.push_back(DriveTermKind::Spring);
   const auto per_joint = static_cast<Eigen::Index>(kinds.size());
-  const ChainModel model(robot.chain, robot.joint_names, drive_terms(kinds, direct), direct,
-                         o.coulomb_epsilon);
+  // A Stribeck curve is the joint's Coulomb level plus a term of its own width after the others.
+  std::vector<DriveTerm> terms = drive_terms(kinds, direct);
+  std::vector<double> stribeck_excess;
+  for (const ChainEffect& e : effects)
+    if (e.kind == "stribeck") {
+      terms.push_back({DriveTermKind::Stribeck, e.joint, false, e.values[2]});
+      stribeck_excess.push_back(e.values[1] - e.values[0]);
+    }
+  const ChainModel model(robot.chain, robot.joint_names, terms, direct, o.coulomb_epsilon);
   // theta: the URDF's links, its <dynamics> damping and friction, then the effects on top.
   Eigen::VectorXd theta = Eigen::VectorXd::Zero(model.parameters());
   theta.head(model.rigid_body_parameters()) = robot.link_parameters;
-  Eigen::VectorXd offset = Eigen::VectorXd::Zero(n);
+  Eigen::VectorXd torque_offset = Eigen::VectorXd::Zero(n), angle_offset = torque_offset;
   const Eigen::Index drives = model.rigid_body_parameters();
   for (int j = 0; j < n; ++j) {
     theta[drives + per_joint * j] = robot.damping[j];
     theta[drives + per_joint * j + 1] = robot.friction[j];
   }
+  theta.tail(static_cast<Eigen::Index>(stribeck_excess.size())) = Eigen::Map<const Eigen::VectorXd>(
+      stribeck_excess.data(), static_cast<Eigen::Index>(stribeck_excess.size()));
   for (const ChainEffect& e : effects) {
-    if (e.kind == "torque_offset") {
-      offset[e.joint] = e.value;
+    if (e.kind == "torque_offset" || e.kind == "angle_offset") {
+      (e.kind == "torque_offset" ? torque_offset : angle_offset)[e.joint] = e.values[0];
       continue;
     }
-    const int slot = e.kind == "viscous"    ? 0
-                     : e.kind == "coulomb"  ? 1
-                     : e.kind == "armature" ? 2
-                                            : 3;
-    theta[drives + per_joint * e.joint + slot] += e.value;
+    const int slot = e.kind == "viscous"                           ? 0
+                     : e.kind == "coulomb" || e.kind == "stribeck" ? 1
+                     : e.kind == "armature"                        ? 2
+                                                                   : 3;
+    theta[drives + per_joint * e.joint + slot] += e.values[0];
   }
 
-  if (!o.torque.empty()) return driven_by_torque(o, robot, model, theta, offset);
+  if (!o.torque.empty())
+    return driven_by_torque(o, robot, model, theta, torque_offset, angle_offset);
   FourierTrajectory desired;
   if (o.trajectory.empty()) {
     const ExcitationRoom room = excitation_room(robot, o.robot, o.q_range, o.qd_max);
@@ -202,7 +225,7 @@ SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& o, std::mt19937_
                         "): " + run.message +
                         "; check the description's inertias or the tolerances --rtol/--atol");
 
-  return SimulatedRobot{robot, model, theta, offset, run.truth};
+  return SimulatedRobot{robot, model, theta, torque_offset, angle_offset, run.truth};
 }
 
 long simulate_robot(const ChainSimulateOptions& o) {
@@ -236,7 +259,12 @@ long simulate_robot(const ChainSimulateOptions& o) {
                 << shortest_number(limit.upper) << "]\n";
   }
   ChainTrajectory<double> sensed{simulated.truth.t, simulated.truth.q, simulated.truth.tau};
-  for (int j = 0; j < n; ++j) sensed.tau.col(j).array() += simulated.torque_offset[j];
+  // The sensors' faults: a torque bias b adds to the torque, an encoder offset d is subtracted
+  // from the angle (the two-link arm's convention).
+  for (int j = 0; j < n; ++j) {
+    sensed.tau.col(j).array() += simulated.torque_offset[j];
+    sensed.q.col(j).array() -= simulated.angle_offset[j];
+  }
   const ChainTrajectory<double> measured =
       add_measurement_noise(sensed, MeasurementNoise<double>{o.sigma_q2, o.sigma_tau2}, rng);
 

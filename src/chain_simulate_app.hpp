@@ -22,8 +22,9 @@ struct ChainSimulateOptions {
   double duration = 10.0, sample_time = 0.0025;
   double sigma_q2 = 1e-6, sigma_tau2 = 1e-2;
   std::uint64_t seed = 1;
-  std::vector<std::string>
-      effects;  ///< viscous_jN:V, coulomb_jN:V, armature_jN:V, torque_offset_jN:V
+  /// viscous_jN:V, coulomb_jN:V, armature_jN:V, spring_jN:V, stribeck_jN:Fc,Fs,vs,
+  /// torque_offset_jN:V, angle_offset_qN:V
+  std::vector<std::string> effects;
   int harmonics = 5;
   double base_frequency = 0.1;  ///< [Hz]
   double q_range = 1.0;         ///< largest |q - q0| per joint [rad or m]
@@ -53,13 +54,15 @@ ExcitationRoom excitation_room(const RobotDescription& robot, const std::string&
                                double q_range, double qd_max);
 
 /// The experiment before any noise: the description, the model simulated (viscous, Coulomb and
-/// armature terms on every joint), its true parameters, the torque offsets of the effects
-/// (added to the sensed torque, not part of the model) and the true samples.
+/// armature terms on every joint, springs and Stribeck terms where asked), its true parameters,
+/// the sensor faults of the effects (torque offsets added to the sensed torque, angle offsets
+/// subtracted from the sensed angle; not part of the model) and the true samples.
 struct SimulatedRobot {
   RobotDescription robot;
   ChainModel model;
   Eigen::VectorXd theta;
   Eigen::VectorXd torque_offset;
+  Eigen::VectorXd angle_offset;
   ChainKinematics<double> truth;
 };
 

@@ -233,7 +233,10 @@ TEST_F(IdentifyRobot, SimulateRobotRefusesWhatItCannotSimulate) {
     EXPECT_NE(r.err.find(words), std::string::npos) << r.err;
   };
   refused("--robot " + urdf, "add a rotor, e.g. --effect armature_j6");
-  refused("--robot " + urdf + " --effect stribeck_j2:1", "unknown kind 'stribeck'");
+  refused("--robot " + urdf + " --effect stiction_j2:1", "unknown kind 'stiction'");
+  refused("--robot " + urdf + " --effect stribeck_j2:1", "needs 3 values");
+  refused("--robot " + urdf + " --effect stribeck_j2:1,0.5,0.1", "0 < Fc < Fs");
+  refused("--robot " + urdf + " --effect angle_offset_q7:0.1", "the joint must be 1..6");
   refused("--robot " + urdf + " --effect coulomb_j9:1", "the joint must be 1..6");
   refused("--robot " + urdf + " --effect coulomb_j2:-1", "coulomb must be > 0");
   refused("--robot " + urdf + " --excitation multisine", "random Fourier series");
@@ -254,6 +257,31 @@ TEST_F(IdentifyRobot, SimulateRobotWarnsAboveTheEffortLimit) {
   EXPECT_NE(r.err.find("warning: joint 'joint_2' needs up to"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("<limit effort> of 5"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.find("joint_3"), std::string::npos) << r.err;
+}
+
+// A Stribeck curve is friction the tracking torque pays at the tracked rate; an encoder offset
+// is subtracted from the measured angle and leaves the motion alone.
+TEST_F(IdentifyRobot, SimulateRobotHidesStribeckFrictionAndAngleOffsets) {
+  const std::string run = app("sid_simulate") + " --robot " + data("tx40_mdh_modified.urdf") +
+                          " --T 2 --Ts 0.01 --effect armature_j6:0.01 --sigma-q2 0"
+                          " --sigma-tau2 0 --truth -q ";
+  ASSERT_EQ(shell(run + "-o plain.csv").exit_code, 0);
+  const sid_test::AppRun hidden = shell(run +
+                                        "--effect stribeck_j3:0.2,0.5,0.1 "
+                                        "--effect angle_offset_q2:0.03 -o hidden.csv");
+  ASSERT_EQ(hidden.exit_code, 0) << hidden.err;
+  const sid::app::CsvTable plain = sid::app::read_csv(file("plain.csv"));
+  const sid::app::CsvTable t = sid::app::read_csv(file("hidden.csv"));
+  EXPECT_NE(read(file("hidden.csv")).find("fs_3=0.3"), std::string::npos);
+  const Eigen::VectorXd& qd3 = t.column("qd3");
+  const Eigen::ArrayXd friction =
+      (0.2 + 0.3 * (-(qd3.array() / 0.1).square()).exp()) * (qd3.array() / 0.01).tanh();
+  EXPECT_LT(
+      ((t.column("tau3_true") - plain.column("tau3_true")).array() - friction).abs().maxCoeff(),
+      1e-5);
+  EXPECT_GT(friction.abs().maxCoeff(), 0.4);  // the curve is reached: |qd3| < vs somewhere
+  EXPECT_LT(((t.column("q2") - t.column("q2_true")).array() + 0.03).abs().maxCoeff(), 1e-15);
+  EXPECT_LT((t.column("q2_true") - plain.column("q2_true")).cwiseAbs().maxCoeff(), 1e-6);
 }
 
 // --torque drives the arm open loop at the file's times from rest at --q0; a joint the torque

@@ -148,4 +148,47 @@ TEST(DiagnoseChain, SpringTermIsTheAngleInBothDynamicsRoutes) {
   EXPECT_LT((fast - slow).norm(), 1e-9 * slow.norm());
 }
 
+TEST(DiagnoseChain, StribeckTermIsItsBumpInBothDynamicsRoutes) {
+  // fs exp(-(v / vs)^2) tanh(v / eps), each joint's width its own, on joints and a motor.
+  Eigen::MatrixXd gear = Eigen::MatrixXd::Identity(6, 6);
+  gear(5, 4) = 1.0;
+  const sid::Transmission coupled(gear, Eigen::VectorXd::Zero(6));
+  std::vector<sid::DriveTerm> terms =
+      sid::drive_terms({sid::DriveTermKind::Armature, sid::DriveTermKind::Coulomb}, coupled);
+  for (int j = 0; j < 6; ++j)
+    terms.push_back({sid::DriveTermKind::Stribeck, j, false, 0.05 * (j + 1)});
+  terms.push_back({sid::DriveTermKind::Stribeck, 5, true, 0.2});
+  const sid::ChainModel model(tx40_arm().chain, tx40_arm().joint_names, terms, coupled, 0.02);
+  const Eigen::Index first = model.parameters() - 7;
+  EXPECT_EQ(model.parameter_names()[static_cast<std::size_t>(first)], "fs_1");
+  EXPECT_EQ(model.parameter_names().back(), "fs_m6");
+  EXPECT_EQ(sid::drive_term_id(terms.back()), "stribeck_m6");
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(model.parameters());
+  theta.head(60) = tx40_arm().theta.head(60);
+  for (Eigen::Index k = 60; k < model.parameters(); ++k)
+    theta[k] =
+        model.parameter_names()[static_cast<std::size_t>(k)].rfind("Ia_", 0) == 0 ? 0.01 : 0.7;
+  sid::ChainModel::Vector q(6), qd(6), qdd(6), tau(6);
+  q << 0.3, -0.5, 0.7, 0.2, -0.4, 0.9;
+  qd << 0.1, 0.2, -0.3, 0.04, 0.5, -0.6;
+  qdd.setZero();
+  tau << 1, 2, 3, 0.5, 0.2, 0.1;
+  Eigen::MatrixXd y(6, model.parameters());
+  model.regressor(q, qd, qdd, y);
+  for (int j = 0; j < 6; ++j) {
+    const double vs = 0.05 * (j + 1);
+    EXPECT_DOUBLE_EQ(y(j, first + j), std::exp(-std::pow(qd[j] / vs, 2)) * std::tanh(qd[j] / 0.02))
+        << j;
+  }
+  const double rate = qd[4] + qd[5];  // motor 6 turns with joints 5 and 6
+  EXPECT_DOUBLE_EQ(y(4, first + 6), std::exp(-std::pow(rate / 0.2, 2)) * std::tanh(rate / 0.02));
+  const sid::ChainModel::Vector fast = model.forward_dynamics(theta, q, qd, tau);
+  const sid::ChainModel::Vector slow = model.model().forward_dynamics(theta, q, qd, tau);
+  EXPECT_LT((fast - slow).norm(), 1e-9 * slow.norm());
+  terms.back().velocity = 0.0;
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::ChainModel(tx40_arm().chain, tx40_arm().joint_names, terms, coupled); },
+      "sid::ChainModel", "Stribeck");
+}
+
 }  // namespace

@@ -36,6 +36,7 @@ inline const char* drive_term_unit(DriveTermKind kind) {
     case DriveTermKind::Coulomb:
     case DriveTermKind::CoulombAsymmetry:
     case DriveTermKind::Offset:
+    case DriveTermKind::Stribeck:
       return "N m";
     case DriveTermKind::Armature:
       return "kg m^2";

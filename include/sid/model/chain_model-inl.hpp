@@ -28,6 +28,9 @@ SID_INLINE ChainModel::ChainModel(SerialChain<double> chain, std::vector<std::st
     throw std::invalid_argument(who + "coulomb_epsilon must be finite and >= 0");
   for (std::size_t a = 0; a < terms_.size(); ++a) {
     const DriveTerm& t = terms_[a];
+    if (t.kind == DriveTermKind::Stribeck && !(t.velocity > 0.0 && std::isfinite(t.velocity)))
+      throw std::invalid_argument(who + "the Stribeck term of " + term_place(t) +
+                                  " needs a finite velocity > 0");
     if (t.index < 0 || t.index >= n)
       throw std::invalid_argument(who + "a " + drive_term_keyword(t.kind) + " term is on joint " +
                                   std::to_string(t.index + 1) + " of " + std::to_string(n));
@@ -64,12 +67,12 @@ SID_INLINE ChainModel::Vector ChainModel::forward_dynamics(
       if (rotor)
         armature[t.index] += value;
       else
-        applied[t.index] -= value * term_value(t.kind, epsilon_, q[t.index], qd[t.index], 0.0);
+        applied[t.index] -= value * term_value(t, epsilon_, q[t.index], qd[t.index], 0.0);
     } else if (!rotor) {
       const double angle = directions_.row(t.index).dot(q);
       const double rate = directions_.row(t.index).dot(qd);
       applied -= directions_.row(t.index).transpose() *
-                 (value * term_value(t.kind, epsilon_, angle, rate, 0.0));
+                 (value * term_value(t, epsilon_, angle, rate, 0.0));
     } else if (value != 0.0) {
       const Eigen::Index m = motors.cols();
       motors.conservativeResize(n, m + 1);
@@ -112,7 +115,7 @@ SID_INLINE ChainModel::ModelTerm ChainModel::drive_term(const DriveTerm& t) cons
             [t, epsilon = epsilon_](const Vector& q, const Vector& qd, const Vector& qdd,
                                     RegressorView<double, Eigen::Dynamic> out) {
               out.setZero();
-              out(t.index, 0) = term_value(t.kind, epsilon, q[t.index], qd[t.index], qdd[t.index]);
+              out(t.index, 0) = term_value(t, epsilon, q[t.index], qd[t.index], qdd[t.index]);
             }};
   // The motor turns with direction . qd; its torque reaches every joint it turns.
   const Eigen::VectorXd direction = directions_.row(t.index).transpose();
@@ -120,8 +123,8 @@ SID_INLINE ChainModel::ModelTerm ChainModel::drive_term(const DriveTerm& t) cons
           {name},
           [t, epsilon = epsilon_, direction](const Vector& q, const Vector& qd, const Vector& qdd,
                                              RegressorView<double, Eigen::Dynamic> out) {
-            out.col(0) = direction * term_value(t.kind, epsilon, direction.dot(q),
-                                                direction.dot(qd), direction.dot(qdd));
+            out.col(0) = direction * term_value(t, epsilon, direction.dot(q), direction.dot(qd),
+                                                direction.dot(qdd));
           }};
 }
 

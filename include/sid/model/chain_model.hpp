@@ -39,6 +39,10 @@ enum class DriveTermKind {
   Offset,            ///< a constant torque (the drive's current offset)
   Armature,          ///< Ia a: the rotor's inertia seen through the gear
   Spring,            ///< k x, x its angle: a spring or a cable that pulls back to zero
+  /// fs exp(-(v / vs)^2) c(v): friction above the Coulomb level at low speed (the Stribeck
+  /// curve's excess, vs = DriveTerm::velocity); with a Coulomb term fc it makes
+  /// (fc + fs exp(-(v / vs)^2)) c(v).
+  Stribeck,
 };
 
 /// @brief One drive term; on_motor: it acts on motor `index`'s combination of joint rates
@@ -47,6 +51,7 @@ struct DriveTerm {
   DriveTermKind kind = DriveTermKind::Viscous;
   int index = 0;
   bool on_motor = false;
+  double velocity = 0.1;  ///< vs of a Stribeck term [rad/s or m/s], > 0; unused by the others
 };
 
 /// @brief The keyword of a kind, as --effects takes it.
@@ -64,12 +69,15 @@ inline const char* drive_term_keyword(DriveTermKind kind) {
       return "armature";
     case DriveTermKind::Spring:
       return "spring";
+    case DriveTermKind::Stribeck:
+      return "stribeck";
   }
   return "?";
 }
 
 /// @brief Parses a comma-separated list of kinds ("viscous,coulomb,offset,armature"); "none"
-/// gives the empty list.
+/// gives the empty list. A Stribeck term made from the list has the default width
+/// (DriveTerm::velocity).
 /// @throws std::invalid_argument naming an unknown or repeated keyword.
 inline std::vector<DriveTermKind> parse_drive_term_kinds(const std::string& text) {
   std::vector<DriveTermKind> kinds;
@@ -78,14 +86,16 @@ inline std::vector<DriveTermKind> parse_drive_term_kinds(const std::string& text
   std::string word;
   const DriveTermKind all[] = {DriveTermKind::Viscous,          DriveTermKind::Coulomb,
                                DriveTermKind::CoulombAsymmetry, DriveTermKind::Offset,
-                               DriveTermKind::Armature,         DriveTermKind::Spring};
+                               DriveTermKind::Armature,         DriveTermKind::Spring,
+                               DriveTermKind::Stribeck};
   while (std::getline(in, word, ',')) {
     const auto found = std::find_if(std::begin(all), std::end(all),
                                     [&](DriveTermKind k) { return word == drive_term_keyword(k); });
     if (found == std::end(all))
       throw std::invalid_argument(
           "unknown drive term '" + word +
-          "'; known: viscous, coulomb, coulomb_asymmetry, offset, armature, spring, or none");
+          "'; known: viscous, coulomb, coulomb_asymmetry, offset, armature, spring, stribeck, "
+          "or none");
     if (std::find(kinds.begin(), kinds.end(), *found) != kinds.end())
       throw std::invalid_argument("drive term '" + word + "' is given twice");
     kinds.push_back(*found);
@@ -139,7 +149,7 @@ class ChainModel {
   const std::vector<DriveTerm>& terms() const noexcept { return terms_; }
   const Transmission& transmission() const noexcept { return transmission_; }
   double coulomb_epsilon() const noexcept { return epsilon_; }
-  /// @brief m_1, mx_1, ..., Izz_n, then per term fv_j, fc_j, fa_j, off_j, Ia_j, k_j (motors:
+  /// @brief m_1, mx_1, ..., Izz_n, then per term fv_j, fc_j, fa_j, off_j, Ia_j, k_j, fs_j (motors:
   /// fv_mj ...).
   const std::vector<std::string>& parameter_names() const noexcept { return names_; }
   /// @brief The model itself: its terms, inverse and forward dynamics, mass matrix.
@@ -176,11 +186,12 @@ class ChainModel {
   SID_INLINE ModelTerm rigid_body_term() const;
   SID_INLINE ModelTerm drive_term(const DriveTerm& t) const;
 
-  static double term_value(DriveTermKind kind, double epsilon, double x, double v, double a) {
+  /// The value of term t's column at angle x, rate v and acceleration a.
+  static double term_value(const DriveTerm& t, double epsilon, double x, double v, double a) {
     const auto coulomb = [&] {
       return epsilon > 0.0 ? std::tanh(v / epsilon) : double((v > 0.0) - (v < 0.0));
     };
-    switch (kind) {
+    switch (t.kind) {
       case DriveTermKind::Viscous:
         return v;
       case DriveTermKind::Coulomb:
@@ -193,6 +204,10 @@ class ChainModel {
         return a;
       case DriveTermKind::Spring:
         return x;
+      case DriveTermKind::Stribeck: {
+        const double r = v / t.velocity;
+        return std::exp(-r * r) * coulomb();
+      }
     }
     return 0.0;
   }
@@ -202,7 +217,7 @@ class ChainModel {
   }
 
   static std::string term_name(const DriveTerm& t) {
-    static const char* const prefix[] = {"fv_", "fc_", "fa_", "off_", "Ia_", "k_"};
+    static const char* const prefix[] = {"fv_", "fc_", "fa_", "off_", "Ia_", "k_", "fs_"};
     return prefix[static_cast<int>(t.kind)] + std::string(t.on_motor ? "m" : "") +
            std::to_string(t.index + 1);
   }
