@@ -375,7 +375,8 @@ void BM_ChainHiddenTerms(benchmark::State& state) {
   const std::vector<Kind> kinds = {{sid::DriveTermKind::Coulomb, 1.0},
                                    {sid::DriveTermKind::Offset, 0.5},
                                    {sid::DriveTermKind::Spring, 1.0},
-                                   {sid::DriveTermKind::Armature, 0.05}};
+                                   {sid::DriveTermKind::Armature, 0.05},
+                                   {sid::DriveTermKind::Stribeck, 1.0}};  // width 0.1 rad/s
   int right = 0, total = 0;
   double seconds = 0.0, worst = 0.0;
   std::string report;

@@ -19,6 +19,13 @@ namespace {
 
 std::string number(const char* format, double v) { return format_number(format, v); }
 
+/// " (vs = 0.1 rad/s)" for a Stribeck term: which of its widths was tried.
+std::string width(const sid::DriveTerm& term) {
+  return term.kind == sid::DriveTermKind::Stribeck
+             ? " (vs = " + number("%.3g", term.velocity) + " rad/s)"
+             : std::string();
+}
+
 /// The free simulations of the nominal and the final model (each at its physically consistent
 /// fit), their angle error per joint over all runs.
 struct FreeSimulations {
@@ -106,12 +113,13 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
     out << "  nothing: no tried term passes the tests and is of practical size\n";
   for (const auto& e : r.named)
     out << "  " << e.id << " = " << number("%.5g", e.value) << " +- " << number("%.2g", e.std)
-        << " " << e.unit << "  (Wald " << number("%.3g", e.wald) << ", p (Holm) "
+        << " " << e.unit << width(e.term) << "  (Wald " << number("%.3g", e.wald) << ", p (Holm) "
         << number("%.2g", e.p_value) << ", BIC drop " << number("%.3g", e.bic_drop) << ", CV drop "
         << number("%.2f", 100.0 * e.cv_drop) << " %, size "
         << number("%.0f", 100.0 * e.practical_size.maxCoeff()) << " % of the noise)\n";
   out << "\nnot named:\n";
-  for (const auto& t : r.not_named) out << "  " << t.id << ": " << t.reason << "\n";
+  for (const auto& t : r.not_named)
+    out << "  " << t.id << width(t.term) << ": " << t.reason << "\n";
   double unexplained = 0.0;
   for (Eigen::Index j = 0; j < r.unexplained_rms.size(); ++j)
     unexplained = std::max(unexplained, r.unexplained_rms[j] / r.noise_floor[j]);
@@ -138,16 +146,18 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
 }
 
 nlohmann::json test_json(const sid::ChainEffectTest& t) {
-  return {{"id", t.id},
-          {"value", t.value},
-          {"std", t.std},
-          {"unit", t.unit},
-          {"wald", t.wald},
-          {"p_value", t.p_value},
-          {"bic_drop", t.bic_drop},
-          {"cv_drop", t.cv_drop},
-          {"practical_size", to_json_array(t.practical_size)},
-          {"reason", t.reason}};
+  nlohmann::json j = {{"id", t.id},
+                      {"value", t.value},
+                      {"std", t.std},
+                      {"unit", t.unit},
+                      {"wald", t.wald},
+                      {"p_value", t.p_value},
+                      {"bic_drop", t.bic_drop},
+                      {"cv_drop", t.cv_drop},
+                      {"practical_size", to_json_array(t.practical_size)},
+                      {"reason", t.reason}};
+  if (t.term.kind == sid::DriveTermKind::Stribeck) j["stribeck_velocity"] = t.term.velocity;
+  return j;
 }
 
 nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainModel& nominal,

@@ -50,16 +50,56 @@ inline bool same_place(const DriveTerm& a, const DriveTerm& b) {
   return a.kind == b.kind && a.index == b.index && a.on_motor == b.on_motor;
 }
 
-/// The candidates: every kind on every joint and coupled motor the nominal model lacks.
+/// The candidates: every kind on every joint and coupled motor the nominal model lacks, a
+/// Stribeck term at each of the widths.
 inline std::vector<DriveTerm> chain_candidates(const ChainModel& nominal,
-                                               const std::vector<DriveTermKind>& kinds) {
+                                               const std::vector<DriveTermKind>& kinds,
+                                               const std::vector<double>& stribeck_velocities) {
   std::vector<DriveTerm> out;
   for (const DriveTerm& t : drive_terms(kinds, nominal.transmission())) {
     const bool present = std::any_of(nominal.terms().begin(), nominal.terms().end(),
                                      [&](const DriveTerm& n) { return same_place(n, t); });
-    if (!present) out.push_back(t);
+    if (present) continue;
+    if (t.kind != DriveTermKind::Stribeck) {
+      out.push_back(t);
+      continue;
+    }
+    for (const double vs : stribeck_velocities) {
+      DriveTerm w = t;
+      w.velocity = vs;
+      out.push_back(w);
+    }
   }
   return out;
+}
+
+/// In place: of the tests of Stribeck candidates at one place, only the width whose column
+/// explains most of the residual (largest reduction `gain`) stays; the others wait for the next
+/// round. Keeps the parallel vectors in step.
+inline void keep_best_stribeck_width(std::vector<ChainEffectTest>& tests,
+                                     std::vector<Eigen::Index>& tested, std::vector<double>& p_raw,
+                                     std::vector<double>& gain) {
+  std::vector<bool> keep(tests.size(), true);
+  for (std::size_t i = 0; i < tests.size(); ++i) {
+    if (tests[i].term.kind != DriveTermKind::Stribeck) continue;
+    for (std::size_t k = 0; k < tests.size(); ++k)
+      if (k != i && same_place(tests[k].term, tests[i].term) &&
+          (gain[k] > gain[i] || (gain[k] == gain[i] && k < i)))
+        keep[i] = false;
+  }
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < tests.size(); ++i) {
+    if (!keep[i]) continue;
+    if (out != i) tests[out] = std::move(tests[i]);
+    tested[out] = tested[i];
+    p_raw[out] = p_raw[i];
+    gain[out] = gain[i];
+    ++out;
+  }
+  tests.resize(out);
+  tested.resize(out);
+  p_raw.resize(out);
+  gain.resize(out);
 }
 
 /// Every equation of the runs on every column the diagnosis may use (the nominal model's base
@@ -199,6 +239,13 @@ inline void check_chain_diagnose_options(const ChainDiagnoseOptions& o, int join
   const std::string who = "sid::diagnose_chain: ";
   check_chain_options(o.identify, joints, "sid::diagnose_chain");
   if (o.candidate_kinds.empty()) throw std::invalid_argument(who + "no candidate kinds given");
+  const bool stribeck = std::find(o.candidate_kinds.begin(), o.candidate_kinds.end(),
+                                  DriveTermKind::Stribeck) != o.candidate_kinds.end();
+  if (stribeck && o.stribeck_velocities.empty())
+    throw std::invalid_argument(who + "Stribeck candidates need at least one width");
+  for (const double vs : o.stribeck_velocities)
+    if (!(vs > 0.0) || !std::isfinite(vs))
+      throw std::invalid_argument(who + "stribeck_velocities must be finite and > 0");
   if (!(o.family_alpha > 0.0 && o.family_alpha < 1.0))
     throw std::invalid_argument(who + "family_alpha must be in (0, 1)");
   if (o.cv_blocks < 2) throw std::invalid_argument(who + "cv_blocks must be >= 2");
@@ -267,7 +314,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   ChainDiagnosis result;
   result.cutoff_hz = id.cutoff_hz;
   const std::vector<DriveTerm> candidates =
-      detail::chain_candidates(nominal, options.candidate_kinds);
+      detail::chain_candidates(nominal, options.candidate_kinds, options.stribeck_velocities);
   std::vector<DriveTerm> all_terms = nominal.terms();
   all_terms.insert(all_terms.end(), candidates.begin(), candidates.end());
   const ChainModel full(nominal.chain(), nominal.joint_names(), all_terms, nominal.transmission(),
@@ -318,13 +365,14 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   };
 
   std::vector<ChainEffectTest> last_round;
+  std::vector<Eigen::Index> last_tested;
   while (!remaining.empty()) {
     const detail::ChainRound round(d, selected);
     // The first round fits the nominal model alone.
     if (result.nominal_residual_rms.size() == 0) result.nominal_residual_rms = measured_rms(round);
     std::vector<ChainEffectTest> tests;
     std::vector<Eigen::Index> tested;
-    std::vector<double> p_raw;
+    std::vector<double> p_raw, gain;
     for (auto it = remaining.begin(); it != remaining.end();) {
       const Eigen::Index column = base_count + *it;
       ChainEffectTest t = make_test(*it);
@@ -361,8 +409,11 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
                                   : 0.0;
       tests.push_back(std::move(t));
       tested.push_back(*it);
+      gain.push_back(gamma * gamma * zz);
       ++it;
     }
+    detail::keep_best_stribeck_width(tests, tested, p_raw, gain);
+    last_tested = tested;
     if (tests.empty()) break;
     const std::vector<double> p = holm_adjusted(p_raw);
     int best = -1;
@@ -396,11 +447,32 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     const Eigen::Index chosen = tested[static_cast<std::size_t>(best)];
     ChainEffectTest named = std::move(tests[static_cast<std::size_t>(best)]);
     named.reason.clear();
+    const DriveTerm chosen_term = named.term;
     result.named.push_back(std::move(named));
     selected.push_back(base_count + chosen);
     remaining.erase(std::find(remaining.begin(), remaining.end(), chosen));
+    // One Stribeck curve per joint: the other widths there are not another effect.
+    for (auto it = remaining.begin(); it != remaining.end();) {
+      const DriveTerm& other = candidates[static_cast<std::size_t>(*it)];
+      if (chosen_term.kind != DriveTermKind::Stribeck || !detail::same_place(other, chosen_term)) {
+        ++it;
+        continue;
+      }
+      ChainEffectTest t = make_test(*it);
+      t.reason = "the Stribeck width " + detail::significant(chosen_term.velocity, 3) +
+                 " fits this joint better";
+      result.not_named.push_back(std::move(t));
+      it = remaining.erase(it);
+    }
   }
   result.not_named.insert(result.not_named.end(), last_round.begin(), last_round.end());
+  // Stribeck widths the last round did not test: another width of theirs fitted better.
+  for (const Eigen::Index c : remaining)
+    if (std::find(last_tested.begin(), last_tested.end(), c) == last_tested.end()) {
+      ChainEffectTest t = make_test(c);
+      t.reason = "another Stribeck width fits this joint better";
+      result.not_named.push_back(std::move(t));
+    }
 
   // The final fit: values and HAC standard deviations of the named terms.
   const detail::ChainRound final_round(d, selected);

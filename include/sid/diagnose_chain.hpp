@@ -33,9 +33,13 @@ struct ChainDiagnoseOptions {
   ChainIdentifyOptions identify;
   /// The kinds tried on every joint and coupled motor where the nominal model lacks them (offsets
   /// on joints only).
-  std::vector<DriveTermKind> candidate_kinds = {DriveTermKind::Coulomb, DriveTermKind::Offset,
+  std::vector<DriveTermKind> candidate_kinds = {DriveTermKind::Coulomb,  DriveTermKind::Offset,
                                                 DriveTermKind::Armature, DriveTermKind::Spring,
-                                                DriveTermKind::Viscous};
+                                                DriveTermKind::Viscous,  DriveTermKind::Stribeck};
+  /// The widths vs [rad/s or m/s] a Stribeck candidate is tried at: in each round only the width
+  /// that explains most of the residual is tested (its p-value is the smallest of the widths',
+  /// a mild selection), and once one is named the others on that joint are dropped.
+  std::vector<double> stribeck_velocities = {0.03, 0.1, 0.3};
   double family_alpha = 0.01;  ///< of the HAC Wald tests, Holm over a round's candidates
   /// Contiguous time blocks per run of the blocked cross-validation (each predicted from the fit
   /// on all other blocks of all runs), >= 2. With three runs or more, each run is one block:

@@ -136,7 +136,7 @@ class ChainModel {
   /// @param joint_names one per joint, for reports; empty: "1".."n".
   /// @param coulomb_epsilon the Coulomb terms' tanh velocity [rad/s, or m/s]; 0 takes sign(v).
   /// @throws std::invalid_argument if the sizes disagree, an index is out of range or the same
-  ///         term is given twice.
+  ///         term is given twice (Stribeck terms of different widths are different terms).
   SID_INLINE ChainModel(SerialChain<double> chain, std::vector<std::string> joint_names,
                         std::vector<DriveTerm> terms, Transmission transmission,
                         double coulomb_epsilon = 0.01);
@@ -216,10 +216,21 @@ class ChainModel {
     return (t.on_motor ? "motor " : "joint ") + std::to_string(t.index + 1);
   }
 
-  static std::string term_name(const DriveTerm& t) {
+  /// fv_3, fc_m6, ...; a Stribeck term that shares its joint with one of another width has its
+  /// width too (fs_3@0.1), so that every parameter has a name of its own.
+  std::string term_name(const DriveTerm& t) const {
     static const char* const prefix[] = {"fv_", "fc_", "fa_", "off_", "Ia_", "k_", "fs_"};
-    return prefix[static_cast<int>(t.kind)] + std::string(t.on_motor ? "m" : "") +
-           std::to_string(t.index + 1);
+    std::string name = prefix[static_cast<int>(t.kind)] + std::string(t.on_motor ? "m" : "") +
+                       std::to_string(t.index + 1);
+    const bool widths = std::count_if(terms_.begin(), terms_.end(), [&](const DriveTerm& o) {
+                          return o.kind == t.kind && o.index == t.index && o.on_motor == t.on_motor;
+                        }) > 1;
+    if (t.kind == DriveTermKind::Stribeck && widths) {
+      std::ostringstream width;
+      width << t.velocity;
+      name += "@" + width.str();
+    }
+    return name;
   }
 
   SerialChain<double> chain_;
