@@ -57,8 +57,9 @@ Any serial chain (--robot FILE, a URDF or DH table, as sid_identify --robot take
   logs (t, q1..qn, tau1..taun; motor-side with --transmission) are smoothed per joint at the
   cutoff of a GCV spline of its angles, and the nominal model (rigid bodies and --drives) is
   fitted. Then every drive term kind of --candidates (default coulomb, offset, armature,
-  spring, viscous) on every joint and coupled motor where the model lacks it is tested against
-  the residual: named only if its HAC Wald test rejects (Holm, 1 %), BIC and the blocked
+  spring, viscous, stribeck: a Stribeck curve at widths 0.03, 0.1 and 0.3 rad/s, the best
+  fitting one tested) on every joint and coupled motor where the model lacks it is tested
+  against the residual: named only if its HAC Wald test rejects (Holm, 1 %), BIC and the blocked
   cross-validation error drop, its value is physical, and it changes the torque prediction by
   at least --negligible-size of the joint's torque noise (otherwise: significant but
   negligible). Reported: per joint the noise, the residual before and after and what no tried
