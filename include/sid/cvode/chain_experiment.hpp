@@ -44,6 +44,39 @@ struct [[nodiscard]] ChainExperimentResult {
   ChainTrajectory<double> trajectory() const { return {truth.t, truth.q, truth.tau}; }
 };
 
+namespace detail {
+
+/// The true samples of a chain simulation on the grid t: the states CVODE reached, the torque
+/// applied(k, q, qd) at sample k and the model's accelerations under it.
+template <typename Applied>
+ChainExperimentResult chain_experiment_result(const ChainModel& model, const Eigen::VectorXd& theta,
+                                              const Eigen::VectorXd& t, const SimulationResult& sim,
+                                              const Applied& applied) {
+  using Vector = ChainModel::Vector;
+  const int n = model.joints();
+  ChainExperimentResult result;
+  result.status = sim.status;
+  result.flag_name = sim.flag_name;
+  result.message = sim.message;
+  result.statistics = sim.statistics;
+  const Eigen::Index samples = sim.completed;
+  ChainKinematics<double>& truth = result.truth;
+  truth.t = t.head(samples);
+  truth.q = sim.states.topLeftCorner(samples, n);
+  truth.qd = sim.states.block(0, n, samples, n);
+  truth.qdd.resize(samples, n);
+  truth.tau.resize(samples, n);
+  for (Eigen::Index k = 0; k < samples; ++k) {
+    const Vector q = truth.q.row(k).transpose(), qd = truth.qd.row(k).transpose();
+    const Vector tau = applied(k, q, qd);
+    truth.tau.row(k) = tau.transpose();
+    truth.qdd.row(k) = model.forward_dynamics(theta, q, qd, tau).transpose();
+  }
+  return result;
+}
+
+}  // namespace detail
+
 /// @brief Simulates model at parameters theta (model.parameter_names() order) tracking desired
 /// from its own initial state, through the model's O(n) forward dynamics.
 /// @throws std::invalid_argument for sizes that disagree, a bad grid, bad gains or an invalid
@@ -93,25 +126,9 @@ inline ChainExperimentResult simulate_chain_experiment(const ChainModel& model,
   };
   const SimulationResult sim = simulate(rhs, x0, t, experiment.simulator);
 
-  ChainExperimentResult result;
-  result.status = sim.status;
-  result.flag_name = sim.flag_name;
-  result.message = sim.message;
-  result.statistics = sim.statistics;
-  const Eigen::Index samples = sim.completed;
-  ChainKinematics<double>& truth = result.truth;
-  truth.t = t.head(samples);
-  truth.q = sim.states.topLeftCorner(samples, n);
-  truth.qd = sim.states.block(0, n, samples, n);
-  truth.qdd.resize(samples, n);
-  truth.tau.resize(samples, n);
-  for (Eigen::Index k = 0; k < samples; ++k) {
-    const Vector q = truth.q.row(k).transpose(), qd = truth.qd.row(k).transpose();
-    const Vector tau = applied(t[k], q, qd);
-    truth.tau.row(k) = tau.transpose();
-    truth.qdd.row(k) = model.forward_dynamics(theta, q, qd, tau).transpose();
-  }
-  return result;
+  return detail::chain_experiment_result(
+      model, theta, t, sim,
+      [&](Eigen::Index k, const Vector& q, const Vector& qd) { return applied(t[k], q, qd); });
 }
 
 /// @brief Simulates model at parameters theta open loop from the state x0 = (q, qd), driven by
@@ -161,24 +178,9 @@ inline ChainExperimentResult simulate_chain_torque(
   };
   const SimulationResult sim = simulate(rhs, x0, t, simulator);
 
-  ChainExperimentResult result;
-  result.status = sim.status;
-  result.flag_name = sim.flag_name;
-  result.message = sim.message;
-  result.statistics = sim.statistics;
-  const Eigen::Index samples = sim.completed;
-  ChainKinematics<double>& truth = result.truth;
-  truth.t = t.head(samples);
-  truth.q = sim.states.topLeftCorner(samples, n);
-  truth.qd = sim.states.block(0, n, samples, n);
-  truth.tau = tau.topRows(samples);
-  truth.qdd.resize(samples, n);
-  for (Eigen::Index k = 0; k < samples; ++k) {
-    const Vector q = truth.q.row(k).transpose(), qd = truth.qd.row(k).transpose(),
-                 torque = truth.tau.row(k).transpose();
-    truth.qdd.row(k) = model.forward_dynamics(theta, q, qd, torque).transpose();
-  }
-  return result;
+  return detail::chain_experiment_result(
+      model, theta, t, sim,
+      [&](Eigen::Index k, const Vector&, const Vector&) { return Vector(tau.row(k).transpose()); });
 }
 
 }  // namespace sid
