@@ -392,6 +392,7 @@ void BM_ChainHiddenTerms(benchmark::State& state) {
         std::snprintf(value, sizeof value, "%s=%.4g(+-%.2g; cv %.2g %%)", e.id.c_str(), e.value,
                       e.std, 100.0 * e.cv_drop);
         named += (named.empty() ? "" : ",") + std::string(value);
+        if (!e.caveat.empty()) named += " (caveat: " + e.caveat.substr(0, e.caveat.find(' ')) + ")";
       }
       for (const auto& t : r.not_named)
         if (t.reason.rfind("not separable", 0) == 0)

@@ -116,7 +116,8 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
         << " " << e.unit << width(e.term) << "  (Wald " << number("%.3g", e.wald) << ", p (Holm) "
         << number("%.2g", e.p_value) << ", BIC drop " << number("%.3g", e.bic_drop) << ", CV drop "
         << number("%.2f", 100.0 * e.cv_drop) << " %, size "
-        << number("%.0f", 100.0 * e.practical_size.maxCoeff()) << " % of the noise)\n";
+        << number("%.0f", 100.0 * e.practical_size.maxCoeff()) << " % of the noise)\n"
+        << (e.caveat.empty() ? "" : "    but: " + e.caveat + "\n");
   out << "\nnot named:\n";
   for (const auto& t : r.not_named)
     out << "  " << t.id << width(t.term) << ": " << t.reason << "\n";
@@ -155,7 +156,8 @@ nlohmann::json test_json(const sid::ChainEffectTest& t) {
                       {"bic_drop", t.bic_drop},
                       {"cv_drop", t.cv_drop},
                       {"practical_size", to_json_array(t.practical_size)},
-                      {"reason", t.reason}};
+                      {"reason", t.reason},
+                      {"caveat", t.caveat}};
   if (t.term.kind == sid::DriveTermKind::Stribeck) j["stribeck_velocity"] = t.term.velocity;
   return j;
 }

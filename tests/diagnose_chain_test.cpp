@@ -123,6 +123,25 @@ TEST(DiagnoseChain, ThrowsOnBadInput) {
 
 // The spring drive term: its column is the joint's angle, and both forward-dynamics routes
 // apply it.
+// A spring on joint 2 is not separable from gravity on this motion; its part the model leaves
+// is named as an offset, and the report says that the offset may stand for the spring.
+TEST(DiagnoseChain, SaysWhenANamedTermMayStandForAnInseparableOne) {
+#ifdef SID_SANITIZED_TESTS
+  GTEST_SKIP() << "numbers only; the paths run in NamesTheHiddenDriveTermOnItsJoint...";
+#endif
+  const sid::ChainTrajectory<double> data =
+      tx40_hidden_term_run({{{sid::DriveTermKind::Spring, 1, false}, 1.0}}, 1);
+  const sid::ChainDiagnosis r = sid::diagnose_chain(tx40_nominal(), {data});
+  ASSERT_EQ(named_ids(r), std::vector<std::string>{"offset_j2"});
+  EXPECT_NE(r.named[0].caveat.find("spring_j2 is not separable"), std::string::npos)
+      << r.named[0].caveat;
+  sid::ChainDiagnoseOptions strict;
+  strict.look_alike = 1.0;
+  const sid::ChainDiagnosis without = sid::diagnose_chain(tx40_nominal(), {data}, strict);
+  ASSERT_EQ(named_ids(without), std::vector<std::string>{"offset_j2"});
+  EXPECT_TRUE(without.named[0].caveat.empty()) << without.named[0].caveat;
+}
+
 TEST(DiagnoseChain, SpringTermIsTheAngleInBothDynamicsRoutes) {
   const sid::Transmission direct(6);
   const sid::ChainModel model(

@@ -255,6 +255,8 @@ inline void check_chain_diagnose_options(const ChainDiagnoseOptions& o, int join
     throw std::invalid_argument(who + "separability_r2 must be in (0, 1)");
   if (!(o.negligible_size >= 0.0 && o.negligible_size < 1.0))
     throw std::invalid_argument(who + "negligible_size must be in [0, 1)");
+  if (!(o.look_alike >= 0.0 && o.look_alike <= 1.0))
+    throw std::invalid_argument(who + "look_alike must be in [0, 1]");
 }
 
 /// Per joint, the cutoff of the GCV smoothing spline of its angles (geometric mean over the
@@ -365,7 +367,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   };
 
   std::vector<ChainEffectTest> last_round;
-  std::vector<Eigen::Index> last_tested;
+  std::vector<Eigen::Index> last_tested, inseparable, named_positions;
   while (!remaining.empty()) {
     const detail::ChainRound round(d, selected);
     // The first round fits the nominal model alone.
@@ -383,6 +385,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
         t.reason = "not separable: the model's columns explain its column (R^2 > " +
                    detail::significant(options.separability_r2, 6) + ")";
         result.not_named.push_back(std::move(t));
+        inseparable.push_back(*it);
         it = remaining.erase(it);
         continue;
       }
@@ -449,6 +452,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     named.reason.clear();
     const DriveTerm chosen_term = named.term;
     result.named.push_back(std::move(named));
+    named_positions.push_back(chosen);
     selected.push_back(base_count + chosen);
     remaining.erase(std::find(remaining.begin(), remaining.end(), chosen));
     // One Stribeck curve per joint: the other widths there are not another effect.
@@ -473,6 +477,31 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
       t.reason = "another Stribeck width fits this joint better";
       result.not_named.push_back(std::move(t));
     }
+
+  // A named term may stand for a candidate of its joint that this motion cannot separate.
+  if (!inseparable.empty() && !named_positions.empty()) {
+    const detail::ChainRound nominal_round(
+        d, std::vector<Eigen::Index>(selected.begin(), selected.begin() + base_count));
+    const auto given_nominal = [&](Eigen::Index c) {
+      const Eigen::VectorXd z = d.x.col(base_count + c);
+      return Eigen::VectorXd(z - nominal_round.q * (nominal_round.q.transpose() * z));
+    };
+    for (std::size_t i = 0; i < result.named.size(); ++i) {
+      ChainEffectTest& t = result.named[i];
+      const Eigen::VectorXd a = given_nominal(named_positions[i]);
+      for (const Eigen::Index c : inseparable) {
+        const DriveTerm& other = candidates[static_cast<std::size_t>(c)];
+        if (other.index != t.term.index || other.on_motor != t.term.on_motor) continue;
+        const Eigen::VectorXd b = given_nominal(c);
+        const double correlation = std::abs(a.dot(b)) / std::max(a.norm() * b.norm(), 1e-300);
+        if (correlation > options.look_alike)
+          t.caveat += (t.caveat.empty() ? "" : "; ") + drive_term_id(other) +
+                      " is not separable from the model on this motion, and its part the "
+                      "model does not explain looks like this term's (correlation " +
+                      detail::significant(correlation, 2) + "): the named term may stand for it";
+      }
+    }
+  }
 
   // The final fit: values and HAC standard deviations of the named terms.
   const detail::ChainRound final_round(d, selected);
