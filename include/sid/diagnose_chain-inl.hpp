@@ -368,10 +368,14 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
 
   std::vector<ChainEffectTest> last_round;
   std::vector<Eigen::Index> last_tested, inseparable, named_positions;
+  Eigen::MatrixXd nominal_q;  // orthonormal basis of the nominal model's columns
   while (!remaining.empty()) {
     const detail::ChainRound round(d, selected);
     // The first round fits the nominal model alone.
-    if (result.nominal_residual_rms.size() == 0) result.nominal_residual_rms = measured_rms(round);
+    if (result.nominal_residual_rms.size() == 0) {
+      result.nominal_residual_rms = measured_rms(round);
+      nominal_q = round.q;
+    }
     std::vector<ChainEffectTest> tests;
     std::vector<Eigen::Index> tested;
     std::vector<double> p_raw, gain;
@@ -480,11 +484,9 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
 
   // A named term may stand for a candidate of its joint that this motion cannot separate.
   if (!inseparable.empty() && !named_positions.empty()) {
-    const detail::ChainRound nominal_round(
-        d, std::vector<Eigen::Index>(selected.begin(), selected.begin() + base_count));
     const auto given_nominal = [&](Eigen::Index c) {
       const Eigen::VectorXd z = d.x.col(base_count + c);
-      return Eigen::VectorXd(z - nominal_round.q * (nominal_round.q.transpose() * z));
+      return Eigen::VectorXd(z - nominal_q * (nominal_q.transpose() * z));
     };
     for (std::size_t i = 0; i < result.named.size(); ++i) {
       ChainEffectTest& t = result.named[i];

@@ -108,27 +108,17 @@ inline bool simulate_chain_states(const ChainModel& model, const Eigen::VectorXd
     xdot.head(n) = qd;
     xdot.tail(n) = model.forward_dynamics(theta, q, qd, drive_at(k.t, drive, time));
   };
+  const bool simulated_ok = simulate_segments(
+      rhs,
+      [&](Eigen::Index begin) {
+        const Eigen::Index at = samples[static_cast<std::size_t>(begin)];
+        Eigen::VectorXd start(2 * n);
+        start << k.q.row(at).transpose(), k.qd.row(at).transpose();
+        return start;
+      },
+      options.segment, options.simulator, who, it, simulated, result);
+  if (!simulated_ok) return false;
   const auto count = static_cast<Eigen::Index>(samples.size());
-  // Segments [begin, end] of the chosen samples share their boundary sample.
-  for (Eigen::Index begin = 0; begin < count - 1;) {
-    Eigen::Index end = begin + 1;
-    while (end < count - 1 && simulated.t[end] < simulated.t[begin] + options.segment) ++end;
-    const Eigen::Index at = samples[static_cast<std::size_t>(begin)];
-    Eigen::VectorXd start(2 * n);
-    start << k.q.row(at).transpose(), k.qd.row(at).transpose();
-    const SimulationResult sim =
-        simulate(rhs, start, simulated.t.segment(begin, end - begin + 1), options.simulator);
-    if (!sim.ok()) {
-      result.failed = true;
-      result.message = std::string(who) + ": the simulation of iteration " + std::to_string(it) +
-                       " failed at t = " + std::to_string(k.t[at]) + " s (" + sim.flag_name +
-                       "): " + sim.message;
-      return false;
-    }
-    simulated.q.middleRows(begin, end - begin + 1) = sim.states.leftCols(n);
-    simulated.qd.middleRows(begin, end - begin + 1) = sim.states.rightCols(n);
-    begin = end;
-  }
   for (Eigen::Index a = 0; a < count; ++a) {
     const Vector q = simulated.q.row(a).transpose(), qd = simulated.qd.row(a).transpose(),
                  tau = simulated.tau.row(a).transpose();

@@ -82,7 +82,6 @@ SID_INLINE bool simulate_states(const Kinematics<double>& k, const MatrixX2<doub
                                 const TwoLinkParameters<double>& theta,
                                 const InstrumentalVariableOptions& options, const char* who, int it,
                                 Kinematics<double>& simulated, InstrumentalVariableResult& result) {
-  const Eigen::Index n = k.size();
   auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
                  Eigen::Map<Eigen::VectorXd>& xdot) {
     const Vector2<double> q = x.head<2>(), qd = x.tail<2>();
@@ -90,26 +89,15 @@ SID_INLINE bool simulate_states(const Kinematics<double>& k, const MatrixX2<doub
     xdot.tail<2>() =
         two_link_forward_dynamics(theta, q, qd, drive_at(k.t, drive, time), options.gravity);
   };
-  // Segments [begin, end] share their boundary sample; each starts from the smoothed state.
-  for (Eigen::Index begin = 0; begin < n - 1;) {
-    Eigen::Index end = begin + 1;
-    while (end < n - 1 && k.t[end] < k.t[begin] + options.segment) ++end;
-    Eigen::VectorXd start(4);
-    start << k.q.row(begin).transpose(), k.qd.row(begin).transpose();
-    const SimulationResult sim =
-        simulate(rhs, start, k.t.segment(begin, end - begin + 1), options.simulator);
-    if (!sim.ok()) {
-      result.failed = true;
-      result.message = std::string(who) + ": the simulation of iteration " + std::to_string(it) +
-                       " failed at t = " + std::to_string(k.t[begin]) + " s (" + sim.flag_name +
-                       "): " + sim.message;
-      return false;
-    }
-    simulated.q.middleRows(begin, end - begin + 1) = sim.states.leftCols(2);
-    simulated.qd.middleRows(begin, end - begin + 1) = sim.states.rightCols(2);
-    begin = end;
-  }
-  return true;
+  // Each segment starts from the smoothed state.
+  return simulate_segments(
+      rhs,
+      [&](Eigen::Index begin) {
+        Eigen::VectorXd start(4);
+        start << k.q.row(begin).transpose(), k.qd.row(begin).transpose();
+        return start;
+      },
+      options.segment, options.simulator, who, it, simulated, result);
 }
 
 /// simulated.qdd from the model at θ in the simulated states, driven by `drive` at the samples.

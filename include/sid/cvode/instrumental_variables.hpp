@@ -97,6 +97,34 @@ JointVector<double, Joints> drive_at(const VectorX<double>& t,
   return (1.0 - a) * drive.row(i).transpose() + a * drive.row(i + 1).transpose();
 }
 
+/// Simulates rhs into simulated.q and qd at the times simulated.t, in segments of `segment`
+/// seconds that share their boundary sample; segment a starting at sample b starts from
+/// start_at(b). False, with the failure in result (`it` numbers the iteration), if a
+/// simulation failed.
+template <int Joints, typename Rhs, typename Start>
+bool simulate_segments(const Rhs& rhs, const Start& start_at, double segment,
+                       const SimulatorOptions& simulator, const char* who, int it,
+                       Kinematics<double, Joints>& simulated, InstrumentalVariableResult& result) {
+  const Eigen::Index count = simulated.size(), n = simulated.q.cols();
+  for (Eigen::Index begin = 0; begin < count - 1;) {
+    Eigen::Index end = begin + 1;
+    while (end < count - 1 && simulated.t[end] < simulated.t[begin] + segment) ++end;
+    const SimulationResult sim =
+        simulate(rhs, start_at(begin), simulated.t.segment(begin, end - begin + 1), simulator);
+    if (!sim.ok()) {
+      result.failed = true;
+      result.message = std::string(who) + ": the simulation of iteration " + std::to_string(it) +
+                       " failed at t = " + std::to_string(simulated.t[begin]) + " s (" +
+                       sim.flag_name + "): " + sim.message;
+      return false;
+    }
+    simulated.q.middleRows(begin, end - begin + 1) = sim.states.leftCols(n);
+    simulated.qd.middleRows(begin, end - begin + 1) = sim.states.rightCols(n);
+    begin = end;
+  }
+  return true;
+}
+
 /// The IV statistics for a given θ (fills everything least_squares would); the rows are joint
 /// by joint, `joints` blocks of equal length.
 SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::VectorXd& y,
