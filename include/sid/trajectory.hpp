@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -99,5 +100,21 @@ template <typename Scalar>
 using ChainTrajectory = Trajectory<Scalar, Eigen::Dynamic>;
 template <typename Scalar>
 using ChainKinematics = Kinematics<Scalar, Eigen::Dynamic>;
+
+namespace detail {
+
+/// The drive at `time`: linear between the samples at t, held beyond the ends.
+template <int Joints>
+JointVector<double, Joints> drive_at(const VectorX<double>& t,
+                                     const JointSamples<double, Joints>& drive, double time) {
+  const Eigen::Index n = t.size();
+  if (time <= t[0]) return drive.row(0).transpose();
+  if (time >= t[n - 1]) return drive.row(n - 1).transpose();
+  const Eigen::Index i = std::upper_bound(t.data(), t.data() + n, time) - t.data() - 1;
+  const double a = (time - t[i]) / (t[i + 1] - t[i]);
+  return (1.0 - a) * drive.row(i).transpose() + a * drive.row(i + 1).transpose();
+}
+
+}  // namespace detail
 
 }  // namespace sid

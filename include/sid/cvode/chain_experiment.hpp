@@ -13,7 +13,6 @@
 
 #include <Eigen/Core>
 
-#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -161,20 +160,13 @@ inline ChainExperimentResult simulate_chain_torque(
   if (!(blow_up > 0.0)) throw std::invalid_argument(who + "blow_up must be > 0");
 
   using Vector = ChainModel::Vector;
-  const auto applied = [&](double time) {
-    const Eigen::Index last = t.size() - 1;
-    const Eigen::Index i = std::clamp<Eigen::Index>(
-        std::upper_bound(t.data(), t.data() + t.size(), time) - t.data() - 1, 0, last - 1);
-    const double s = std::clamp((time - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0);
-    return Vector(((1.0 - s) * tau.row(i) + s * tau.row(i + 1)).transpose());
-  };
   auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
                  Eigen::Map<Eigen::VectorXd>& xdot) {
     if (x.cwiseAbs().maxCoeff() > blow_up)
       throw std::runtime_error("the state passed the blow-up bound " + std::to_string(blow_up));
     const Vector q = x.head(n), qd = x.tail(n);
     xdot.head(n) = qd;
-    xdot.tail(n) = model.forward_dynamics(theta, q, qd, applied(time));
+    xdot.tail(n) = model.forward_dynamics(theta, q, qd, detail::drive_at(t, tau, time));
   };
   const SimulationResult sim = simulate(rhs, x0, t, simulator);
 

@@ -85,18 +85,6 @@ JointSamples<double, Joints> smoothed_torque(const Kinematics<double, Joints>& k
   return drive;
 }
 
-/// The drive at `time`: linear between the samples at t, held beyond the ends.
-template <int Joints>
-JointVector<double, Joints> drive_at(const VectorX<double>& t,
-                                     const JointSamples<double, Joints>& drive, double time) {
-  const Eigen::Index n = t.size();
-  if (time <= t[0]) return drive.row(0).transpose();
-  if (time >= t[n - 1]) return drive.row(n - 1).transpose();
-  const Eigen::Index i = std::upper_bound(t.data(), t.data() + n, time) - t.data() - 1;
-  const double a = (time - t[i]) / (t[i + 1] - t[i]);
-  return (1.0 - a) * drive.row(i).transpose() + a * drive.row(i + 1).transpose();
-}
-
 /// Simulates rhs into simulated.q and qd at the times simulated.t, in segments of `segment`
 /// seconds that share their boundary sample; segment a starting at sample b starts from
 /// start_at(b). False, with the failure in result (`it` numbers the iteration), if a
