@@ -58,7 +58,10 @@ Any serial chain (--robot FILE, a URDF or DH table, as sid_identify --robot take
   cutoff of a GCV spline of its angles, and the nominal model (rigid bodies and --drives) is
   fitted. Then every drive term kind of --candidates (default coulomb, offset, armature,
   spring, viscous, stribeck: a Stribeck curve at widths 0.03, 0.1 and 0.3 rad/s, the best
-  fitting one tested) on every joint and coupled motor where the model lacks it is tested
+  fitting one tested) on every joint and coupled motor where the model lacks it, and an
+  offset of every joint's measured angle (angle_offset, true q = measured q + delta, through
+  the nominal fit's torque linearised in that angle; where the link parameters absorb it, as
+  on a first joint about a vertical axis or the last joint, it is not separable), is tested
   against the residual: named only if its HAC Wald test rejects (Holm, 1 %), BIC and the blocked
   cross-validation error drop, its value is physical, and it changes the torque prediction by
   at least --negligible-size of the joint's torque noise (otherwise: significant but

@@ -425,6 +425,15 @@ void BM_ChainHiddenTerms(benchmark::State& state) {
               nominal, {sid_test::tx40_hidden_term_run({{term, k.value}}, seed)});
           record(sid::drive_term_id(term), r, sid::drive_term_id(term), seed);
         }
+    for (int j = 0; j < 6; ++j)
+      for (const unsigned seed : {1u, 2u}) {
+        const std::string id = "angle_offset_q" + std::to_string(j + 1);
+        const sid::DriveTerm joint{sid::DriveTermKind::Offset, j, false};
+        record(id,
+               sid::diagnose_chain(sid_test::tx40_nominal(),
+                                   {sid_test::tx40_hidden_term_run({{joint, 0.05, true}}, seed)}),
+               id, seed);
+      }
   }
   std::printf(
       "\nChain diagnosis, TX40 URDF, 10 s at 500 Hz, sigma_q = 1e-4 rad, sigma_tau = 0.1 N m\n%s"

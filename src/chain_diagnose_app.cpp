@@ -51,9 +51,17 @@ FreeSimulations free_simulations(const LoadedChain& loaded, const sid::ChainDiag
   const sid::ChainModel final_model(nominal.chain(), nominal.joint_names(), r.final_terms,
                                     nominal.transmission(), nominal.coulomb_epsilon());
   const int n = nominal.joints();
+  // The final model lives at the true angles: the measured ones plus the named offsets.
+  const auto corrected = [&](Eigen::MatrixXd q) {
+    q.rowwise() += r.angle_offset.transpose();
+    return q;
+  };
+  std::vector<sid::ChainTrajectory<double>> corrected_runs = runs;
+  for (auto& run : corrected_runs) run.q = corrected(run.q);
   for (const bool is_final : {false, true}) {
     const sid::ChainModel& model = is_final ? final_model : nominal;
-    const sid::ChainIdentification id = sid::identify_chain(model, runs, given);
+    const sid::ChainIdentification id =
+        sid::identify_chain(model, is_final ? corrected_runs : runs, given);
     if (!id.fit.ok()) {
       out.note = "no free simulation: " + id.fit.message;
       return out;
@@ -71,6 +79,7 @@ FreeSimulations free_simulations(const LoadedChain& loaded, const sid::ChainDiag
       sid::ChainKinematics<double> sampled;
       sampled.t = k.t(every);
       sampled.q = k.q(every, Eigen::all);
+      if (is_final) sampled.q = corrected(sampled.q);
       sampled.qd = k.qd(every, Eigen::all);
       sampled.qdd = k.qdd(every, Eigen::all);
       sampled.tau = k.tau(every, Eigen::all);
@@ -147,17 +156,12 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
 }
 
 nlohmann::json test_json(const sid::ChainEffectTest& t) {
-  nlohmann::json j = {{"id", t.id},
-                      {"value", t.value},
-                      {"std", t.std},
-                      {"unit", t.unit},
-                      {"wald", t.wald},
-                      {"p_value", t.p_value},
-                      {"bic_drop", t.bic_drop},
-                      {"cv_drop", t.cv_drop},
-                      {"practical_size", to_json_array(t.practical_size)},
-                      {"reason", t.reason},
-                      {"caveat", t.caveat}};
+  nlohmann::json j = {{"id", t.id},           {"angle_offset", t.angle_offset},
+                      {"value", t.value},     {"std", t.std},
+                      {"unit", t.unit},       {"wald", t.wald},
+                      {"p_value", t.p_value}, {"bic_drop", t.bic_drop},
+                      {"cv_drop", t.cv_drop}, {"practical_size", to_json_array(t.practical_size)},
+                      {"reason", t.reason},   {"caveat", t.caveat}};
   if (t.term.kind == sid::DriveTermKind::Stribeck) j["stribeck_velocity"] = t.term.velocity;
   return j;
 }
@@ -173,6 +177,7 @@ nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainMod
   j["nominal_residual_rms"] = to_json_array(r.nominal_residual_rms);
   j["final_residual_rms"] = to_json_array(r.final_residual_rms);
   j["unexplained_rms"] = to_json_array(r.unexplained_rms);
+  j["angle_offset"] = to_json_array(r.angle_offset);
   j["named"] = nlohmann::json::array();
   for (const auto& e : r.named) j["named"].push_back(test_json(e));
   j["not_named"] = nlohmann::json::array();
@@ -196,10 +201,23 @@ int diagnose_robot(const ChainDiagnoseAppOptions& o) {
   if (!o.chain.json.empty()) ensure_writable(o.chain.json, o.chain.force);
   sid::ChainDiagnoseOptions options;
   if (!o.candidates.empty()) {
+    // angle_offset is not a drive term: the rest of the list is.
+    std::string kinds;
+    std::stringstream in(o.candidates);
+    options.angle_offsets = false;
+    for (std::string word; std::getline(in, word, ',');) {
+      if (word == "angle_offset") {
+        require(!options.angle_offsets, "--candidates: angle_offset is given twice");
+        options.angle_offsets = true;
+      } else {
+        kinds += (kinds.empty() ? "" : ",") + word;
+      }
+    }
     try {
-      options.candidate_kinds = sid::parse_drive_term_kinds(o.candidates);
+      options.candidate_kinds =
+          sid::parse_drive_term_kinds(kinds.empty() && options.angle_offsets ? "none" : kinds);
     } catch (const std::invalid_argument& e) {
-      throw InputError(std::string("--candidates: ") + e.what());
+      throw InputError(std::string("--candidates: ") + e.what() + " (or angle_offset)");
     }
   }
   if (o.negligible_size) {

@@ -280,6 +280,8 @@ TEST_F(DiagnoseRobot, RefusesOptionsThatDoNotApply) {
   refused("--robot " + urdf() + " --plots p run.csv", "apply to two-link logs");
   refused("--tip tool0 run.csv", "need --robot");
   refused("--robot " + urdf() + " --candidates coulomb,wobble run.csv", "--candidates");
+  refused("--robot " + urdf() + " --candidates angle_offset,coulomb,angle_offset run.csv",
+          "angle_offset is given twice");
   refused("--robot " + urdf() + " --negligible-size 2 run.csv", "--negligible-size");
   refused("--robot " + urdf() + " run.csv", "run.csv");
 }

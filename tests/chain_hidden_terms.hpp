@@ -39,10 +39,12 @@ inline sid::ChainModel tx40_nominal(int without_rotor = -1) {
   return sid::ChainModel(tx40_arm().chain, tx40_arm().joint_names, terms, direct, 0.05);
 }
 
-/// A hidden drive term and its value; an armature is added to the joint's rotor of 0.01.
+/// A hidden drive term and its value; an armature is added to the joint's rotor of 0.01. With
+/// angle_offset, an offset of joint term.index's measured angle instead: measured q = q - value.
 struct HiddenTerm {
   sid::DriveTerm term;
   double value = 0.0;
+  bool angle_offset = false;
 };
 
 inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<HiddenTerm>& hidden,
@@ -53,7 +55,12 @@ inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<Hidde
   Eigen::VectorXd drives(12);
   for (int j = 0; j < 6; ++j) drives.segment<2>(2 * j) << 0.5, 0.01;
   std::vector<double> extra;
+  Eigen::VectorXd angle_offset = Eigen::VectorXd::Zero(6);
   for (const HiddenTerm& h : hidden) {
+    if (h.angle_offset) {
+      angle_offset[h.term.index] = h.value;
+      continue;
+    }
     if (h.term.kind == sid::DriveTermKind::Armature && !h.term.on_motor) {
       drives[2 * h.term.index + 1] += h.value;
       continue;
@@ -75,8 +82,9 @@ inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<Hidde
   const sid::ChainExperimentResult run =
       sid::simulate_chain_experiment(truth, theta, desired, experiment);
   if (!run.ok()) throw std::runtime_error("tx40_hidden_term_run: " + run.message);
-  return sid::add_measurement_noise(run.trajectory(), sid::MeasurementNoise<double>{1e-8, 1e-2},
-                                    rng);
+  sid::ChainTrajectory<double> measured = run.trajectory();
+  measured.q.rowwise() -= angle_offset.transpose();
+  return sid::add_measurement_noise(measured, sid::MeasurementNoise<double>{1e-8, 1e-2}, rng);
 }
 
 }  // namespace sid_test

@@ -176,6 +176,69 @@ inline ChainDiagnosisEquations chain_diagnosis_equations(const std::vector<Chain
   return d;
 }
 
+/// Sets column c of the equations to `column` (unscaled), with its scale and its entries of the
+/// fold Gram matrices and moments.
+inline void set_column(ChainDiagnosisEquations& d, Eigen::Index c, const Eigen::VectorXd& column) {
+  d.scale[c] = std::max(column.norm(), 1e-300);
+  d.x.col(c) = column / d.scale[c];
+  d.gram_total.row(c).setZero();
+  d.gram_total.col(c).setZero();
+  d.moment_total[c] = 0.0;
+  for (std::size_t f = 0; f < d.folds.size(); ++f) {
+    const auto [begin, end] = d.folds[f];
+    const auto xf = d.x.middleRows(begin, end - begin);
+    const Eigen::VectorXd g = xf.transpose() * xf.col(c);
+    d.gram[f].col(c) = g;
+    d.gram[f].row(c) = g.transpose();
+    d.moment[f][c] = xf.col(c).dot(d.y.segment(begin, end - begin));
+    d.gram_total.col(c) += g;
+    d.moment_total[c] += d.moment[f][c];
+  }
+  d.gram_total.row(c) = d.gram_total.col(c).transpose();
+}
+
+/// Per equation: how the torque prediction of `model` at `theta` on the equation's joint changes
+/// per radian of offset of each joint's measured angle, ∂(Y θ)/∂q_j by forward differences at
+/// the smoothed states (one column per joint).
+inline Eigen::MatrixXd angle_offset_slopes(const ChainModel& model,
+                                           const std::vector<SmoothedChainRun>& runs,
+                                           const ChainDiagnosisEquations& d,
+                                           const Eigen::VectorXd& theta) {
+  // Truncation ~h |∂²τ/∂q²| and rounding ~1e-16 |τ| / h: both far below the torque noise, at
+  // n + 1 regressor calls per sample.
+  constexpr double h = 1e-6;
+  const int n = model.joints();
+  Eigen::MatrixXd out(d.y.size(), n);
+  Eigen::MatrixXd y(n, model.parameters());
+  Eigen::MatrixXd slope(n, n);  // (torque of joint, angle shifted)
+  Eigen::VectorXd q(n), qd(n), qdd(n), tau(n);
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const SmoothedChainRun& s = runs[r];
+    Eigen::Index last = -1;
+    for (Eigen::Index row = d.run_rows[r]; row < d.run_rows[r + 1]; ++row) {
+      const Eigen::Index a = d.at[static_cast<std::size_t>(row)];
+      if (a != last) {
+        const Eigen::Index i = s.samples[static_cast<std::size_t>(a)];
+        q = s.k.q.row(i).transpose();
+        qd = s.k.qd.row(i).transpose();
+        qdd = s.k.qdd.row(i).transpose();
+        model.regressor(q, qd, qdd, y);
+        tau = y * theta;
+        for (int j = 0; j < n; ++j) {
+          const double qj = q[j];
+          q[j] = qj + h;
+          model.regressor(q, qd, qdd, y);
+          slope.col(j) = (y * theta - tau) / h;
+          q[j] = qj;
+        }
+        last = a;
+      }
+      out.row(row) = slope.row(d.joint[static_cast<std::size_t>(row)]);
+    }
+  }
+  return out;
+}
+
 /// Blocked cross-validation error of the model on `columns`: each fold predicted by the fit on
 /// all others, from the fold Gram matrices (one small solve per fold).
 inline double chain_cv_error(const ChainDiagnosisEquations& d,
@@ -317,6 +380,24 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   result.cutoff_hz = id.cutoff_hz;
   const std::vector<DriveTerm> candidates =
       detail::chain_candidates(nominal, options.candidate_kinds, options.stribeck_velocities);
+  // Every candidate as its test starts: the drive terms, then the angle offsets.
+  std::vector<ChainEffectTest> prototypes;
+  for (const DriveTerm& term : candidates) {
+    ChainEffectTest t;
+    t.term = term;
+    t.id = drive_term_id(term);
+    t.unit = detail::drive_term_unit(term.kind);
+    prototypes.push_back(std::move(t));
+  }
+  for (int j = 0; options.angle_offsets && j < n; ++j) {
+    ChainEffectTest t;
+    t.term.index = j;
+    t.angle_offset = true;
+    t.id = "angle_offset_q" + std::to_string(j + 1);
+    t.unit = "rad";
+    prototypes.push_back(std::move(t));
+  }
+  for (ChainEffectTest& t : prototypes) t.practical_size = Eigen::VectorXd::Zero(n);
   std::vector<DriveTerm> all_terms = nominal.terms();
   all_terms.insert(all_terms.end(), candidates.begin(), candidates.end());
   const ChainModel full(nominal.chain(), nominal.joint_names(), all_terms, nominal.transmission(),
@@ -330,8 +411,17 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   const auto base_count = static_cast<Eigen::Index>(columns.size());
   for (std::size_t c = 0; c < candidates.size(); ++c)
     columns.push_back(nominal.parameters() + static_cast<Eigen::Index>(c));
-  const detail::ChainDiagnosisEquations d = detail::chain_diagnosis_equations(
-      detail::all_equations(full, smoothed, columns, given.rest_fraction), n, options.cv_blocks);
+  std::vector<detail::ChainEquations> equations =
+      detail::all_equations(full, smoothed, columns, given.rest_fraction);
+  // The angle offsets' columns depend on the fit: each round sets them (below).
+  const auto angle_columns = static_cast<Eigen::Index>(prototypes.size() - candidates.size());
+  for (detail::ChainEquations& e : equations) {
+    e.x.conservativeResize(Eigen::NoChange, e.x.cols() + angle_columns);
+    e.x.rightCols(angle_columns).setZero();
+  }
+  detail::ChainDiagnosisEquations d =
+      detail::chain_diagnosis_equations(equations, n, options.cv_blocks);
+  const auto first_angle_column = static_cast<Eigen::Index>(base_count + candidates.size());
   result.equations = d.y.size();
   const auto log_rows = std::log(static_cast<double>(d.y.size()));
   Eigen::VectorXd joint_rows = Eigen::VectorXd::Zero(n);
@@ -355,26 +445,41 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   std::vector<Eigen::Index> selected(static_cast<std::size_t>(base_count));
   for (Eigen::Index c = 0; c < base_count; ++c) selected[static_cast<std::size_t>(c)] = c;
   std::vector<Eigen::Index> remaining;  // positions in `candidates`
-  for (std::size_t c = 0; c < candidates.size(); ++c)
+  for (std::size_t c = 0; c < prototypes.size(); ++c)
     remaining.push_back(static_cast<Eigen::Index>(c));
-  const auto make_test = [&](Eigen::Index c) {
-    ChainEffectTest t;
-    t.term = candidates[static_cast<std::size_t>(c)];
-    t.id = drive_term_id(t.term);
-    t.unit = detail::drive_term_unit(t.term.kind);
-    t.practical_size = Eigen::VectorXd::Zero(n);
-    return t;
-  };
+  const auto make_test = [&](Eigen::Index c) { return prototypes[static_cast<std::size_t>(c)]; };
 
   std::vector<ChainEffectTest> last_round;
   std::vector<Eigen::Index> last_tested, inseparable, named_positions;
   Eigen::MatrixXd nominal_q;  // orthonormal basis of the nominal model's columns
+  bool angle_columns_stale = angle_columns > 0;
   while (!remaining.empty()) {
     const detail::ChainRound round(d, selected);
     // The first round fits the nominal model alone.
     if (result.nominal_residual_rms.size() == 0) {
       result.nominal_residual_rms = measured_rms(round);
       nominal_q = round.q;
+    }
+    // An angle offset is the current model's torque linearised in the angle: at the nominal fit
+    // a missing term elsewhere bends the link parameters (a spring on joint 5 hides an offset of
+    // 0.3 rad on joint 4), so each round takes the model fitted so far, named terms included.
+    if (angle_columns_stale) {
+      Eigen::VectorXd theta = Eigen::VectorXd::Zero(full.parameters());
+      for (std::size_t k = 0; k < selected.size(); ++k) {
+        const Eigen::Index column = selected[k];
+        const double value = round.theta[static_cast<Eigen::Index>(k)] / d.scale[column];
+        if (column < base_count)
+          theta[id.base.independent[static_cast<std::size_t>(column)]] = value;
+        else if (column < first_angle_column)
+          theta[nominal.parameters() + column - base_count] = value;
+      }
+      const Eigen::MatrixXd slopes = detail::angle_offset_slopes(full, smoothed, d, theta);
+      for (const Eigen::Index c : remaining) {
+        const Eigen::Index column = base_count + c;
+        if (column >= first_angle_column)
+          detail::set_column(d, column, slopes.col(column - first_angle_column));
+      }
+      angle_columns_stale = false;
     }
     std::vector<ChainEffectTest> tests;
     std::vector<Eigen::Index> tested;
@@ -386,8 +491,10 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
       const Eigen::VectorXd zr = z - round.q * (round.q.transpose() * z);
       const double zz = zr.squaredNorm();
       if (!(zz > (1.0 - options.separability_r2) * z.squaredNorm())) {
-        t.reason = "not separable: the model's columns explain its column (R^2 > " +
-                   detail::significant(options.separability_r2, 6) + ")";
+        t.reason =
+            "not separable: the model's columns explain its column (R^2 > " +
+            detail::significant(options.separability_r2, 6) + ")" +
+            (t.angle_offset ? ": the link parameters absorb it, the torques cannot tell it" : "");
         result.not_named.push_back(std::move(t));
         inseparable.push_back(*it);
         it = remaining.erase(it);
@@ -427,7 +534,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     for (std::size_t i = 0; i < tests.size(); ++i) {
       ChainEffectTest& t = tests[i];
       t.p_value = p[i];
-      const bool positive = t.term.kind == DriveTermKind::Offset || t.value > 0.0;
+      const bool positive = t.angle_offset || t.term.kind == DriveTermKind::Offset || t.value > 0.0;
       if (!(t.p_value < options.family_alpha))
         t.reason =
             "not significant (HAC Wald p = " + detail::significant(t.p_value, 2) + " after Holm)";
@@ -455,14 +562,16 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     ChainEffectTest named = std::move(tests[static_cast<std::size_t>(best)]);
     named.reason.clear();
     const DriveTerm chosen_term = named.term;
+    const bool chosen_stribeck = !named.angle_offset && chosen_term.kind == DriveTermKind::Stribeck;
     result.named.push_back(std::move(named));
     named_positions.push_back(chosen);
     selected.push_back(base_count + chosen);
+    angle_columns_stale = angle_columns > 0;
     remaining.erase(std::find(remaining.begin(), remaining.end(), chosen));
     // One Stribeck curve per joint: the other widths there are not another effect.
     for (auto it = remaining.begin(); it != remaining.end();) {
-      const DriveTerm& other = candidates[static_cast<std::size_t>(*it)];
-      if (chosen_term.kind != DriveTermKind::Stribeck || !detail::same_place(other, chosen_term)) {
+      const ChainEffectTest& other = prototypes[static_cast<std::size_t>(*it)];
+      if (!chosen_stribeck || other.angle_offset || !detail::same_place(other.term, chosen_term)) {
         ++it;
         continue;
       }
@@ -492,12 +601,12 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
       ChainEffectTest& t = result.named[i];
       const Eigen::VectorXd a = given_nominal(named_positions[i]);
       for (const Eigen::Index c : inseparable) {
-        const DriveTerm& other = candidates[static_cast<std::size_t>(c)];
-        if (other.index != t.term.index || other.on_motor != t.term.on_motor) continue;
+        const ChainEffectTest& other = prototypes[static_cast<std::size_t>(c)];
+        if (other.term.index != t.term.index || other.term.on_motor != t.term.on_motor) continue;
         const Eigen::VectorXd b = given_nominal(c);
         const double correlation = std::abs(a.dot(b)) / std::max(a.norm() * b.norm(), 1e-300);
         if (correlation > options.look_alike)
-          t.caveat += (t.caveat.empty() ? "" : "; ") + drive_term_id(other) +
+          t.caveat += (t.caveat.empty() ? "" : "; ") + other.id +
                       " is not separable from the model on this motion, and its part the "
                       "model does not explain looks like this term's (correlation " +
                       detail::significant(correlation, 2) + "): the named term may stand for it";
@@ -513,6 +622,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   const Eigen::MatrixXd covariance =
       bread * detail::chain_long_run(d, x, final_round.residual) * bread;
   result.final_terms = nominal.terms();
+  result.angle_offset = Eigen::VectorXd::Zero(n);
   for (std::size_t i = 0; i < result.named.size(); ++i) {
     const std::size_t k = static_cast<std::size_t>(base_count) + i;
     const Eigen::Index column = selected[k];
@@ -521,7 +631,10 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     t.std = std::sqrt(std::max(
                 covariance(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k)), 0.0)) /
             d.scale[column];
-    result.final_terms.push_back(t.term);
+    if (t.angle_offset)
+      result.angle_offset[t.term.index] = t.value;
+    else
+      result.final_terms.push_back(t.term);
   }
 
   if (result.nominal_residual_rms.size() == 0)  // no candidate was tried: nothing was named

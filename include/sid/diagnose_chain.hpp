@@ -1,12 +1,14 @@
 #pragma once
 /// @file
 /// @brief Model-discrepancy diagnosis of any serial chain: which drive terms (friction, offsets,
-/// rotor inertia, springs on each joint or coupled motor) the logs support beyond a nominal
-/// sid::ChainModel, named only when they pass the tests and are of a size a user could see.
+/// rotor inertia, springs on each joint or coupled motor) and encoder offsets the logs support
+/// beyond a nominal sid::ChainModel, named only when they pass the tests and are of a size a
+/// user could see.
 ///
-/// The torque-domain selection of sid/diagnose.hpp on a chain's equations: every candidate is a
-/// sid::DriveTerm, so the model that comes out is a ChainModel like any other and
-/// sid_identify --robot, the simulator and the forward dynamics take it as it is. Each round
+/// The torque-domain selection of sid/diagnose.hpp on a chain's equations: every candidate but
+/// the angle offsets is a sid::DriveTerm, so the model that comes out is a ChainModel like any
+/// other (at the angles corrected by the named offsets) and sid_identify --robot, the simulator
+/// and the forward dynamics take it as it is. Each round
 /// tests every remaining candidate against the current model's residual (Frisch–Waugh–Lovell):
 /// a HAC Wald test with Holm's correction over the round, a drop of BIC, a drop of the blocked
 /// cross-validation error by more than min_cv_gain, an admissible value (friction, rotor inertia
@@ -40,6 +42,12 @@ struct ChainDiagnoseOptions {
   /// that explains most of the residual is tested (its p-value is the smallest of the widths',
   /// a mild selection), and once one is named the others on that joint are dropped.
   std::vector<double> stribeck_velocities = {0.03, 0.1, 0.3};
+  /// Also try an offset δ of each joint's measured angle (measured q = true q − δ), through the
+  /// nominal fit's torque linearised in that angle, ∂(Y θ̂)/∂q_j. Where the link parameters
+  /// absorb the offset (a rotation of the link frames about the joint's axis, e.g. the first
+  /// joint about a vertical axis or the last joint) it is reported as not separable: the
+  /// torques cannot tell it.
+  bool angle_offsets = true;
   double family_alpha = 0.01;  ///< of the HAC Wald tests, Holm over a round's candidates
   /// Contiguous time blocks per run of the blocked cross-validation (each predicted from the fit
   /// on all other blocks of all runs), >= 2. With three runs or more, each run is one block:
@@ -70,8 +78,12 @@ struct ChainDiagnoseOptions {
 
 /// @brief One candidate drive term as the diagnosis judged it.
 struct ChainEffectTest {
+  /// The drive term tested; for an angle offset only term.index (the joint) is meaningful.
   DriveTerm term;
-  std::string id;    ///< e.g. coulomb_j3, armature_m5
+  /// An offset δ of the measured angle of joint term.index (measured q = true q − δ) [rad],
+  /// not a drive term: no ChainModel holds it, ChainDiagnosis::angle_offset reports it.
+  bool angle_offset = false;
+  std::string id;    ///< e.g. coulomb_j3, armature_m5, angle_offset_q2
   std::string unit;  ///< of value
   double value = 0;  ///< the term's parameter (final fit for a named term, else at its test)
   double std = 0;    ///< its HAC standard deviation
@@ -89,7 +101,11 @@ struct ChainEffectTest {
 
 /// @brief What diagnose_chain() found.
 struct ChainDiagnosis {
-  std::vector<DriveTerm> final_terms;  ///< the nominal model's terms, then the named ones
+  /// The nominal model's terms, then the named drive terms (not the angle offsets).
+  std::vector<DriveTerm> final_terms;
+  /// Per joint: the named angle offset δ [rad] (measured q = true q − δ), 0 where none is named.
+  /// The final model is fitted and simulated at the measured angles plus these.
+  Eigen::VectorXd angle_offset;
   std::vector<ChainEffectTest> named;  ///< in selection order
   std::vector<ChainEffectTest> not_named;
   /// σ of each joint's measured torque noise (a GCV smoothing spline per run; RMS over runs)
