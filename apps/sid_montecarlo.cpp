@@ -117,7 +117,10 @@ std over the base parameters in % of each true value (parameters whose true valu
 none), the RMS relative error, and how the estimate predicts the true torque at the true
 motion (100 |tau - Y beta-hat| / |tau|, mean and largest over the runs). --json FILE writes
 it with every base parameter's mean, variance, bias and std; --csv-dir every estimate
-(beta1..betaP, the comments naming each combination); --plots is the two-link study's.
+(beta1..betaP, the comments naming each combination); --plots DIR torque_error.png (every
+run's torque prediction error by method and level, log scale), qdd_j1.png .. qdd_jn.png (exact,
+CSS and filtered accelerations of run 0 at sigma_q2 = 1e-6, as Fig. 2 and 3) and beta1.png ..
+betaP.png (box plots of each base parameter's estimates with its true value).
 
 Exit codes: 0 success, 2 bad options or unwritable outputs (message on standard error),
 1 internal error.
@@ -308,11 +311,28 @@ sid::Kinematics<double> simulate_truth(const sid::TwoLinkParameters<double>& the
   return run.truth;
 }
 
+/// Says what the figures came to: how many were written, or once how to draw them.
+void report_plots(const Options& o, const std::vector<sid::app::PlotResult>& plots) {
+  bool all_rendered = true;
+  for (const auto& p : plots) all_rendered = all_rendered && p.rendered;
+  if (!all_rendered) {
+    // The messages of all plots are alike.
+    int not_drawn = 0;
+    for (const auto& p : plots)
+      if (!p.rendered && not_drawn++ == 0) std::cerr << kName << ": " << p.message << "\n";
+    if (not_drawn > 1)
+      std::cerr << kName << ": the same holds for the other " << not_drawn - 1
+                << " figures; to draw them all: cd '" << o.plots
+                << "' && for f in *.gp; do gnuplot \"$f\"; done\n";
+  } else if (!o.quiet) {
+    std::cerr << kName << ": wrote " << plots.size()
+              << " figures (PNG, data and gnuplot script) into " << o.plots << "\n";
+  }
+}
+
 // The paper's filters keep their cutoffs in Hz (10, 3 and 2 Hz at 400 Hz) at any rate.
 sid::ChainMonteCarloOptions chain_study_options(const Options& o) {
   using sid::app::require;
-  require(o.plots.empty(),
-          "--plots is the two-link study's; with --robot write --json or --csv-dir");
   sid::MonteCarloOptions shared = study_options(o);
   sid::ChainMonteCarloOptions chain;
   static_cast<sid::StudySettings&>(chain) = shared;
@@ -365,6 +385,14 @@ int chain_study(const Options& o) {
   setup.base_frequency = o.base_frequency;
   setup.q_range = o.q_range;
   setup.qd_max = o.qd_max;
+  if (!o.plots.empty())
+    for_option("--plots", [&] {
+      // The figures' names depend on the chain: one per joint and per base parameter.
+      const Eigen::Index parameters =
+          sid::chain_base_parameters(sim.model, checked.identify).rank();
+      sid::app::ensure_output_directory(
+          o.plots, sid::app::chain_montecarlo_plot_files(sim.model.joints(), parameters), o.force);
+    });
   if (!json_to_stdout) std::cout << sid::app::chain_montecarlo_header(checked, setup) << std::flush;
 
   sid::ChainMonteCarloOptions options = checked;
@@ -390,6 +418,9 @@ int chain_study(const Options& o) {
     if (!o.quiet)
       std::cerr << kName << ": wrote the estimates of every run into " << o.csv_dir << "\n";
   }
+  if (!o.plots.empty())
+    report_plots(o, sid::app::write_chain_montecarlo_plots(o.plots, sim.truth, result, options,
+                                                           sim.robot.joint_names));
   return sid::app::kExitOk;
 }
 
@@ -440,24 +471,8 @@ int study(const Options& o) {
     if (!o.quiet)
       std::cerr << kName << ": wrote the estimates of every run into " << o.csv_dir << "\n";
   }
-  if (!o.plots.empty()) {
-    const auto plots = sid::app::write_montecarlo_plots(o.plots, truth, result, options);
-    bool all_rendered = true;
-    for (const auto& p : plots) all_rendered = all_rendered && p.rendered;
-    if (!all_rendered) {
-      // Say once how to draw them (the messages of all plots are alike).
-      int not_drawn = 0;
-      for (const auto& p : plots)
-        if (!p.rendered && not_drawn++ == 0) std::cerr << kName << ": " << p.message << "\n";
-      if (not_drawn > 1)
-        std::cerr << kName << ": the same holds for the other " << not_drawn - 1
-                  << " figures; to draw them all: cd '" << o.plots
-                  << "' && for f in *.gp; do gnuplot \"$f\"; done\n";
-    } else if (!o.quiet) {
-      std::cerr << kName << ": wrote " << plots.size()
-                << " figures (PNG, data and gnuplot script) into " << o.plots << "\n";
-    }
-  }
+  if (!o.plots.empty())
+    report_plots(o, sid::app::write_montecarlo_plots(o.plots, truth, result, options));
   return sid::app::kExitOk;
 }
 

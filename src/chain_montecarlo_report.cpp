@@ -7,6 +7,9 @@
 #include <string>
 #include <vector>
 
+#include <sid/measurement_noise.hpp>
+#include <sid/study/montecarlo.hpp>
+
 #include "app.hpp"
 #include "montecarlo_report.hpp"
 
@@ -224,6 +227,101 @@ void write_chain_montecarlo_csv(const std::string& dir, const sid::ChainMonteCar
                        format_double(result.beta[static_cast<Eigen::Index>(k)]) + ")");
   }
   write_estimates_csv(dir, result.levels, names, comments, "base-parameter estimate");
+}
+
+std::vector<std::string> chain_montecarlo_plot_files(int joints, Eigen::Index parameters) {
+  std::vector<std::string> pngs{"torque_error.png"};
+  for (int j = 1; j <= joints; ++j) pngs.push_back("qdd_j" + std::to_string(j) + ".png");
+  for (Eigen::Index k = 1; k <= parameters; ++k)
+    pngs.push_back("beta" + std::to_string(k) + ".png");
+  std::vector<std::string> files;
+  for (const auto& png : pngs)
+    for (const auto& f : plot_files(png)) files.push_back(f);
+  return files;
+}
+
+std::vector<PlotResult> write_chain_montecarlo_plots(const std::string& dir,
+                                                     const sid::ChainKinematics<double>& truth,
+                                                     const sid::ChainMonteCarloResult& result,
+                                                     const sid::ChainMonteCarloOptions& options,
+                                                     const std::vector<std::string>& joint_names) {
+  std::vector<PlotResult> plots;
+  const std::string runs_seed =
+      std::to_string(result.runs) + " runs, seed " + std::to_string(result.seed);
+  const auto groups_of = [&](const auto& values_of) {
+    std::vector<BoxGroup> groups;
+    for (const auto& l : result.levels)
+      for (const auto& s : l.methods)
+        groups.push_back(
+            {std::string(sid::study_method_name(s.method)) + " " + level_label(l.sigma_q2),
+             values_of(s)});
+    return groups;
+  };
+  const auto width_for = [](const BoxPlot& plot) {
+    return std::max(800, 120 * static_cast<int>(plot.groups.size()) + 200);
+  };
+
+  BoxPlot torque;
+  torque.title = "Prediction of the true torque at the true motion, " + runs_seed;
+  torque.y_label = "100 |tau - Y beta-hat| / |tau| [%]";
+  torque.groups = groups_of([](const sid::MethodSummary& s) { return s.torque_error_pct; });
+  torque.log_y = true;
+  torque.width = width_for(torque);
+  plots.push_back(plot_boxes(torque, path_in(dir, "torque_error.png")));
+
+  // As the paper's Fig. 2 and 3, over the samples every method keeps.
+  const double sigma_q2 = 1e-6;
+  std::mt19937_64 rng = sid::run_generator(options.seed, montecarlo_figure_level_index(options), 0);
+  const sid::ChainTrajectory<double> measured =
+      sid::add_measurement_noise(sid::ChainTrajectory<double>{truth.t, truth.q, truth.tau},
+                                 sid::MeasurementNoise<double>{sigma_q2, options.sigma_tau2}, rng);
+  const auto css = sid::detail::method_kinematics(sid::StudyMethod::Css, truth, measured, sigma_q2,
+                                                  options.kinematics);
+  const auto filtered = sid::detail::method_kinematics(sid::StudyMethod::Filtered, truth, measured,
+                                                       sigma_q2, options.kinematics);
+  const double t0 = truth.t[0];
+  Eigen::Index from = 0;
+  while (from + 1 < truth.t.size() && truth.t[from] < t0 + options.kinematics.skip) ++from;
+  const double t_end = truth.t[truth.t.size() - 1] - options.kinematics.skip_end;
+  Eigen::Index to = truth.t.size();
+  while (to - 1 > from && truth.t[to - 1] > t_end) --to;
+  const Eigen::Index count = to - from;
+  for (Eigen::Index j = 0; j < truth.q.cols(); ++j) {
+    const std::string name = joint_names[static_cast<std::size_t>(j)];
+    LinePlot plot;
+    plot.title = "qdd of " + name + ", sigma_q2 = 1e-6, run 0, seed " +
+                 std::to_string(options.seed) + " (" + format_number("%g", truth.t[from]) +
+                 " <= t <= " + format_number("%g", truth.t[to - 1]) + " s)";
+    plot.x_label = "t [s]";
+    plot.y_label = "qdd " + name + " [rad/s^2]";
+    plot.x = truth.t.segment(from, count);
+    plot.series.push_back(
+        {"exact", truth.qdd.col(j).segment(from, count), "lines linewidth 2 linecolor rgb 'blue'"});
+    plot.series.push_back({"CSS", on_grid(truth.t, css.t, css.qdd.col(j)).segment(from, count),
+                           "lines linecolor rgb 'red'"});
+    plot.series.push_back({"filtered",
+                           on_grid(truth.t, filtered.t, filtered.qdd.col(j)).segment(from, count),
+                           "lines dashtype 2 linecolor rgb 'black'"});
+    plot.marked.push_back(
+        {truth.t[from], t0 + options.kinematics.filtered_skip, "dropped by filtered"});
+    plots.push_back(plot_lines(plot, path_in(dir, "qdd_j" + std::to_string(j + 1) + ".png")));
+  }
+
+  for (std::size_t k = 0; k < result.parameter_names.size(); ++k) {
+    const auto p = static_cast<Eigen::Index>(k);
+    BoxPlot plot;
+    plot.title =
+        "beta" + std::to_string(k + 1) + " = " + result.parameter_names[k] + ", " + runs_seed;
+    plot.y_label = "beta" + std::to_string(k + 1);
+    plot.groups =
+        groups_of([p](const sid::MethodSummary& s) { return Eigen::VectorXd(s.estimates.col(p)); });
+    plot.has_reference = true;
+    plot.reference = result.beta[p];
+    plot.reference_label = "true value " + format_number("%.6g", result.beta[p]);
+    plot.width = width_for(plot);
+    plots.push_back(plot_boxes(plot, path_in(dir, "beta" + std::to_string(k + 1) + ".png")));
+  }
+  return plots;
 }
 
 }  // namespace sid::app

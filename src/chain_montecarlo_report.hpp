@@ -9,8 +9,11 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 #include <sid/study/chain_montecarlo.hpp>
+#include <sid/trajectory.hpp>
 #include <string>
 #include <vector>
+
+#include "plot.hpp"
 
 namespace sid::app {
 
@@ -49,5 +52,22 @@ nlohmann::json chain_montecarlo_json(const sid::ChainMonteCarloResult& result,
 /// @brief Every β̂ of every run as CSV in dir, the files montecarlo_csv_files names: columns
 /// beta1..betaP, the comment lines saying which combination of the model's parameters each is.
 void write_chain_montecarlo_csv(const std::string& dir, const sid::ChainMonteCarloResult& result);
+
+/// @brief The files write_chain_montecarlo_plots writes for a chain of `joints` joints and
+/// `parameters` base parameters (PNG, data and script of every figure).
+std::vector<std::string> chain_montecarlo_plot_files(int joints, Eigen::Index parameters);
+
+/// @brief Draws the chain study's figures: torque_error.png (every run's error of the true
+/// torque's prediction by method and level, log scale: the study's ranking at a glance),
+/// qdd_j1.png .. qdd_jn.png (as the paper's Fig. 2 and 3: exact, CSS and filtered accelerations
+/// of run 0 at sigma_q2 = 1e-6, over the samples every method keeps) and beta1.png .. betaP.png
+/// (box plots of each base parameter's estimates by method and level, the true value as reference
+/// line).
+/// @return one PlotResult per figure (a missing gnuplot is reported there, never thrown).
+std::vector<PlotResult> write_chain_montecarlo_plots(const std::string& dir,
+                                                     const sid::ChainKinematics<double>& truth,
+                                                     const sid::ChainMonteCarloResult& result,
+                                                     const sid::ChainMonteCarloOptions& options,
+                                                     const std::vector<std::string>& joint_names);
 
 }  // namespace sid::app

@@ -237,8 +237,10 @@ nlohmann::json number_or_null(double v) {
 
 const char* parameter_unit(int p) { return p < 3 ? "kg m^2" : p < 5 ? "kg m" : "N m s/rad"; }
 
-// Samples of y at times tk placed on the grid t (NaN elsewhere). The estimators keep a subset of
-// the sample times, copied exactly; a small tolerance guards against rounding anyway.
+}  // namespace
+
+// The estimators keep a subset of the sample times, copied exactly; a small tolerance guards
+// against rounding anyway.
 Eigen::VectorXd on_grid(const Eigen::VectorXd& t, const Eigen::VectorXd& tk,
                         const Eigen::VectorXd& y) {
   Eigen::VectorXd out = Eigen::VectorXd::Constant(t.size(), std::nan(""));
@@ -250,8 +252,6 @@ Eigen::VectorXd on_grid(const Eigen::VectorXd& t, const Eigen::VectorXd& tk,
   }
   return out;
 }
-
-}  // namespace
 
 std::string level_label(double sigma_q2) {
   // Scientific below 0.01 (noise variances are mostly powers of ten), %g otherwise.
@@ -447,7 +447,7 @@ std::vector<std::string> montecarlo_plot_files() {
   return files;
 }
 
-std::size_t montecarlo_figure_level_index(const sid::MonteCarloOptions& options) {
+std::size_t montecarlo_figure_level_index(const sid::StudySettings& options) {
   for (std::size_t l = 0; l < options.sigma_q2_levels.size(); ++l) {
     const double v = options.sigma_q2_levels[l];
     if (v > 0.999e-6 && v < 1.001e-6) return l;

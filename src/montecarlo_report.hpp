@@ -66,7 +66,12 @@ std::vector<std::string> montecarlo_plot_files();
 /// @brief The level index whose noise the figures 2 and 3 show: the index of sigma_q2 = 1e-6 in
 /// the levels if it is there, else 1 (its index in the default levels), so the figures show the
 /// noise of run 0 at 1e-6 of the study (or of the default study).
-std::size_t montecarlo_figure_level_index(const sid::MonteCarloOptions& options);
+std::size_t montecarlo_figure_level_index(const sid::StudySettings& options);
+
+/// @brief Samples y at times tk placed on the grid t (NaN elsewhere): an estimate that keeps a
+/// subset of the sample times drawn against the full grid.
+Eigen::VectorXd on_grid(const Eigen::VectorXd& t, const Eigen::VectorXd& tk,
+                        const Eigen::VectorXd& y);
 
 /// @brief Draws the figures: fig2_qdd1.png and fig3_qdd2.png (the paper's Fig. 2 and 3: exact,
 /// CSS and filtered accelerations of run 0 at sigma_q2 = 1e-6 over 0 <= t <= 10 s, the filtered

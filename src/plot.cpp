@@ -196,7 +196,7 @@ PlotResult plot_boxes(const BoxPlot& plot, const std::string& png_path) {
     std::ostringstream values;
     int count = 0;
     for (Eigen::Index i = 0; i < group.values.size(); ++i)
-      if (std::isfinite(group.values[i])) {
+      if (std::isfinite(group.values[i]) && (!plot.log_y || group.values[i] > 0.0)) {
         values << number(group.values[i]) << '\n';
         ++count;
       }
@@ -213,7 +213,7 @@ PlotResult plot_boxes(const BoxPlot& plot, const std::string& png_path) {
      << "set ylabel " << gp_quote(plot.y_label) << "\n"
      << "set style fill solid 0.3 border -1\n"
      << "set style boxplot outliers pointtype 7\n"
-     << "set pointsize 0.5\n"
+     << (plot.log_y ? "set logscale y\n" : "") << "set pointsize 0.5\n"
      << "set xrange [0.5:" << plot.groups.size() + 0.5 << "]\n"
      << "set offsets 0, 0, graph 0.05, graph 0.05\n"
      << "set xtics (";

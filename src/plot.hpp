@@ -53,6 +53,7 @@ struct BoxPlot {
   bool has_reference = false;    ///< draw a dashed horizontal line at reference
   double reference = 0.0;        ///< e.g. the true parameter value
   std::string reference_label = "true value";
+  bool log_y = false;  ///< values <= 0 are then left out too
   int width = 800;
   int height = 600;
 };

@@ -295,7 +295,7 @@ TEST_F(SidMonteCarlo, RobotRunsTheStudyOnAChainOfAUrdf) {
   }
   EXPECT_EQ(files, 5u);
   EXPECT_NE(read(file("est/estimates.csv")).find("# beta1 = "), std::string::npos);
-  const AppRun two = run(study + "--threads 2 --json two.json -q");
+  const AppRun two = run(study + "--threads 2 --json two.json -q --plots figs");
   ASSERT_EQ(two.exit_code, 0) << two.err;
   EXPECT_EQ(without_wall_time(one.out), without_wall_time(two.out));
   for (const char* word :
@@ -320,13 +320,46 @@ TEST_F(SidMonteCarlo, RobotRunsTheStudyOnAChainOfAUrdf) {
   EXPECT_LT(methods["css"]["mean_torque_error_pct"].get<double>(),
             methods["raw"]["mean_torque_error_pct"].get<double>());
   EXPECT_LT(methods["oracle"]["mean_torque_error_pct"].get<double>(), 1.0);
+
+  // The figures: the torque errors, each joint's acceleration, each base parameter's estimates.
+  std::vector<std::string> figures{"torque_error", "qdd_j1", "qdd_j2"};
+  for (std::size_t k = 1; k <= p; ++k) figures.push_back("beta" + std::to_string(k));
+  const bool have_gnuplot = !sid::app::find_gnuplot().empty();
+  std::size_t written = 0;
+  for (const auto& entry : fs::directory_iterator(file("figs"))) (void)entry, ++written;
+  EXPECT_EQ(written, figures.size() * (have_gnuplot ? 3 : 2));
+  for (const auto& f : figures) {
+    EXPECT_TRUE(fs::exists(file("figs/" + f + ".dat"))) << f;
+    if (have_gnuplot) {
+      EXPECT_TRUE(fs::exists(file("figs/" + f + ".png"))) << f << "\n" << two.err;
+    }
+  }
+  // A box per method and level, each holding the three runs' torque errors as the JSON has them.
+  const std::string torque = read(file("figs/torque_error.dat"));
+  for (const char* m : {"raw", "css", "css_iv", "oracle"}) {
+    const std::string header = std::string("# ") + m + " 1e-6\n";
+    const auto at = torque.find(header);
+    ASSERT_NE(at, std::string::npos) << m << "\n" << torque;
+    std::istringstream values(torque.substr(at + header.size()));
+    for (int run = 0; run < 3; ++run) {
+      double v = 0;
+      ASSERT_TRUE(values >> v) << m;
+      EXPECT_NEAR(v, methods[m]["torque_error_pct"][run].get<double>(), 1e-6 * std::abs(v))
+          << m << " run " << run;
+    }
+  }
+  EXPECT_NE(read(file("figs/qdd_j2.gp")).find("dropped by filtered"), std::string::npos);
+  EXPECT_NE(read(file("figs/beta1.gp")).find("true value"), std::string::npos);
 }
 
 TEST_F(SidMonteCarlo, RobotOptionsAreCheckedBeforeAnyWork) {
   const std::string robot = "--robot '" SID_TEST_DATA_DIR "/urdf/arm_hand.urdf' --tip link2 ";
   expect_input_error("--tip link2", "--tip is an option of --robot");
   expect_input_error("--duration 5", "--duration is an option of --robot");
-  expect_input_error(robot + "--plots figs", "--plots");
+  fs::create_directories(file("figs"));
+  std::ofstream(file("figs/qdd_j2.gp")) << "keep";
+  expect_input_error(robot + "--runs 2 --plots figs", "--force");
+  EXPECT_EQ(read(file("figs/qdd_j2.gp")), "keep");
   fs::create_directories(file("taken"));
   std::ofstream(file("taken/estimates.csv")) << "keep";
   expect_input_error(robot + "--runs 2 --csv-dir taken", "--force");
