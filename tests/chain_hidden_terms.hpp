@@ -1,8 +1,8 @@
 #pragma once
 // Data of a six-axis arm (the TX40's URDF) with drive terms hidden from its nominal model, for the
 // chain diagnosis's tests and bench: rigid bodies, viscous friction 0.5 and a rotor of 0.01 on
-// every joint, plus what is hidden; 10 s (by default) at 500 Hz of a random Fourier excitation,
-// σq = 1e-4 rad, σ_τ = 0.1 N m.
+// every joint, plus what is hidden; 10 s (by default) at 500 Hz of a random Fourier excitation
+// within ±1.2 rad of zero (joint 2: by default), σq = 1e-4 rad, σ_τ = 0.1 N m.
 
 #include <sid/cvode/chain_experiment.hpp>
 #include <sid/fourier_trajectory.hpp>
@@ -47,8 +47,11 @@ struct HiddenTerm {
   bool angle_offset = false;
 };
 
+/// joint2_range: the excitation's reach on joint 2 [rad]; over ±1.2 rad a spring there is not
+/// separable from gravity, over ±2 rad it is.
 inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<HiddenTerm>& hidden,
-                                                         unsigned seed, double duration = 10.0) {
+                                                         unsigned seed, double duration = 10.0,
+                                                         double joint2_range = 1.2) {
   const sid::Transmission direct(6);
   std::vector<sid::DriveTerm> terms =
       sid::drive_terms({sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature}, direct);
@@ -73,9 +76,10 @@ inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<Hidde
   theta << tx40_arm().theta.head(60), drives,
       Eigen::Map<const Eigen::VectorXd>(extra.data(), static_cast<Eigen::Index>(extra.size()));
   std::mt19937_64 rng(100 + seed);
+  Eigen::VectorXd range = Eigen::VectorXd::Constant(6, 1.2);
+  range[1] = joint2_range;
   const sid::FourierTrajectory desired = sid::random_fourier_trajectory(
-      Eigen::VectorXd::Zero(6), 5, 0.1, Eigen::VectorXd::Constant(6, 1.2),
-      Eigen::VectorXd::Constant(6, 2.0), rng);
+      Eigen::VectorXd::Zero(6), 5, 0.1, range, Eigen::VectorXd::Constant(6, 2.0), rng);
   sid::ChainExperiment experiment;
   experiment.duration = duration;
   experiment.sample_time = 0.002;

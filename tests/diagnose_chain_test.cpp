@@ -174,6 +174,21 @@ TEST(DiagnoseChain, NamesAnAngleOffsetOnlyWhereTheLinkParametersCannotAbsorbIt) 
   }
 }
 
+// Over ±1.2 rad a spring on joint 2 is not separable from gravity (the test above); over ±2 rad
+// the motion tells them apart and the spring is named, with no caveat.
+TEST(DiagnoseChain, AWiderMotionOfJoint2SeparatesItsSpringFromGravity) {
+#ifdef SID_SANITIZED_TESTS
+  GTEST_SKIP() << "numbers only; the paths run in NamesTheHiddenDriveTermOnItsJoint...";
+#endif
+  const sid::ChainDiagnosis r = sid::diagnose_chain(
+      tx40_nominal(),
+      {tx40_hidden_term_run({{{sid::DriveTermKind::Spring, 1, false}, 1.0}}, 1, 10.0, 2.0)});
+  ASSERT_EQ(named_ids(r), std::vector<std::string>{"spring_j2"});
+  EXPECT_NEAR(r.named[0].value, 1.0, std::max(0.05, 4.0 * r.named[0].std));
+  EXPECT_TRUE(r.named[0].caveat.empty()) << r.named[0].caveat;
+  for (const auto& t : r.not_named) EXPECT_NE(t.id, "spring_j2");
+}
+
 TEST(DiagnoseChain, SpringTermIsTheAngleInBothDynamicsRoutes) {
   const sid::Transmission direct(6);
   const sid::ChainModel model(
