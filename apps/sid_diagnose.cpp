@@ -67,7 +67,9 @@ Any serial chain (--robot FILE, a URDF or DH table, as sid_identify --robot take
   at least --negligible-size of the joint's torque noise (otherwise: significant but
   negligible). Reported: per joint the noise, the residual before and after and what no tried
   term explains; the named terms with values and HAC standard deviations; why each other one
-  was not named.
+  was not named; with a URDF, each model's free simulation (1 s segments from the smoothed
+  state) and, per joint, how far the final one stays from the motion against what white torque
+  noise at the floor alone does (beyond 6x: motion the final model does not explain).
 
 Input: CSV files with a header row and the columns t [s], q1, q2 [rad], tau1, tau2 [N m] in
 any order (other columns are ignored; what sid_simulate writes; --columns maps other names, e.g.

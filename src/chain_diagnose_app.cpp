@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <iostream>
 #include <sstream>
 
@@ -26,12 +27,22 @@ std::string width(const sid::DriveTerm& term) {
              : std::string();
 }
 
+/// Simulations of the torque noise alone per run, and their seed: the figure is a scale, and four
+/// runs give it to about a quarter.
+constexpr int kNoiseRuns = 4;
+constexpr std::uint64_t kNoiseSeed = 20261205;
+/// A joint whose final free-simulation error exceeds this many times the noise alone's moves in
+/// a way the final model does not explain: the two-link check's threshold.
+constexpr double kSimulationThreshold = 6.0;
+
 /// The free simulations of the nominal and the final model (each at its physically consistent
 /// fit), their angle error per joint over all runs.
 struct FreeSimulations {
   std::string note;     ///< why there are none
   std::string failure;  ///< the first failed segment's message
   Eigen::VectorXd nominal, final;
+  /// What white torque noise at the floor alone does to the final model's simulation, per joint.
+  Eigen::VectorXd noise_alone;
   Eigen::Index segments = 0, failed_nominal = 0, failed_final = 0;
   double seconds = 0.0;
 };
@@ -58,6 +69,11 @@ FreeSimulations free_simulations(const LoadedChain& loaded, const sid::ChainDiag
   };
   std::vector<sid::ChainTrajectory<double>> corrected_runs = runs;
   for (auto& run : corrected_runs) run.q = corrected(run.q);
+  // The noise-alone runs only set a scale: a looser tolerance (as the two-link check's).
+  sid::ChainFreeSimulationOptions loose;
+  loose.simulator.rtol = loose.simulator.atol = 1e-5;
+  Eigen::VectorXd noise_squares = Eigen::VectorXd::Zero(n);
+  double noise_samples = 0.0;
   for (const bool is_final : {false, true}) {
     const sid::ChainModel& model = is_final ? final_model : nominal;
     const sid::ChainIdentification id =
@@ -84,6 +100,13 @@ FreeSimulations free_simulations(const LoadedChain& loaded, const sid::ChainDiag
       sampled.qdd = k.qdd(every, Eigen::all);
       sampled.tau = k.tau(every, Eigen::all);
       const sid::ChainFreeSimulation sim = sid::free_chain_simulation(model, fit.theta, sampled);
+      if (is_final) {
+        const Eigen::VectorXd alone = sid::chain_noise_alone_error(
+            model, fit.theta, sampled, r.noise_floor, kNoiseRuns, kNoiseSeed, loose);
+        const auto samples = static_cast<double>(sampled.t.size());
+        noise_squares += samples * alone.array().square().matrix();
+        noise_samples += samples;
+      }
       (is_final ? out.failed_final : out.failed_nominal) += sim.failed_segments;
       if (out.failure.empty() && !sim.ok())
         out.failure = std::string(is_final ? "final" : "nominal") + " model, " + sim.message;
@@ -97,6 +120,7 @@ FreeSimulations free_simulations(const LoadedChain& loaded, const sid::ChainDiag
     }
     (is_final ? out.final : out.nominal) = (squares.array() / counts.array().max(1.0)).sqrt();
   }
+  out.noise_alone = (noise_squares / std::max(noise_samples, 1.0)).cwiseSqrt();
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }
@@ -136,10 +160,23 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
   if (sim.nominal.size()) {
     out << "\nfree simulation (" << sim.segments
         << " segments of 1 s from the smoothed state, driven by the smoothed torque; each model "
-           "at its physically consistent fit): angle error RMS nominal -> final [rad]\n";
-    for (int j = 0; j < nominal.joints(); ++j)
-      out << "  " << nominal.joint_names()[static_cast<std::size_t>(j)] << ": "
-          << number("%.3g", sim.nominal[j]) << " -> " << number("%.3g", sim.final[j]) << "\n";
+           "at its physically consistent fit): angle error RMS nominal -> final [rad], and what "
+           "white torque noise at the floor alone does to the final model\n";
+    std::string beyond;
+    for (int j = 0; j < nominal.joints(); ++j) {
+      const std::string& name = nominal.joint_names()[static_cast<std::size_t>(j)];
+      const double ratio = sim.final[j] / sim.noise_alone[j];
+      out << "  " << name << ": " << number("%.3g", sim.nominal[j]) << " -> "
+          << number("%.3g", sim.final[j]) << " (noise alone " << number("%.2g", sim.noise_alone[j])
+          << ", " << number("%.2g", ratio) << "x)\n";
+      if (ratio > kSimulationThreshold) beyond += (beyond.empty() ? "" : ", ") + name;
+    }
+    out << (beyond.empty()
+                ? "  the final model follows the motion within " +
+                      number("%.0f", kSimulationThreshold) + "x what the noise alone gives\n"
+                : "  beyond " + number("%.0f", kSimulationThreshold) +
+                      "x what the noise alone gives: " + beyond +
+                      ": motion the final model does not explain\n");
     if (sim.failed_nominal + sim.failed_final > 0)
       out << "  segments that blew up or failed: nominal " << sim.failed_nominal << ", final "
           << sim.failed_final << " (first: " << sim.failure << ")\n";
@@ -186,6 +223,8 @@ nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainMod
     j["free_simulation"] = {{"segments", sim.segments},
                             {"error_rms_nominal", to_json_array(sim.nominal)},
                             {"error_rms_final", to_json_array(sim.final)},
+                            {"noise_alone_rms", to_json_array(sim.noise_alone)},
+                            {"threshold", kSimulationThreshold},
                             {"failed_segments_nominal", sim.failed_nominal},
                             {"failed_segments_final", sim.failed_final}};
   else

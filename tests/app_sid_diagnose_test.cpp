@@ -263,6 +263,19 @@ TEST_F(DiagnoseRobot, NamesTheSpringHiddenInASimulatedLog) {
   EXPECT_EQ(free["failed_segments_final"], 0);
   EXPECT_LT(free["error_rms_final"][4].get<double>(),
             0.5 * free["error_rms_nominal"][4].get<double>());
+  // ... and within the threshold of what the torque noise alone does, which the nominal model
+  // is not on joint 5.
+  ASSERT_EQ(free["noise_alone_rms"].size(), 6u);
+  const double threshold = free["threshold"].get<double>();
+  for (int j = 0; j < 6; ++j) {
+    const double alone = free["noise_alone_rms"][j].get<double>();
+    EXPECT_GT(alone, 0.0) << j;
+    EXPECT_LT(free["error_rms_final"][j].get<double>(), threshold * alone) << j;
+  }
+  EXPECT_GT(free["error_rms_nominal"][4].get<double>(),
+            threshold * free["noise_alone_rms"][4].get<double>());
+  EXPECT_NE(run.out.find("the final model follows the motion within"), std::string::npos)
+      << run.out;
   // Nothing the user gave is overwritten.
   const sid_test::AppRun again =
       shell(app("sid_diagnose") + " --robot " + urdf() + " --json d.json sim.csv");

@@ -226,6 +226,36 @@ TEST(ChainFreeSimulation, ExactModelReproducesTheMotionAndAMissingFrictionDrifts
   EXPECT_LT((one.q.topRows(100) - exact.q.topRows(100)).cwiseAbs().maxCoeff(), 1e-6);
 }
 
+// The noise-alone scale of the free simulation: none without noise, and for a small noise the
+// arm's response is linear in it, so the same draws at twice the level move it twice as far.
+TEST(ChainFreeSimulation, NoiseAloneIsZeroWithoutNoiseAndLinearInASmallOne) {
+  const Experiment e(1.0);
+  const Eigen::VectorXd none =
+      sid::chain_noise_alone_error(e.model, e.theta, e.truth, Eigen::VectorXd::Zero(6), 2);
+  EXPECT_EQ(none, Eigen::VectorXd::Zero(6));
+  const Eigen::VectorXd sigma = Eigen::VectorXd::Constant(6, 1e-4);
+  const Eigen::VectorXd small = sid::chain_noise_alone_error(e.model, e.theta, e.truth, sigma, 2);
+  const Eigen::VectorXd twice =
+      sid::chain_noise_alone_error(e.model, e.theta, e.truth, 2.0 * sigma, 2);
+  for (int j = 0; j < 6; ++j) {
+    EXPECT_GT(small[j], 0.0) << j;
+    EXPECT_NEAR(twice[j] / small[j], 2.0, 0.02) << j;
+  }
+  // Another seed draws other noise: a similar scale, not the same figures.
+  const Eigen::VectorXd other =
+      sid::chain_noise_alone_error(e.model, e.theta, e.truth, sigma, 2, 7);
+  EXPECT_NE(other, small);
+  EXPECT_LT((other.array() / small.array()).maxCoeff(), 3.0);
+  sid_test::expect_invalid_argument(
+      [&] {
+        (void)sid::chain_noise_alone_error(e.model, e.theta, e.truth, Eigen::VectorXd::Zero(5));
+      },
+      "sid::chain_noise_alone_error", "noise_sigma");
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::chain_noise_alone_error(e.model, e.theta, e.truth, sigma, 0); },
+      "sid::chain_noise_alone_error", "runs");
+}
+
 TEST(ChainExperiment, GivenTorqueDrivesTheArmWhereTheTrackedRunWent) {
   // The torque a tracked run applied, given back open loop from the same start: the same motion,
   // up to the torque's linear interpolation between the 2 ms samples.
