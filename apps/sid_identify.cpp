@@ -166,9 +166,21 @@ each base parameter by the combination it stands for, with its HAC standard devi
 --validate RUN and --validate-fraction F report how well held-out torques are predicted, over
 the fit's equations and over the log as recorded. Physically consistent links (each a real
 body, near the URDF's values where the data say nothing) are fitted too, and --write-urdf
-OUT.urdf writes them into a copy of the URDF. The JSON has joint_names, parameter_names, theta,
-std_dev, residual_rms, relative_residual, their *_measured counterparts and validation [{file,
-residual_rms, relative_residual, ...}].
+OUT.urdf writes them into a copy of the URDF. --estimator wls weights each joint by its
+residual variance; --estimator iv refines by IDIM-IV over all runs: angles smoothed by their
+GCV spline, torque as measured, least squares, then instruments from simulations (0.5 s
+segments from the smoothed state) of the physically consistent arm nearest to each estimate.
+On a simulated TX40 with rotors (3 runs each) it predicts the true torque to 0.19 % where ls
+does to 0.32 % at sigma_q = 1e-2 rad, 0.087 against 0.105 % at 1e-3 rad, and as well (0.055
+against 0.054 %) at 1e-4 rad; on the real TX40 run the held-out 30 % are predicted to 6.83 %
+against 6.94 %.
+When the iteration does not converge, or leaves more than 1.5 times least squares' residual,
+the simulated motion does not follow the measured one (the instruments are weak): the ls fit
+is reported, with a warning. The JSON has joint_names, parameter_names, theta, std_dev,
+residual_rms, relative_residual, their *_measured counterparts, validation [{file,
+residual_rms, relative_residual, ...}] and with iv: iv_applied, iv_iterations, iv_converged,
+iv_residual_ratio, iv_message, least_squares_theta, iv_fit (per run; the top-level residuals
+are then the first run's).
 
 Examples:
   sid_identify log.csv
@@ -180,6 +192,7 @@ Examples:
   sid_identify --estimator iv log.csv
   sid_identify --robot arm.urdf --validate run2.csv --json fit.json run1.csv
   sid_identify --robot tx40.urdf --transmission tx40.yaml --validate-fraction 0.3 motor_log.csv
+  sid_identify --robot arm.urdf --estimator iv run1.csv run2.csv
   sid_simulate | sid_identify -
 )";
 

@@ -16,6 +16,7 @@
 #include <sid/chain_regression.hpp>
 #include <sid/cvode/instrumental_variables.hpp>
 #include <sid/cvode/simulator.hpp>
+#include <sid/detail/kinematics_estimation.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/least_squares.hpp>
 #include <sid/model/chain_model.hpp>
@@ -127,30 +128,64 @@ inline bool simulate_chain_states(const ChainModel& model, const Eigen::VectorXd
   return true;
 }
 
+/// chain_regression() of several runs, stacked joint by joint as it lays out one run (the
+/// per-joint statistics of the fits need that).
+inline ChainRegression stacked_chain_regression(
+    const ChainModel& model, const std::vector<Eigen::Index>& columns,
+    const std::vector<ChainKinematics<double>>& runs,
+    const std::vector<std::vector<Eigen::Index>>& samples) {
+  const int joints = model.joints();
+  std::vector<ChainRegression> parts;
+  Eigen::Index rows = 0;
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    parts.push_back(chain_regression(model, columns, runs[r], samples[r]));
+    rows += parts.back().y.size();
+  }
+  ChainRegression all{Eigen::MatrixXd(rows, static_cast<Eigen::Index>(columns.size())),
+                      Eigen::VectorXd(rows)};
+  Eigen::Index at = 0;
+  for (int j = 0; j < joints; ++j)
+    for (const ChainRegression& part : parts) {
+      const Eigen::Index m = part.y.size() / joints;
+      all.x.middleRows(at, m) = part.x.middleRows(j * m, m);
+      all.y.segment(at, m) = part.y.segment(j * m, m);
+      at += m;
+    }
+  return all;
+}
+
 }  // namespace detail
 
-/// @brief Refines a first base-parameter estimate of `model` on the kinematics k (the windowed
-/// samples the estimator kept, with the measured τ) by IDIM-IV.
+/// @brief Refines a first base-parameter estimate of `model` on the runs' kinematics (each the
+/// windowed samples the estimator kept, with the measured τ) by IDIM-IV.
 ///
-/// The rows are chain_regression() at `samples`, the fit's; each iteration simulates the current
-/// estimate (see the file comment) and takes the same rows at the simulated states as instruments
-/// W, then solves (WᵀX) β = Wᵀy column-scaled. A failed simulation or singular instruments stop the
-/// iteration with the last good estimate and a message; reaching max_iterations is reported as not
+/// The rows are chain_regression() at each run's `samples`, the fit's, stacked over the runs
+/// joint by joint; each iteration simulates the current estimate (see the file comment) through
+/// every run and takes the same rows at the simulated states as instruments W, then solves
+/// (WᵀX) β = Wᵀy column-scaled. A failed simulation or singular instruments stop the iteration
+/// with the last good estimate and a message; reaching max_iterations is reported as not
 /// converged.
 /// @param base the model's base parameters (chain_base_parameters()).
-/// @param samples the samples of k the fit's rows are at (e.g. chain_regression_samples()).
-/// @param first the least-squares fit of the base parameters at those samples to start from.
-/// @throws std::invalid_argument on inconsistent sizes, a first fit that is not a success, or
-///         bad options.
+/// @param samples per run, the samples of its kinematics the fit's rows are at (e.g.
+///        chain_regression_samples()).
+/// @param first the least-squares fit of the base parameters on those rows to start from.
+/// @throws std::invalid_argument on no runs, inconsistent sizes, a first fit that is not a
+///         success, or bad options.
 inline InstrumentalVariableResult refine_chain_instrumental_variables(
-    const ChainModel& model, const BaseParameters<double>& base, const ChainKinematics<double>& k,
-    const std::vector<Eigen::Index>& samples, const LeastSquaresResult<double>& first,
+    const ChainModel& model, const BaseParameters<double>& base,
+    const std::vector<ChainKinematics<double>>& runs,
+    const std::vector<std::vector<Eigen::Index>>& samples, const LeastSquaresResult<double>& first,
     const ChainInstrumentalVariableOptions& options = {}) {
   const char* who = "sid::refine_chain_instrumental_variables";
-  detail::check_chain_iv_inputs(model, base, k, samples, first, options, who);
+  if (runs.empty() || runs.size() != samples.size())
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(runs.size()) +
+                                " runs but " + std::to_string(samples.size()) +
+                                " sample lists; give one list per run, and at least one run");
+  for (std::size_t r = 0; r < runs.size(); ++r)
+    detail::check_chain_iv_inputs(model, base, runs[r], samples[r], first, options, who);
   const int joints = model.joints();
   const std::vector<Eigen::Index>& columns = base.independent;
-  const ChainRegression measured = chain_regression(model, columns, k, samples);
+  const ChainRegression measured = detail::stacked_chain_regression(model, columns, runs, samples);
   if (measured.x.rows() <= measured.x.cols())
     throw std::invalid_argument(std::string(who) + ": " + std::to_string(measured.x.rows()) +
                                 " equations for " + std::to_string(measured.x.cols()) +
@@ -158,20 +193,24 @@ inline InstrumentalVariableResult refine_chain_instrumental_variables(
   const Eigen::VectorXd scale = measured.x.colwise().norm().cwiseMax(1e-300).transpose();
   const Eigen::MatrixXd x_scaled = measured.x * scale.cwiseInverse().asDiagonal();
 
-  const JointSamples<double, Eigen::Dynamic> drive = detail::smoothed_torque(k);
-  ChainKinematics<double> simulated;
-  const auto count = static_cast<Eigen::Index>(samples.size());
-  simulated.t.resize(count);
-  simulated.tau.resize(count, joints);
-  for (Eigen::Index a = 0; a < count; ++a) {
-    simulated.t[a] = k.t[samples[static_cast<std::size_t>(a)]];
-    simulated.tau.row(a) = drive.row(samples[static_cast<std::size_t>(a)]);
+  std::vector<JointSamples<double, Eigen::Dynamic>> drives;
+  std::vector<ChainKinematics<double>> simulated(runs.size());
+  std::vector<std::vector<Eigen::Index>> every(runs.size());
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    drives.push_back(detail::smoothed_torque(runs[r]));
+    const auto count = static_cast<Eigen::Index>(samples[r].size());
+    ChainKinematics<double>& s = simulated[r];
+    s.t.resize(count);
+    s.tau.resize(count, joints);
+    for (Eigen::Index a = 0; a < count; ++a) {
+      s.t[a] = runs[r].t[samples[r][static_cast<std::size_t>(a)]];
+      s.tau.row(a) = drives[r].row(samples[r][static_cast<std::size_t>(a)]);
+      every[r].push_back(a);
+    }
+    s.q.resize(count, joints);
+    s.qd.resize(count, joints);
+    s.qdd.resize(count, joints);
   }
-  simulated.q.resize(count, joints);
-  simulated.qd.resize(count, joints);
-  simulated.qdd.resize(count, joints);
-  std::vector<Eigen::Index> all(samples.size());
-  for (std::size_t a = 0; a < all.size(); ++a) all[a] = static_cast<Eigen::Index>(a);
 
   // The consistent model of each estimate is measured by the growth of the least-squares
   // fit's residual (its triangular factor), whatever the estimate.
@@ -186,10 +225,12 @@ inline InstrumentalVariableResult refine_chain_instrumental_variables(
     estimate.fit.theta = result.fit.theta;
     const ChainConsistentFit physical =
         consistent_chain_parameters(model, estimate, options.prior, options.consistency);
-    if (!detail::simulate_chain_states(model, physical.theta, k, drive, samples, options, who, it,
-                                       simulated, result))
-      return result;
-    const ChainRegression instruments = chain_regression(model, columns, simulated, all);
+    for (std::size_t r = 0; r < runs.size(); ++r)
+      if (!detail::simulate_chain_states(model, physical.theta, runs[r], drives[r], samples[r],
+                                         options, who, it, simulated[r], result))
+        return result;
+    const ChainRegression instruments =
+        detail::stacked_chain_regression(model, columns, simulated, every);
     Eigen::VectorXd next;
     if (!detail::solve_iv(instruments.x, x_scaled, measured.y, scale, who, it, next, result))
       return result;
@@ -210,6 +251,82 @@ inline InstrumentalVariableResult refine_chain_instrumental_variables(
   result.message = std::string(who) + ": the estimate still changed by more than the tolerance " +
                    "after " + std::to_string(options.max_iterations) + " iterations";
   return result;
+}
+
+/// @brief The same on one run's kinematics k.
+inline InstrumentalVariableResult refine_chain_instrumental_variables(
+    const ChainModel& model, const BaseParameters<double>& base, const ChainKinematics<double>& k,
+    const std::vector<Eigen::Index>& samples, const LeastSquaresResult<double>& first,
+    const ChainInstrumentalVariableOptions& options = {}) {
+  return refine_chain_instrumental_variables(model, base, std::vector<ChainKinematics<double>>{k},
+                                             {samples}, first, options);
+}
+
+/// @brief What identify_chain_iv() found.
+struct ChainIvIdentification {
+  /// Per run: each angle smoothed by its GCV spline, the torque as measured, within
+  /// [t0 + skip, end − skip_end].
+  std::vector<ChainKinematics<double>> kinematics;
+  std::vector<std::vector<Eigen::Index>> samples;  ///< per run, the rows' samples
+  LeastSquaresResult<double> least_squares;        ///< the first fit on those rows
+  InstrumentalVariableResult iv;                   ///< the refined fit (iv.fit)
+  /// The IV residual on the rows over the least-squares one (which least squares minimises:
+  /// >= 1). Near 1 when the simulated motion follows the measured one; far above it when it
+  /// does not and the instruments are weak (a light wrist whose open-loop motion wanders off
+  /// within a segment).
+  double residual_ratio = 1.0;
+};
+
+/// @brief IDIM-IV identification of the base parameters `base` of model from runs: each angle
+/// smoothed by its GCV spline and the torque taken as measured, as the chain study's css_iv
+/// (identify_chain's cutoffs are chosen by the model's torque prediction and filter the torque:
+/// with them the instruments gained nothing on the real TX40 run), least squares on the rows at
+/// options.regression_rate_hz, then refine_chain_instrumental_variables().
+/// @param options skip, skip_end, regression_rate_hz and least_squares are used.
+/// @throws std::invalid_argument on no runs, a run that does not fit the model, a window with
+///         too few rows, or bad options.
+inline ChainIvIdentification identify_chain_iv(const ChainModel& model,
+                                               const BaseParameters<double>& base,
+                                               const std::vector<ChainTrajectory<double>>& runs,
+                                               const ChainIdentifyOptions& options = {},
+                                               const ChainInstrumentalVariableOptions& iv = {}) {
+  const char* who = "sid::identify_chain_iv";
+  if (runs.empty()) throw std::invalid_argument(std::string(who) + ": no runs given");
+  IdentifyOptions smoothing;
+  smoothing.method = DerivativeMethod::SmoothingSpline;
+  smoothing.smoothing = SmoothingMode::Gcv;
+  ChainIvIdentification out;
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const ChainTrajectory<double>& run = runs[r];
+    if (run.joints() != model.joints())
+      throw std::invalid_argument(std::string(who) + ": run " + std::to_string(r + 1) + " has " +
+                                  std::to_string(run.joints()) + " joints, the model " +
+                                  std::to_string(model.joints()));
+    const ChainKinematics<double> k = detail::estimate_joint_kinematics(
+        run, smoothing, Eigen::VectorXd::Zero(run.joints()), nullptr, who);
+    out.kinematics.push_back(
+        detail::window_rows(k, run.t[0] + options.skip, run.t[run.size() - 1] - options.skip_end));
+    out.samples.push_back(
+        chain_regression_samples(out.kinematics.back().t, options.regression_rate_hz));
+  }
+  const ChainRegression r =
+      detail::stacked_chain_regression(model, base.independent, out.kinematics, out.samples);
+  if (r.x.rows() <= r.x.cols())
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(r.x.rows()) +
+                                " equations for " + std::to_string(r.x.cols()) +
+                                " base parameters; give longer or more runs");
+  out.least_squares = least_squares(r.x, r.y, model.joints(), options.least_squares);
+  if (!out.least_squares.ok()) {
+    out.iv.fit = out.least_squares;
+    out.iv.failed = true;
+    out.iv.message = std::string(who) + ": the first fit failed: " + out.least_squares.message;
+    return out;
+  }
+  out.iv = refine_chain_instrumental_variables(model, base, out.kinematics, out.samples,
+                                               out.least_squares, iv);
+  out.residual_ratio = (r.y - r.x * out.iv.fit.theta).norm() /
+                       std::max((r.y - r.x * out.least_squares.theta).norm(), 1e-300);
+  return out;
 }
 
 /// @brief The IV step as the chain study's hook: throws std::runtime_error when the iteration
