@@ -8,7 +8,6 @@
 #include <sid/cvode/chain_instrumental_variables.hpp>
 #include <sid/cvode/experiment.hpp>
 #include <sid/cvode/instrumental_variables.hpp>
-#include <sid/fourier_trajectory.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/measurement_noise.hpp>
 #include <sid/study/montecarlo.hpp>
@@ -69,15 +68,7 @@ BENCHMARK(BM_InstrumentalVariableStep)->Unit(benchmark::kMillisecond);
 // torque's prediction error 100 |Y β̂ - τ| / |τ| at the true motion, for identify_chain (least
 // squares at cutoffs chosen by held-out torque prediction) and identify_chain_iv.
 void BM_ChainIvAgainstLeastSquares(benchmark::State& state) {
-  const sid::Transmission direct(6);
-  const sid::ChainModel model(
-      sid_test::tx40_arm().chain, sid_test::tx40_arm().joint_names,
-      sid::drive_terms({sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature}, direct), direct,
-      0.05);
-  Eigen::VectorXd theta(model.parameters());
-  Eigen::VectorXd drives(12);
-  for (int j = 0; j < 6; ++j) drives.segment<2>(2 * j) << 0.5, 0.01;
-  theta << sid_test::tx40_arm().theta.head(60), drives;
+  const sid::ChainModel model = sid_test::tx40_hidden_term_experiment({}, 1, 0.1).truth;
   const sid::BaseParameters<double> base = sid::chain_base_parameters(model);
   std::string table;
   double iv_seconds = 0.0;
@@ -88,16 +79,9 @@ void BM_ChainIvAgainstLeastSquares(benchmark::State& state) {
       double ls_sum = 0.0, iv_sum = 0.0, ls_worst = 0.0, iv_worst = 0.0;
       int used = 0, runs = 0;
       for (const unsigned seed : {1u, 2u, 3u}) {
-        std::mt19937_64 rng(100 + seed);
-        const sid::FourierTrajectory desired = sid::random_fourier_trajectory(
-            Eigen::VectorXd::Zero(6), 5, 0.1, Eigen::VectorXd::Constant(6, 1.2),
-            Eigen::VectorXd::Constant(6, 2.0), rng);
-        sid::ChainExperiment experiment;
-        experiment.duration = 10.0;
-        experiment.sample_time = 0.002;
-        const sid::ChainExperimentResult run =
-            sid::simulate_chain_experiment(model, theta, desired, experiment);
-        if (!run.ok()) state.SkipWithError(run.message.c_str());
+        sid_test::Tx40Experiment e = sid_test::tx40_hidden_term_experiment({}, seed);
+        const sid::ChainExperimentResult& run = e.run;
+        std::mt19937_64& rng = e.rng;
         const sid::ChainTrajectory<double> noisy = sid::add_measurement_noise(
             run.trajectory(), sid::MeasurementNoise<double>{sigma_q2, 1e-2}, rng);
         const auto truth = sid::detail::window_rows(run.truth, 0.25, 9.75);

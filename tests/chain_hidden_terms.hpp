@@ -47,11 +47,21 @@ struct HiddenTerm {
   bool angle_offset = false;
 };
 
+/// The noise-free experiment behind tx40_hidden_term_run: the true arm, its parameters, the
+/// tracked run, and the generator the measurement noise is drawn from next.
+struct Tx40Experiment {
+  sid::ChainModel truth;
+  Eigen::VectorXd theta;
+  sid::ChainExperimentResult run;
+  Eigen::VectorXd angle_offset;  ///< per joint: measured q = q - angle_offset
+  std::mt19937_64 rng;
+};
+
 /// joint2_range: the excitation's reach on joint 2 [rad]; over ±1.2 rad a spring there is not
 /// separable from gravity, over ±2 rad it is.
-inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<HiddenTerm>& hidden,
-                                                         unsigned seed, double duration = 10.0,
-                                                         double joint2_range = 1.2) {
+inline Tx40Experiment tx40_hidden_term_experiment(const std::vector<HiddenTerm>& hidden,
+                                                  unsigned seed, double duration = 10.0,
+                                                  double joint2_range = 1.2) {
   const sid::Transmission direct(6);
   std::vector<sid::DriveTerm> terms =
       sid::drive_terms({sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature}, direct);
@@ -71,7 +81,7 @@ inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<Hidde
     terms.push_back(h.term);
     extra.push_back(h.value);
   }
-  const sid::ChainModel truth(tx40_arm().chain, tx40_arm().joint_names, terms, direct, 0.05);
+  sid::ChainModel truth(tx40_arm().chain, tx40_arm().joint_names, terms, direct, 0.05);
   Eigen::VectorXd theta(truth.parameters());
   theta << tx40_arm().theta.head(60), drives,
       Eigen::Map<const Eigen::VectorXd>(extra.data(), static_cast<Eigen::Index>(extra.size()));
@@ -83,12 +93,19 @@ inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<Hidde
   sid::ChainExperiment experiment;
   experiment.duration = duration;
   experiment.sample_time = 0.002;
-  const sid::ChainExperimentResult run =
+  sid::ChainExperimentResult run =
       sid::simulate_chain_experiment(truth, theta, desired, experiment);
-  if (!run.ok()) throw std::runtime_error("tx40_hidden_term_run: " + run.message);
-  sid::ChainTrajectory<double> measured = run.trajectory();
-  measured.q.rowwise() -= angle_offset.transpose();
-  return sid::add_measurement_noise(measured, sid::MeasurementNoise<double>{1e-8, 1e-2}, rng);
+  if (!run.ok()) throw std::runtime_error("tx40_hidden_term_experiment: " + run.message);
+  return {std::move(truth), std::move(theta), std::move(run), std::move(angle_offset), rng};
+}
+
+inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<HiddenTerm>& hidden,
+                                                         unsigned seed, double duration = 10.0,
+                                                         double joint2_range = 1.2) {
+  Tx40Experiment e = tx40_hidden_term_experiment(hidden, seed, duration, joint2_range);
+  sid::ChainTrajectory<double> measured = e.run.trajectory();
+  measured.q.rowwise() -= e.angle_offset.transpose();
+  return sid::add_measurement_noise(measured, sid::MeasurementNoise<double>{1e-8, 1e-2}, e.rng);
 }
 
 }  // namespace sid_test
