@@ -58,7 +58,7 @@ Any serial chain (--robot FILE, a URDF or DH table, as sid_identify --robot take
   cutoff of a GCV spline of its angles, and the nominal model (rigid bodies and --drives) is
   fitted. Then every drive term kind of --candidates (default coulomb, offset, armature,
   spring, viscous, stribeck: a Stribeck curve at widths 0.03, 0.1 and 0.3 rad/s, the best
-  fitting one tested) on every joint and coupled motor where the model lacks it, and an
+  fitting one tested and, once named, its width fitted) on every joint and coupled motor where the model lacks it, and an
   offset of every joint's measured angle (angle_offset, true q = measured q + delta, through
   the nominal fit's torque linearised in that angle; where the link parameters absorb it, as
   on a first joint about a vertical axis or the last joint, it is not separable), is tested

@@ -19,6 +19,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <random>
@@ -391,6 +392,9 @@ void BM_ChainHiddenTerms(benchmark::State& state) {
         char value[96];
         std::snprintf(value, sizeof value, "%s=%.4g(+-%.2g; cv %.2g %%)", e.id.c_str(), e.value,
                       e.std, 100.0 * e.cv_drop);
+        if (!e.angle_offset && e.term.kind == sid::DriveTermKind::Stribeck)
+          std::snprintf(value + std::strlen(value), sizeof value - std::strlen(value),
+                        " vs %.3g", e.term.velocity);
         named += (named.empty() ? "" : ",") + std::string(value);
         if (!e.caveat.empty()) named += " (caveat: " + e.caveat.substr(0, e.caveat.find(' ')) + ")";
       }

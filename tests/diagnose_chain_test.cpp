@@ -174,6 +174,21 @@ TEST(DiagnoseChain, NamesAnAngleOffsetOnlyWhereTheLinkParametersCannotAbsorbIt) 
   }
 }
 
+// A Stribeck curve between the grid's widths: the width is fitted (to 15 % of the truth here),
+// and the curve's height comes with it.
+TEST(DiagnoseChain, FitsTheWidthOfANamedStribeckCurve) {
+#ifdef SID_SANITIZED_TESTS
+  GTEST_SKIP() << "numbers only; the paths run in NamesTheHiddenDriveTermOnItsJoint...";
+#endif
+  const sid::ChainDiagnosis r = sid::diagnose_chain(
+      tx40_nominal(),
+      {tx40_hidden_term_run({{{sid::DriveTermKind::Stribeck, 2, false, 0.2}, 1.0}}, 1)});
+  ASSERT_EQ(named_ids(r), std::vector<std::string>{"stribeck_j3"});
+  EXPECT_NEAR(r.named[0].term.velocity, 0.2, 0.03);
+  EXPECT_NEAR(r.named[0].value, 1.0, std::max(0.05, 4.0 * r.named[0].std));
+  EXPECT_EQ(r.final_terms.back().velocity, r.named[0].term.velocity);
+}
+
 // Over ±1.2 rad a spring on joint 2 is not separable from gravity (the test above); over ±2 rad
 // the motion tells them apart and the spring is named, with no caveat.
 TEST(DiagnoseChain, AWiderMotionOfJoint2SeparatesItsSpringFromGravity) {

@@ -239,6 +239,85 @@ inline Eigen::MatrixXd angle_offset_slopes(const ChainModel& model,
   return out;
 }
 
+/// Per equation: the last column of `model`'s regressor (a model whose one drive term is the
+/// one wanted) at the smoothed states, on the equation's joint.
+inline Eigen::VectorXd last_drive_column(const ChainModel& model,
+                                         const std::vector<SmoothedChainRun>& runs,
+                                         const ChainDiagnosisEquations& d) {
+  const int n = model.joints();
+  Eigen::VectorXd out(d.y.size());
+  Eigen::MatrixXd y(n, model.parameters());
+  Eigen::VectorXd q(n), qd(n), qdd(n);
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const SmoothedChainRun& s = runs[r];
+    Eigen::Index last = -1;
+    for (Eigen::Index row = d.run_rows[r]; row < d.run_rows[r + 1]; ++row) {
+      const Eigen::Index a = d.at[static_cast<std::size_t>(row)];
+      if (a != last) {
+        const Eigen::Index i = s.samples[static_cast<std::size_t>(a)];
+        q = s.k.q.row(i).transpose();
+        qd = s.k.qd.row(i).transpose();
+        qdd = s.k.qdd.row(i).transpose();
+        model.regressor(q, qd, qdd, y);
+        last = a;
+      }
+      out[row] = y(d.joint[static_cast<std::size_t>(row)], model.parameters() - 1);
+    }
+  }
+  return out;
+}
+
+/// The width of a named Stribeck curve that leaves the least residual, the other columns held
+/// (Frisch–Waugh–Lovell): a log-spaced scan of [lo, hi], then a golden-section search about
+/// its best point. column_at(vs) gives the curve's unscaled column at width vs.
+template <typename ColumnAt>
+double fitted_stribeck_width(const ChainDiagnosisEquations& d,
+                             const std::vector<Eigen::Index>& others, double lo, double hi,
+                             const ColumnAt& column_at) {
+  const Eigen::MatrixXd x = d.x(Eigen::all, others);
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(x);
+  const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(x.rows(), x.cols());
+  const Eigen::VectorXd r0 = d.y_measured - q * (q.transpose() * d.y_measured);
+  const auto rss = [&](double log_vs) {
+    const Eigen::VectorXd z = column_at(std::exp(log_vs));
+    const Eigen::VectorXd zr = z - q * (q.transpose() * z);
+    const double zz = zr.squaredNorm();
+    return zz > 0.0 ? r0.squaredNorm() - zr.dot(r0) * zr.dot(r0) / zz : r0.squaredNorm();
+  };
+  constexpr int kScan = 9;
+  const double a = std::log(lo), step = (std::log(hi) - a) / (kScan - 1);
+  int best = 0;
+  double best_rss = rss(a);
+  for (int k = 1; k < kScan; ++k) {
+    const double value = rss(a + k * step);
+    if (value < best_rss) {
+      best_rss = value;
+      best = k;
+    }
+  }
+  double left = a + std::max(best - 1, 0) * step, right = a + std::min(best + 1, kScan - 1) * step;
+  const double ratio = (std::sqrt(5.0) - 1.0) / 2.0;
+  double x1 = right - ratio * (right - left), x2 = left + ratio * (right - left);
+  double f1 = rss(x1), f2 = rss(x2);
+  while (right - left > 5e-3) {
+    if (f1 < f2) {
+      right = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = right - ratio * (right - left);
+      f1 = rss(x1);
+    } else {
+      left = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = left + ratio * (right - left);
+      f2 = rss(x2);
+    }
+  }
+  const double found = 0.5 * (left + right);
+  return rss(found) < best_rss ? std::exp(found) : std::exp(a + best * step);
+}
+
 /// Blocked cross-validation error of the model on `columns`: each fold predicted by the fit on
 /// all others, from the fold Gram matrices (one small solve per fold).
 inline double chain_cv_error(const ChainDiagnosisEquations& d,
@@ -564,6 +643,25 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     const DriveTerm chosen_term = named.term;
     const bool chosen_stribeck = !named.angle_offset && chosen_term.kind == DriveTermKind::Stribeck;
     result.named.push_back(std::move(named));
+    // A named Stribeck curve's width is fitted before the next round: the grid only chose among
+    // its widths, and a curve between them leaves a residual that looks like Coulomb friction
+    // (a curve of 0.4 rad/s, tried at 0.3, was named with a Coulomb term that the fitted width
+    // makes zero).
+    if (chosen_stribeck) {
+      const auto column_at = [&](double vs) {
+        DriveTerm curve = chosen_term;
+        curve.velocity = vs;
+        const ChainModel one(nominal.chain(), nominal.joint_names(), {curve},
+                             nominal.transmission(), nominal.coulomb_epsilon());
+        return detail::last_drive_column(one, smoothed, d);
+      };
+      const auto [lo, hi] = std::minmax_element(options.stribeck_velocities.begin(),
+                                                options.stribeck_velocities.end());
+      const double width =
+          detail::fitted_stribeck_width(d, selected, 0.5 * *lo, 2.0 * *hi, column_at);
+      result.named.back().term.velocity = width;
+      detail::set_column(d, base_count + chosen, column_at(width));
+    }
     named_positions.push_back(chosen);
     selected.push_back(base_count + chosen);
     angle_columns_stale = angle_columns > 0;
@@ -576,8 +674,9 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
         continue;
       }
       ChainEffectTest t = make_test(*it);
-      t.reason = "the Stribeck width " + detail::significant(chosen_term.velocity, 3) +
-                 " fits this joint better";
+      t.reason = "the Stribeck curve named on this joint, tried at width " +
+                 detail::significant(chosen_term.velocity, 3) + " and fitted to " +
+                 detail::significant(result.named.back().term.velocity, 3) + ", fits it better";
       result.not_named.push_back(std::move(t));
       it = remaining.erase(it);
     }

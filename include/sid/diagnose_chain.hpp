@@ -40,7 +40,8 @@ struct ChainDiagnoseOptions {
                                                 DriveTermKind::Viscous,  DriveTermKind::Stribeck};
   /// The widths vs [rad/s or m/s] a Stribeck candidate is tried at: in each round only the width
   /// that explains most of the residual is tested (its p-value is the smallest of the widths',
-  /// a mild selection), and once one is named the others on that joint are dropped.
+  /// a mild selection), and once one is named the others on that joint are dropped and its
+  /// width is fitted within [half the smallest, twice the largest] before the next round.
   std::vector<double> stribeck_velocities = {0.03, 0.1, 0.3};
   /// Also try an offset δ of each joint's measured angle (measured q = true q − δ), through the
   /// nominal fit's torque linearised in that angle, ∂(Y θ̂)/∂q_j. Where the link parameters
