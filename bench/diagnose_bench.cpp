@@ -393,8 +393,8 @@ void BM_ChainHiddenTerms(benchmark::State& state) {
         std::snprintf(value, sizeof value, "%s=%.4g(+-%.2g; cv %.2g %%)", e.id.c_str(), e.value,
                       e.std, 100.0 * e.cv_drop);
         if (!e.angle_offset && e.term.kind == sid::DriveTermKind::Stribeck)
-          std::snprintf(value + std::strlen(value), sizeof value - std::strlen(value),
-                        " vs %.3g", e.term.velocity);
+          std::snprintf(value + std::strlen(value), sizeof value - std::strlen(value), " vs %.3g",
+                        e.term.velocity);
         named += (named.empty() ? "" : ",") + std::string(value);
         if (!e.caveat.empty()) named += " (caveat: " + e.caveat.substr(0, e.caveat.find(' ')) + ")";
       }

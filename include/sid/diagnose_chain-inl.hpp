@@ -197,6 +197,31 @@ inline void set_column(ChainDiagnosisEquations& d, Eigen::Index c, const Eigen::
   d.gram_total.row(c) = d.gram_total.col(c).transpose();
 }
 
+/// Calls at_state(q, qd, qdd) at the smoothed state of each sample the equations are taken at,
+/// then at_row(row, joint) for each of that sample's equations.
+template <typename AtState, typename AtRow>
+void visit_equation_states(const std::vector<SmoothedChainRun>& runs,
+                           const ChainDiagnosisEquations& d, const AtState& at_state,
+                           const AtRow& at_row) {
+  Eigen::VectorXd q(d.joints), qd(d.joints), qdd(d.joints);
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const SmoothedChainRun& s = runs[r];
+    Eigen::Index last = -1;
+    for (Eigen::Index row = d.run_rows[r]; row < d.run_rows[r + 1]; ++row) {
+      const Eigen::Index a = d.at[static_cast<std::size_t>(row)];
+      if (a != last) {
+        const Eigen::Index i = s.samples[static_cast<std::size_t>(a)];
+        q = s.k.q.row(i).transpose();
+        qd = s.k.qd.row(i).transpose();
+        qdd = s.k.qdd.row(i).transpose();
+        at_state(q, qd, qdd);
+        last = a;
+      }
+      at_row(row, d.joint[static_cast<std::size_t>(row)]);
+    }
+  }
+}
+
 /// Per equation: how the torque prediction of `model` at `theta` on the equation's joint changes
 /// per radian of offset of each joint's measured angle, ∂(Y θ)/∂q_j by forward differences at
 /// the smoothed states (one column per joint).
@@ -211,31 +236,21 @@ inline Eigen::MatrixXd angle_offset_slopes(const ChainModel& model,
   Eigen::MatrixXd out(d.y.size(), n);
   Eigen::MatrixXd y(n, model.parameters());
   Eigen::MatrixXd slope(n, n);  // (torque of joint, angle shifted)
-  Eigen::VectorXd q(n), qd(n), qdd(n), tau(n);
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    const SmoothedChainRun& s = runs[r];
-    Eigen::Index last = -1;
-    for (Eigen::Index row = d.run_rows[r]; row < d.run_rows[r + 1]; ++row) {
-      const Eigen::Index a = d.at[static_cast<std::size_t>(row)];
-      if (a != last) {
-        const Eigen::Index i = s.samples[static_cast<std::size_t>(a)];
-        q = s.k.q.row(i).transpose();
-        qd = s.k.qd.row(i).transpose();
-        qdd = s.k.qdd.row(i).transpose();
+  Eigen::VectorXd shifted(n), tau(n);
+  visit_equation_states(
+      runs, d,
+      [&](const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& qdd) {
         model.regressor(q, qd, qdd, y);
         tau = y * theta;
+        shifted = q;
         for (int j = 0; j < n; ++j) {
-          const double qj = q[j];
-          q[j] = qj + h;
-          model.regressor(q, qd, qdd, y);
+          shifted[j] = q[j] + h;
+          model.regressor(shifted, qd, qdd, y);
           slope.col(j) = (y * theta - tau) / h;
-          q[j] = qj;
+          shifted[j] = q[j];
         }
-        last = a;
-      }
-      out.row(row) = slope.row(d.joint[static_cast<std::size_t>(row)]);
-    }
-  }
+      },
+      [&](Eigen::Index row, int joint) { out.row(row) = slope.row(joint); });
   return out;
 }
 
@@ -244,26 +259,14 @@ inline Eigen::MatrixXd angle_offset_slopes(const ChainModel& model,
 inline Eigen::VectorXd last_drive_column(const ChainModel& model,
                                          const std::vector<SmoothedChainRun>& runs,
                                          const ChainDiagnosisEquations& d) {
-  const int n = model.joints();
   Eigen::VectorXd out(d.y.size());
-  Eigen::MatrixXd y(n, model.parameters());
-  Eigen::VectorXd q(n), qd(n), qdd(n);
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    const SmoothedChainRun& s = runs[r];
-    Eigen::Index last = -1;
-    for (Eigen::Index row = d.run_rows[r]; row < d.run_rows[r + 1]; ++row) {
-      const Eigen::Index a = d.at[static_cast<std::size_t>(row)];
-      if (a != last) {
-        const Eigen::Index i = s.samples[static_cast<std::size_t>(a)];
-        q = s.k.q.row(i).transpose();
-        qd = s.k.qd.row(i).transpose();
-        qdd = s.k.qdd.row(i).transpose();
+  Eigen::MatrixXd y(model.joints(), model.parameters());
+  visit_equation_states(
+      runs, d,
+      [&](const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& qdd) {
         model.regressor(q, qd, qdd, y);
-        last = a;
-      }
-      out[row] = y(d.joint[static_cast<std::size_t>(row)], model.parameters() - 1);
-    }
-  }
+      },
+      [&](Eigen::Index row, int joint) { out[row] = y(joint, model.parameters() - 1); });
   return out;
 }
 
