@@ -248,25 +248,13 @@ std::vector<PlotResult> write_chain_montecarlo_plots(const std::string& dir,
   std::vector<PlotResult> plots;
   const std::string runs_seed =
       std::to_string(result.runs) + " runs, seed " + std::to_string(result.seed);
-  const auto groups_of = [&](const auto& values_of) {
-    std::vector<BoxGroup> groups;
-    for (const auto& l : result.levels)
-      for (const auto& s : l.methods)
-        groups.push_back(
-            {std::string(sid::study_method_name(s.method)) + " " + level_label(l.sigma_q2),
-             values_of(s)});
-    return groups;
-  };
-  const auto width_for = [](const BoxPlot& plot) {
-    return std::max(800, 120 * static_cast<int>(plot.groups.size()) + 200);
-  };
-
   BoxPlot torque;
   torque.title = "Prediction of the true torque at the true motion, " + runs_seed;
   torque.y_label = "100 |tau - Y beta-hat| / |tau| [%]";
-  torque.groups = groups_of([](const sid::MethodSummary& s) { return s.torque_error_pct; });
+  torque.groups = method_level_groups(
+      result.levels, [](const sid::MethodSummary& s) { return s.torque_error_pct; });
   torque.log_y = true;
-  torque.width = width_for(torque);
+  torque.width = box_plot_width(torque);
   plots.push_back(plot_boxes(torque, path_in(dir, "torque_error.png")));
 
   // As the paper's Fig. 2 and 3, over the samples every method keeps.
@@ -313,12 +301,12 @@ std::vector<PlotResult> write_chain_montecarlo_plots(const std::string& dir,
     plot.title =
         "beta" + std::to_string(k + 1) + " = " + result.parameter_names[k] + ", " + runs_seed;
     plot.y_label = "beta" + std::to_string(k + 1);
-    plot.groups =
-        groups_of([p](const sid::MethodSummary& s) { return Eigen::VectorXd(s.estimates.col(p)); });
+    plot.groups = method_level_groups(
+        result.levels, [p](const sid::MethodSummary& s) { return s.estimates.col(p); });
     plot.has_reference = true;
     plot.reference = result.beta[p];
     plot.reference_label = "true value " + format_number("%.6g", result.beta[p]);
-    plot.width = width_for(plot);
+    plot.width = box_plot_width(plot);
     plots.push_back(plot_boxes(plot, path_in(dir, "beta" + std::to_string(k + 1) + ".png")));
   }
   return plots;

@@ -521,15 +521,12 @@ std::vector<PlotResult> write_montecarlo_plots(const std::string& dir,
                  std::to_string(result.runs) + " runs by method and sigma_q2 (seed " +
                  std::to_string(result.seed) + ")";
     plot.y_label = names[static_cast<std::size_t>(p)] + " [" + parameter_unit(p) + "]";
-    for (const auto& l : result.levels)
-      for (const auto& s : l.methods)
-        plot.groups.push_back(
-            {std::string(sid::study_method_name(s.method)) + " " + level_label(l.sigma_q2),
-             s.estimates.col(p)});
+    plot.groups = method_level_groups(
+        result.levels, [p](const sid::MethodSummary& s) { return s.estimates.col(p); });
     plot.has_reference = true;
     plot.reference = result.theta[p];
     plot.reference_label = "true value " + printf_double("%.6g", result.theta[p]);
-    plot.width = std::max(800, 120 * static_cast<int>(plot.groups.size()) + 200);
+    plot.width = box_plot_width(plot);
     plots.push_back(plot_boxes(plot, path_in(dir, names[static_cast<std::size_t>(p)] + ".png")));
   }
   return plots;

@@ -7,6 +7,7 @@
 /// Everything here is deterministic for a given result, except the wall-time line.
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <nlohmann/json.hpp>
 #include <sid/study/montecarlo.hpp>
 #include <sid/trajectory.hpp>
@@ -67,6 +68,25 @@ std::vector<std::string> montecarlo_plot_files();
 /// the levels if it is there, else 1 (its index in the default levels), so the figures show the
 /// noise of run 0 at 1e-6 of the study (or of the default study).
 std::size_t montecarlo_figure_level_index(const sid::StudySettings& options);
+
+/// @brief One box per level and method, named "METHOD LEVEL" (e.g. "css 1e-6"), holding
+/// values_of(summary): the groups of the studies' box plots.
+template <typename ValuesOf>
+std::vector<BoxGroup> method_level_groups(const std::vector<sid::LevelSummary>& levels,
+                                          const ValuesOf& values_of) {
+  std::vector<BoxGroup> groups;
+  for (const auto& l : levels)
+    for (const auto& s : l.methods)
+      groups.push_back(
+          {std::string(sid::study_method_name(s.method)) + " " + level_label(l.sigma_q2),
+           Eigen::VectorXd(values_of(s))});
+  return groups;
+}
+
+/// @brief A box plot's width for its groups [pixel]: room for every group's name.
+inline int box_plot_width(const BoxPlot& plot) {
+  return std::max(800, 120 * static_cast<int>(plot.groups.size()) + 200);
+}
 
 /// @brief Samples y at times tk placed on the grid t (NaN elsewhere): an estimate that keeps a
 /// subset of the sample times drawn against the full grid.
