@@ -285,8 +285,10 @@ TEST_F(IdentifyRobot, InstrumentalVariablesOnSeveralRunsAndWhereTheyCannotBeUsed
   const sid_test::AppRun light = shell(app("sid_identify") + " --robot " + urdf +
                                        " --estimator iv --json light.json light.csv");
   ASSERT_EQ(light.exit_code, 0) << light.err;
-  EXPECT_NE(light.err.find("warning: the IV iteration did not converge"), std::string::npos)
-      << light.err;
+  // A light wrist's simulated motion parts from the measured one: whether the iteration stops
+  // unconverged or its step turns singular first depends on the CPU's rounding. Either way the
+  // user is warned and least squares follows.
+  EXPECT_NE(light.err.find("warning: the IV "), std::string::npos) << light.err;
   const nlohmann::json l = nlohmann::json::parse(read(file("light.json")));
   EXPECT_FALSE(l["iv_applied"].get<bool>());
   EXPECT_NE(light.out.find("the least-squares fit follows"), std::string::npos);
