@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -60,6 +61,9 @@ sid::ChainIdentifyOptions make_options(const ChainIdentifyAppOptions& o, int joi
 }
 
 std::string number(const char* format, double v) { return format_number(format, v); }
+
+/// ChainConsistentFit::fits_estimate's bound on the misfit, for r base parameters.
+double misfit_limit(double r) { return r + 3.0 * std::sqrt(2.0 * r); }
 
 /// The kinds of drive term the model fits, in its order, and the names of their parameters.
 std::vector<std::string> drive_term_keywords(const sid::ChainModel& model) {
@@ -205,8 +209,7 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
       << "  prior toward the description: weight " << number("%.3g", consistent.prior_weight)
       << " of the least-squares RSS per unit change in a link's own scale"
       << (consistent.correlation_inflation > 1.0
-              ? " (the description's links taken as known to within that scale; the residuals' "
-                "correlation in time inflates the estimate's variance " +
+              ? " (the residuals' correlation in time inflates the estimate's variance " +
                     number("%.3g", consistent.correlation_inflation) + "-fold)"
               : std::string())
       << "\n";
@@ -214,6 +217,12 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
     out << "  NOT CONVERGED in " << consistent.iterations
         << " Newton steps: the links below are the last iterate, not a result (--write-urdf "
            "refuses them)\n";
+  else if (!consistent.fits_estimate)
+    out << "  REAL BODIES DO NOT FIT THE ESTIMATE: misfit " << number("%.3g", consistent.misfit)
+        << " where noise alone gives at most "
+        << number("%.3g", misfit_limit(static_cast<double>(id.base.rank())))
+        << " (the model probably lacks a drive term the data have; see --effects): the links "
+           "below are the nearest real bodies, not the arm's (--write-urdf refuses them)\n";
   for (int i = 0; i < model.joints(); ++i) {
     const double m = consistent.theta[10 * i];
     const Eigen::Vector3d c = consistent.theta.segment<3>(10 * i + 1) / m;
@@ -277,6 +286,8 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
   physical["iterations"] = consistent.iterations;
   physical["prior_weight"] = consistent.prior_weight;
   physical["correlation_inflation"] = consistent.correlation_inflation;
+  physical["misfit"] = consistent.misfit;
+  physical["fits_estimate"] = consistent.fits_estimate;
   j["physically_consistent"] = physical;
   return j;
 }
@@ -482,6 +493,12 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
       throw InputError("--write-urdf: the physically consistent fit did not converge in " +
                        std::to_string(consistent.iterations) + " Newton steps; " + o.write_urdf +
                        " is not written (its links would not be a result)");
+    if (!consistent.fits_estimate)
+      throw InputError("--write-urdf: real bodies do not reproduce the estimate (misfit " +
+                       number("%.3g", consistent.misfit) + " where noise alone gives at most " +
+                       number("%.3g", misfit_limit(static_cast<double>(id.base.rank()))) +
+                       "; a drive term the data have may be missing from --effects); " +
+                       o.write_urdf + " is not written");
     std::ofstream file(o.write_urdf, std::ios::binary);
     file << written;
     if (!file) throw std::runtime_error("cannot write '" + o.write_urdf + "'");

@@ -248,14 +248,11 @@ SID_INLINE ChainConsistentFit consistent_chain_parameters(const ChainModel& mode
   // γ in units of the fit's residual sum of squares, so that it does not depend on the log's
   // length and units: the prior's variance against the estimate's (see the file comment).
   const double rss = std::max(id.fit.residual.squaredNorm(), 1e-300);
-  if (options.prior_weight > 0.0) {
-    out.prior_weight = options.prior_weight;
-  } else {
-    out.correlation_inflation = detail::correlation_inflation(id);
-    const double dof =
-        std::max<double>(static_cast<double>(id.fit.residual.size() - id.base.rank()), 1.0);
-    out.prior_weight = out.correlation_inflation / (dof * options.prior_std * options.prior_std);
-  }
+  const double dof = std::max(static_cast<double>(id.fit.residual.size() - id.base.rank()), 1.0);
+  out.correlation_inflation = detail::correlation_inflation(id);
+  out.prior_weight = options.prior_weight > 0.0 ? options.prior_weight
+                                                : out.correlation_inflation /
+                                                      (dof * options.prior_std * options.prior_std);
   // A rotor's inertia and a friction level are real only when positive (a negative rotor makes
   // the mass matrix indefinite, negative friction feeds energy in): the drive of a real arm.
   std::vector<Eigen::Index> positive;
@@ -288,6 +285,9 @@ SID_INLINE ChainConsistentFit consistent_chain_parameters(const ChainModel& mode
       rss / std::max(id.fitted.relative_residual * id.fitted.relative_residual, 1e-300);
   const double growth = (a * (out.beta - id.fit.theta)).squaredNorm();
   out.relative_residual = std::sqrt((rss + growth) / yy);
+  const auto r = static_cast<double>(id.base.rank());
+  out.misfit = growth * dof / (out.correlation_inflation * rss);
+  out.fits_estimate = out.misfit <= r + 3.0 * std::sqrt(2.0 * r);
   return out;
 }
 

@@ -32,6 +32,11 @@
 /// thousands of independent equations, and the fit turns the base parameters it biases into
 /// bodies far from any real link (a 0.1 kg wrist with its centre of mass 0.7 m away on a UR5).
 ///
+/// Whether real bodies reproduce the estimate at all is measured by the misfit
+/// ‖R S (β(θ) − β̂)‖² / σ², about χ² with r degrees of freedom when the estimate is a real arm
+/// plus noise: far above (ChainConsistentFit::fits_estimate), the estimate is no arm's, as when
+/// the model lacks a term the data have, and the bodies are not a description of the arm.
+///
 /// F is quadratic and the set is convex (linear matrix inequalities J_i(θ) ⪰ 0), so the problem
 /// is convex with one answer: it is solved by an interior-point method (Newton on
 /// t F − Σ log det J_i, t growing tenfold, each centre found to a Newton decrement of 1e-6 of
@@ -77,8 +82,17 @@ struct ChainConsistentFit {
   /// The interior point reached tolerance within max_iterations; when false, theta is the last
   /// iterate (every link a real body, but not the optimum) and is not to be used as a result.
   bool converged = false;
-  double prior_weight = 0.0;           ///< the γ used, relative to the least-squares RSS
-  double correlation_inflation = 1.0;  ///< κ (1 when prior_weight was given)
+  double prior_weight = 0.0;  ///< the γ used, relative to the least-squares RSS
+  /// κ, from the identification's HAC standard deviations (1 without them)
+  double correlation_inflation = 1.0;
+  /// How far β is from the least-squares estimate in the estimate's own uncertainty:
+  /// ‖R S (β − β̂)‖² (N − r) / (κ RSS), about χ² with r degrees of freedom when the estimate is a
+  /// real arm plus noise (less, as the prior pulls only where the data say little).
+  double misfit = 0.0;
+  /// misfit ≤ r + 3 √(2 r): real bodies reproduce the estimate within its uncertainty. When
+  /// false, no set of real bodies near it fits the data as well: the model lacks something
+  /// the data have (a drive term), and theta is not a description of the arm.
+  bool fits_estimate = false;
   /// Per link: why the prior's parameters are not a real body ("" when they are); such a link
   /// starts from the nearest one that is.
   std::vector<std::string> prior_inconsistency;
