@@ -125,11 +125,27 @@ struct ConsistencyProblem {
     // The prior's distance in each link's own scale: its mass m0 and radius of gyration r0
     // about its origin, so that a change of mass, of first moment (m0 r0) and of inertia
     // (m0 r0²) by the same fraction cost the same, whatever the link's size.
+    // A link the prior gives no mass (a URDF link without <inertial>) is unknown rather than
+    // massless: it takes the scale of a typical link of the arm, else the prior would pin it
+    // at zero mass whatever the data say.
+    double typical_mass = 0.0, typical_r2 = 0.0;
+    int massive = 0;
+    for (int i = 0; i < links; ++i) {
+      const LinkParameters<double> phi = prior.segment<10>(10 * i);
+      if (!(phi[0] > 0.0)) continue;
+      typical_mass += phi[0];
+      typical_r2 += std::max((phi[4] + phi[6] + phi[9]) / (2.0 * phi[0]), 1e-4);
+      ++massive;
+    }
+    typical_mass = massive ? typical_mass / massive : 1.0;
+    typical_r2 = massive ? typical_r2 / massive : 1e-2;
     Eigen::VectorXd scale(p);
     for (int i = 0; i < links; ++i) {
       const LinkParameters<double> phi = prior.segment<10>(10 * i);
-      const double m0 = std::max(phi[0], 1e-3);
-      const double r2 = std::max((phi[4] + phi[6] + phi[9]) / (2.0 * m0), 1e-4);
+      const bool unknown = !(phi[0] > 0.0);
+      const double m0 = unknown ? typical_mass : std::max(phi[0], 1e-3);
+      const double r2 =
+          unknown ? typical_r2 : std::max((phi[4] + phi[6] + phi[9]) / (2.0 * m0), 1e-4);
       scale.segment<10>(10 * i) << m0, Eigen::Vector3d::Constant(m0 * std::sqrt(r2)),
           Eigen::Matrix<double, 6, 1>::Constant(m0 * r2);
     }

@@ -18,8 +18,9 @@
 /// identification's column-scaled base regressor, so the first term is the growth of the residual
 /// sum of squares over the least-squares fit; the second holds the links near the prior (the
 /// description) where the data say little, with s scaling each link's parameters by its prior
-/// mass m0 and radius of gyration r0 (m0; m0 r0 for first moments; m0 r0² for inertias) and each
-/// drive term by 1 + |its prior|.
+/// mass m0 and radius of gyration r0 (m0; m0 r0 for first moments; m0 r0² for inertias; a link
+/// the prior gives no mass takes the mean m0 and r0² of those it does) and each drive term by
+/// 1 + |its prior|.
 ///
 /// γ is the prior's weight relative to the least-squares RSS. Read as a Gaussian prior of
 /// standard deviation σ_p (ChainConsistencyOptions::prior_std) on each parameter in its link's
