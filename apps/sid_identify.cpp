@@ -165,16 +165,18 @@ rigid bodies only; --no-default-effects makes --effects the whole list (e.g.
 drive_term_parameters) list the terms fitted. A --transmission file (YAML: gear_ratios,
 couplings, joint_zero; or a URDF with ros_control <transmission> elements, e.g. the robot's
 own) makes the runs motor-side and adds the coupled motors' drive terms (no offset). Each
-joint's smoothing cutoff is chosen by held-out torque prediction (or --cutoff F for all), the torque goes through its
-joint's smoother too, and equations at rest are left out (--rest-fraction). The report names
-each base parameter by the combination it stands for, with its HAC standard deviation;
+joint's smoothing cutoff is chosen by held-out torque prediction (or --cutoff F for all), the
+torque goes through its joint's smoother too, and equations at rest are left out
+(--rest-fraction). The report names each base parameter by the combination it stands for,
+with its HAC standard deviation;
 --validate RUN and --validate-fraction F report how well held-out torques are predicted, over
 the fit's equations and over the log as recorded. Physically consistent links (each a real
 body, near the URDF's values where the data say little: a prior toward them whose weight is
 reported, set against the estimate's uncertainty with the residuals' correlation in time) are
 fitted too, and --write-urdf OUT.urdf writes them into a copy of the URDF; when that fit does
-not converge the report says so and --write-urdf refuses (exit 2). --estimator wls weights each joint by its
-residual variance; --estimator iv refines by IDIM-IV over all runs: angles smoothed by their
+not converge, or real bodies cannot reproduce the estimate within its uncertainty (a drive term
+the data have is missing), the report says so and --write-urdf refuses (exit 2).
+--estimator wls weights each joint by its residual variance; --estimator iv refines by IDIM-IV over all runs: angles smoothed by their
 GCV spline, torque as measured, least squares, then instruments from simulations (0.5 s
 segments from the smoothed state) of the physically consistent arm nearest to each estimate.
 On a simulated TX40 with rotors (3 runs each) it predicts the true torque to 0.19 % where ls
