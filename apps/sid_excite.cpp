@@ -90,6 +90,9 @@ void define_options(CLI::App& cli, Options& options) {
   cli.add_option("--seed", options.seed,
                  "seed of std::mt19937_64 for the random excitation the design starts from")
       ->capture_default_str();
+  cli.add_option("--separate", o.separate,
+                 "candidate ids of sid_diagnose --robot (e.g. spring_j2,offset_j2 or "
+                 "angle_offset_q2) whose columns join the conditioned regressor");
   cli.add_flag("--random", o.random_only,
                "only the random excitation: its condition number (and -o writes it)");
   cli.add_option("-o,--output", o.output, "write the coefficients to this CSV file ('-': stdout)");
