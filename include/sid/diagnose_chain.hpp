@@ -70,10 +70,14 @@ struct ChainDiagnoseOptions {
   /// two-link DiagnoseOptions::negligible_size): the fits use filtered torques, whose residual
   /// is far below the noise a user sees.
   double negligible_size = 0.075;
-  /// A named term gets a caveat (ChainEffectTest::caveat) for each not-separable candidate on
-  /// its joint whose column, given the nominal model's, correlates with its own above this. On
-  /// the simulated TX40 a spring on joint 2 (not separable from gravity there) is named as an
-  /// offset with a correlation of 0.58.
+  /// A named term gets a caveat (ChainEffectTest::caveat) for each candidate, on any joint, that
+  /// is not separable on this motion and may stand behind it: the parts of the two columns that
+  /// the nominal model does not explain correlate above this, the value the candidate would need
+  /// to leave the named term's trace is admissible, and the final residual does not refute it
+  /// (it holds what that hidden candidate would have left beyond the named term, HAC z within
+  /// family_alpha). On the simulated TX40 a spring on joint 2 (not separable from gravity
+  /// there) is named as an offset with a correlation of 0.58; on a UR5 an encoder offset of
+  /// joint 2 as a torque offset on joint 3 (0.69).
   double look_alike = 0.3;
 };
 
@@ -93,11 +97,12 @@ struct ChainEffectTest {
   /// Per joint: RMS of the change to the torque prediction / the joint's torque noise.
   Eigen::VectorXd practical_size;
   std::string reason;  ///< why it was not named; empty for a named term
-  /// For a named term: the candidates on its joint that are not separable from the model on
-  /// this motion and whose part the model does not explain looks like this term's (correlation
-  /// of the two columns given the nominal model's above ChainDiagnoseOptions::look_alike): the
-  /// named term may stand for one of them. Empty when there is none.
+  /// For a named term: the candidates that are not separable from the model on this motion and
+  /// may stand behind it (see ChainDiagnoseOptions::look_alike), each with the value it would
+  /// need; empty when there is none. A motion that separates them: sid_excite --separate with
+  /// the term's id and look_alikes.
   std::string caveat;
+  std::vector<std::string> look_alikes;  ///< the ids the caveat names
 };
 
 /// @brief What diagnose_chain() found.
