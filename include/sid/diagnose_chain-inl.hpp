@@ -720,11 +720,12 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   // a term, hidden, leaves in the residual the part b of its column that the nominal model does
   // not explain, and a named term whose own part a is much like it (correlation above
   // look_alike) takes that trace up. The hidden term would then have had the value v that gives
-  // the named one its value, and would have left v b less what the named term took in the final
-  // residual: where the residual lacks that (HAC z beyond the Wald tests' level) the data refute
-  // the look-alike. On the simulated TX40 every correlation above 0.3 but the spring's on joint
-  // 2 was refuted so, at z > 13. Neither can a candidate stand behind a named term that would
-  // have to be inadmissible, nor one the model explains exactly (it leaves no trace).
+  // the named one its value in the final fit, and would have left in its residual what the final
+  // model cannot explain of v times its column: where the residual lacks that (HAC z beyond the
+  // Wald tests' level) the data refute the look-alike. On the simulated TX40 every pair above a
+  // correlation of 0.1 but the spring's on joint 2 was refuted so, at z > 13. Neither can a
+  // candidate stand behind a named term that would have to be inadmissible, nor one the model
+  // explains exactly (it leaves no trace).
   if (!inseparable.empty() && !named_positions.empty()) {
     // 1 - R^2 of 1e-10: an angle offset's column by forward differences is good to about 1e-7.
     constexpr double kExplainedExactly = 1e-5;
@@ -734,7 +735,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     };
     for (std::size_t i = 0; i < result.named.size(); ++i) {
       ChainEffectTest& t = result.named[i];
-      const Eigen::Index a_column = base_count + named_positions[i];
+      const std::size_t k = static_cast<std::size_t>(base_count) + i;  // in the final fit
       const Eigen::VectorXd a = given_nominal(named_positions[i]);
       for (const Eigen::Index c : inseparable) {
         const ChainEffectTest& other = prototypes[static_cast<std::size_t>(c)];
@@ -742,19 +743,24 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
         const double ab = a.dot(b);
         const double correlation = std::abs(ab) / std::max(a.norm() * b.norm(), 1e-300);
         if (!(correlation > options.look_alike) || !(b.norm() > kExplainedExactly)) continue;
-        // Columns are scaled to unit norm: values in scaled units, then the other's own.
-        const double v = t.value * d.scale[a_column] * a.squaredNorm() / ab;
+        // The other's value that, hidden, gives this term its value in the final fit (columns
+        // scaled to unit norm: in scaled units, then in the other's own), and what it leaves.
+        const Eigen::VectorXd z = d.x.col(base_count + c);
+        const double share = (bread * (x.transpose() * z))[static_cast<Eigen::Index>(k)];
+        if (share == 0.0) continue;
+        const double v = final_round.theta[static_cast<Eigen::Index>(k)] / share;
         const double implied = v / d.scale[base_count + c];
         const bool positive = other.angle_offset || other.term.kind == DriveTermKind::Offset;
         if (!positive && !(implied > 0.0)) continue;
-        const Eigen::VectorXd left = v * (b - (ab / a.squaredNorm()) * a);
+        const Eigen::VectorXd left = v * (z - final_round.q * (final_round.q.transpose() * z));
         const double expected = left.norm();
         if (expected > 0.0) {
           const Eigen::VectorXd e = left / expected;
           const double variance = detail::chain_long_run(d, e, final_round.residual)(0, 0);
-          const double z =
+          const double missing =
               (expected - e.dot(final_round.residual)) / std::sqrt(std::max(variance, 1e-300));
-          if (z > 0.0 && chi_square_tail(z * z, 1.0) < options.family_alpha) continue;
+          if (missing > 0.0 && chi_square_tail(missing * missing, 1.0) < options.family_alpha)
+            continue;
         }
         t.look_alikes.push_back(other.id);
         t.caveat += (t.caveat.empty() ? "" : "; ") + other.id + " (not separable on this motion) " +
