@@ -1,12 +1,21 @@
 // Tests of sid::diagnose_chain on a simulated six-axis arm (the TX40's URDF) with one drive term
 // hidden at a time: the diagnosis starts from rigid bodies, viscous friction and rotors, and must
-// name exactly what was hidden, on its joint, and nothing where nothing was hidden.
+// name exactly what was hidden, on its joint, and nothing where nothing was hidden; and on a
+// UR5-type arm, what an encoder offset it cannot separate leaves is named only with a caveat.
 
+#include <sid/cvode/chain_experiment.hpp>
 #include <sid/diagnose_chain.hpp>
+#include <sid/fourier_trajectory.hpp>
+#include <sid/model/urdf.hpp>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -19,6 +28,57 @@ using sid_test::HiddenTerm;
 using sid_test::tx40_arm;
 using sid_test::tx40_hidden_term_run;
 using sid_test::tx40_nominal;
+
+const sid::UrdfChain& ur5_arm() {
+  static const sid::UrdfChain arm = [] {
+    std::ifstream in(std::string(SID_TEST_DATA_DIR) + "/urdf/real/ur5_robot.urdf");
+    std::stringstream text;
+    text << in.rdbuf();
+    return sid::chain_from_urdf(text.str(), "base_link", "tool0");
+  }();
+  return arm;
+}
+
+/// A UR5-type arm (rigid bodies and viscous friction 0.5 on every joint) tracking a random
+/// Fourier excitation (5 harmonics of 0.1 Hz, within 1 rad and 1.5 rad/s of rest at zero, as
+/// sid_simulate --robot draws one) at 500 Hz, sigma_q = 1e-4 rad and a torque noise of 1 % of
+/// each joint's RMS torque; measured q = q - angle_offset.
+sid::ChainTrajectory<double> ur5_run(const Eigen::VectorXd& angle_offset, unsigned seed,
+                                     double duration) {
+  const sid::Transmission direct(6);
+  const sid::ChainModel truth(ur5_arm().chain, ur5_arm().joint_names,
+                              sid::drive_terms({sid::DriveTermKind::Viscous}, direct), direct);
+  Eigen::VectorXd theta(truth.parameters());
+  theta << ur5_arm().theta.head(60), Eigen::VectorXd::Constant(6, 0.5);
+  std::mt19937_64 rng(seed);
+  const sid::FourierTrajectory desired =
+      sid::random_fourier_trajectory(Eigen::VectorXd::Zero(6), 5, 0.1, Eigen::VectorXd::Ones(6),
+                                     Eigen::VectorXd::Constant(6, 1.5), rng);
+  sid::ChainExperiment experiment;
+  experiment.duration = duration;
+  experiment.sample_time = 0.002;
+  const sid::ChainExperimentResult run =
+      sid::simulate_chain_experiment(truth, theta, desired, experiment);
+  if (!run.ok()) throw std::runtime_error("ur5_run: " + run.message);
+  sid::ChainTrajectory<double> measured = run.trajectory();
+  measured.q.rowwise() -= angle_offset.transpose();
+  std::normal_distribution<double> normal;
+  for (int j = 0; j < 6; ++j) {
+    const double sigma = 0.01 * std::sqrt(measured.tau.col(j).squaredNorm() /
+                                          static_cast<double>(measured.tau.rows()));
+    for (Eigen::Index i = 0; i < measured.q.rows(); ++i) {
+      measured.q(i, j) += 1e-4 * normal(rng);
+      measured.tau(i, j) += sigma * normal(rng);
+    }
+  }
+  return measured;
+}
+
+sid::ChainModel ur5_nominal() {
+  const sid::Transmission direct(6);
+  return sid::ChainModel(ur5_arm().chain, ur5_arm().joint_names,
+                         sid::drive_terms({sid::DriveTermKind::Viscous}, direct), direct, 0.01);
+}
 
 std::vector<std::string> named_ids(const sid::ChainDiagnosis& r) {
   std::vector<std::string> ids;
@@ -41,6 +101,10 @@ TEST(DiagnoseChain, NamesTheHiddenDriveTermOnItsJointAndNothingWithoutOne) {
     SCOPED_TRACE(id);
     const sid::ChainDiagnosis r = sid::diagnose_chain(nominal, {tx40_hidden_term_run({c}, 1)});
     ASSERT_EQ(named_ids(r), std::vector<std::string>{id});
+    // Nothing inseparable stands behind a term that was hidden: on these motions the parts of
+    // the offset on joint 5 and the spring on joint 4 correlate with an inseparable angle
+    // offset's above the threshold, and the residual refutes it.
+    EXPECT_TRUE(r.named[0].caveat.empty()) << r.named[0].caveat;
     EXPECT_NEAR(r.named[0].value, c.value, std::max(0.05 * c.value, 4.0 * r.named[0].std));
     EXPECT_GT(r.named[0].practical_size.maxCoeff(), 0.5);
     EXPECT_EQ(r.final_terms.size(), nominal.terms().size() + 1);
@@ -133,13 +197,39 @@ TEST(DiagnoseChain, SaysWhenANamedTermMayStandForAnInseparableOne) {
       tx40_hidden_term_run({{{sid::DriveTermKind::Spring, 1, false}, 1.0}}, 1);
   const sid::ChainDiagnosis r = sid::diagnose_chain(tx40_nominal(), {data});
   ASSERT_EQ(named_ids(r), std::vector<std::string>{"offset_j2"});
-  EXPECT_NE(r.named[0].caveat.find("spring_j2 is not separable"), std::string::npos)
+  EXPECT_EQ(r.named[0].look_alikes, std::vector<std::string>{"spring_j2"});
+  EXPECT_NE(r.named[0].caveat.find("spring_j2 (not separable on this motion) may stand behind"),
+            std::string::npos)
       << r.named[0].caveat;
   sid::ChainDiagnoseOptions strict;
   strict.look_alike = 1.0;
   const sid::ChainDiagnosis without = sid::diagnose_chain(tx40_nominal(), {data}, strict);
   ASSERT_EQ(named_ids(without), std::vector<std::string>{"offset_j2"});
   EXPECT_TRUE(without.named[0].caveat.empty()) << without.named[0].caveat;
+}
+
+// On a UR5-type arm an encoder offset of joint 2 is not separable (the parallel joints 2-4 turn
+// the links beyond them as one; only the light wrist's inertia, turned about an axis not its
+// own, tells it): what it leaves is named as a torque offset on joint 3, which must come with
+// the caveat that the encoder offset may stand behind it, at about the size hidden.
+TEST(DiagnoseChain, NamesALookAlikeOfAnInseparableTermOnAnotherJointOnlyWithItsCaveat) {
+#ifdef SID_SANITIZED_TESTS
+  GTEST_SKIP() << "numbers only; the paths run in NamesTheHiddenDriveTermOnItsJoint...";
+#endif
+  Eigen::VectorXd offset = Eigen::VectorXd::Zero(6);
+  offset[1] = 0.05;
+  const sid::ChainDiagnosis r = sid::diagnose_chain(ur5_nominal(), {ur5_run(offset, 3, 10.0)});
+  ASSERT_FALSE(r.named.empty());
+  for (const auto& e : r.named) {
+    EXPECT_NE(e.caveat.find("angle_offset_q2"), std::string::npos) << e.id << ": " << e.caveat;
+    EXPECT_NE(std::find(e.look_alikes.begin(), e.look_alikes.end(), "angle_offset_q2"),
+              e.look_alikes.end())
+        << e.id;
+  }
+  bool inseparable = false;
+  for (const auto& t : r.not_named)
+    if (t.id == "angle_offset_q2") inseparable = t.reason.rfind("not separable", 0) == 0;
+  EXPECT_TRUE(inseparable);
 }
 
 // An offset of a measured angle shows in the torques only where the link parameters cannot
