@@ -496,7 +496,7 @@ TEST_F(SidExcite, HelpNamesTheOptionsAndTheFileFormat) {
   const AppRun r = run("--help");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   for (const char* words : {"--robot", "--torque-fraction", "--qdd-max", "--random", "--force",
-                            "joint,base_frequency,q0,a1..aH,b1..bH", "--trajectory"})
+                            "joint,base_frequency,q0,a1..aH,b1..bH", "--trajectory", "--separate"})
     EXPECT_NE(r.out.find(words), std::string::npos) << words;
 }
 

@@ -73,16 +73,16 @@ struct ChainDiagnoseOptions {
   /// A named term gets a caveat (ChainEffectTest::caveat) for each candidate, on any joint, that
   /// is not separable on this motion and may stand behind it: the parts of the two columns that
   /// the nominal model does not explain correlate above this; the value the candidate would
-  /// need to give the named term its value is admissible; and the final residual does not refute
-  /// it (it holds what that hidden candidate would have left beyond the final model, one-sided
-  /// HAC z within family_alpha). The residual does the telling: where the candidate is absent the
-  /// z is about the named term's Wald z times sqrt(1 - r^2) / r, so only look-alikes above a
-  /// correlation of about 0.8 survive by chance; this threshold only skips candidates that account
-  /// for less than 1 % of the named term's part. On the simulated TX40 a spring on joint 2 (not
-  /// separable from gravity there) is named as an offset with a correlation of 0.6 (z = 1.3);
-  /// every other pair above 0.1 over 82 data sets is refuted at z > 13. On a UR5 an encoder
-  /// offset of joint 2 is named as a torque offset on joint 3 (0.69) or as an encoder offset of
-  /// joint 4 (0.2-0.47).
+  /// need to give the named terms that take its trace their values (least squares over them) is
+  /// admissible; and the final residual does not refute it (it holds what that hidden candidate
+  /// would have left beyond the final model, one-sided HAC z within family_alpha). The residual
+  /// does the telling: where the candidate is absent the z is about the named term's Wald z times
+  /// sqrt(1 - r^2) / r, so only look-alikes above a correlation of about 0.8 survive by chance;
+  /// this threshold only skips candidates that account for less than 1 % of the named term's part.
+  /// On the simulated TX40 a spring on joint 2 (not separable from gravity there) is named as an
+  /// offset with a correlation of 0.6 (z = 1.3); every other pair above 0.1 over 82 data sets is
+  /// refuted at z > 13. On a UR5 an encoder offset of joint 2 is named as a torque offset on joint
+  /// 3 (0.69) or as an encoder offset of joint 4 (0.2-0.47).
   double look_alike = 0.1;
 };
 
