@@ -68,8 +68,11 @@ Any serial chain (--robot FILE, a URDF or DH table, as sid_identify --robot take
   negligible). Reported: per joint the noise, the residual before and after and what no tried
   term explains; the named terms with values and HAC standard deviations; why each other one
   was not named; with a URDF, each model's free simulation (1 s segments from the smoothed
-  state) and, per joint, how far the final one stays from the motion against what white torque
-  noise at the floor alone does (beyond 6x: motion the final model does not explain).
+  state) and, per joint, how far the final one stays from the motion against what an exact
+  model does on this arm and log: six replicates of the log that the final model explains
+  exactly (its torque along the smoothed motion, with the log's own angle and torque noise),
+  each fitted, made consistent and simulated alike; a joint beyond 2x the largest replicate's
+  error moves in a way the final model does not explain.
 
 Input: CSV files with a header row and the columns t [s], q1, q2 [rad], tau1, tau2 [N m] in
 any order (other columns are ignored; what sid_simulate writes; --columns maps other names, e.g.

@@ -157,17 +157,26 @@ Any serial chain (--robot FILE): a URDF (the chain from --base to --tip, default
 and the one end link) or a DH table (docs/serial-arms.md). Runs have columns t, q1..qn,
 tau1..taun in the joint order of the description (--columns renames them, e.g.
 t=time,q1=pos_1,tau1=effort_1). The model is the links' rigid-body parameters plus, per joint,
-the drive terms of --effects (default viscous,coulomb,offset,armature; also coulomb_asymmetry,
-spring, stribeck (width 0.1 rad/s), or none); a --transmission file (YAML: gear_ratios, couplings, joint_zero; or a URDF with
-ros_control <transmission> elements, e.g. the robot's own) makes the runs motor-side and adds the coupled motors' friction and inertia. Each joint's smoothing cutoff is
-chosen by held-out torque prediction (or --cutoff F for all), the torque goes through its
-joint's smoother too, and equations at rest are left out (--rest-fraction). The report names
-each base parameter by the combination it stands for, with its HAC standard deviation;
+viscous friction and armature (rotor inertia), which every geared drive has, and the drive
+terms --effects adds to them (default coulomb,offset; also coulomb_asymmetry, spring, stribeck
+(width 0.1 rad/s)): --effects coulomb fits viscous, Coulomb and armature. --effects none fits
+rigid bodies only; --no-default-effects makes --effects the whole list (e.g.
+--no-default-effects --effects coulomb). The report and the JSON (drive_terms,
+drive_term_parameters) list the terms fitted. A --transmission file (YAML: gear_ratios,
+couplings, joint_zero; or a URDF with ros_control <transmission> elements, e.g. the robot's
+own) makes the runs motor-side and adds the coupled motors' drive terms (no offset). Each
+joint's smoothing cutoff is chosen by held-out torque prediction (or --cutoff F for all), the
+torque goes through its joint's smoother too, and equations at rest are left out
+(--rest-fraction). The report names each base parameter by the combination it stands for,
+with its HAC standard deviation;
 --validate RUN and --validate-fraction F report how well held-out torques are predicted, over
 the fit's equations and over the log as recorded. Physically consistent links (each a real
-body, near the URDF's values where the data say nothing) are fitted too, and --write-urdf
-OUT.urdf writes them into a copy of the URDF. --estimator wls weights each joint by its
-residual variance; --estimator iv refines by IDIM-IV over all runs: angles smoothed by their
+body, near the URDF's values where the data say little: a prior toward them whose weight is
+reported, set against the estimate's uncertainty with the residuals' correlation in time) are
+fitted too, and --write-urdf OUT.urdf writes them into a copy of the URDF; when that fit does
+not converge, or real bodies cannot reproduce the estimate within its uncertainty (a drive term
+the data have is missing), the report says so and --write-urdf refuses (exit 2).
+--estimator wls weights each joint by its residual variance; --estimator iv refines by IDIM-IV over all runs: angles smoothed by their
 GCV spline, torque as measured, least squares, then instruments from simulations (0.5 s
 segments from the smoothed state) of the physically consistent arm nearest to each estimate.
 On a simulated TX40 with rotors (3 runs each) it predicts the true torque to 0.19 % where ls
@@ -180,7 +189,8 @@ is reported, with a warning. The JSON has joint_names, parameter_names, theta, s
 residual_rms, relative_residual, their *_measured counterparts, validation [{file,
 residual_rms, relative_residual, ...}] and with iv: iv_applied, iv_iterations, iv_converged,
 iv_residual_ratio, iv_message, least_squares_theta, iv_fit (per run; the top-level residuals
-are then the first run's).
+are then the first run's), drive_terms, drive_term_parameters and physically_consistent {theta,
+beta, relative_residual, converged, iterations, prior_weight, correlation_inflation}.
 
 Examples:
   sid_identify log.csv
@@ -193,6 +203,7 @@ Examples:
   sid_identify --robot arm.urdf --validate run2.csv --json fit.json run1.csv
   sid_identify --robot tx40.urdf --transmission tx40.yaml --validate-fraction 0.3 motor_log.csv
   sid_identify --robot arm.urdf --estimator iv run1.csv run2.csv
+  sid_identify --robot arm.urdf --effects coulomb,stribeck run1.csv
   sid_simulate | sid_identify -
 )";
 
@@ -262,8 +273,14 @@ void define_options(CLI::App& cli, Options& o) {
       "--cutoff", o.cutoff,
       "torque-cv: smooth at this cutoff [Hz] instead of choosing it by cross-validation");
   cli.add_option("--effects", o.effects,
-                 "torque-cv: effect terms added to the model, comma-separated (e.g. "
-                 "coulomb_j1,coulomb_j2,torque_offset_j1,torque_offset_j2,armature_j2)");
+                 "effect terms added to the model, comma-separated. Two-link (torque-cv): ids "
+                 "such as coulomb_j1,coulomb_j2,torque_offset_j1,armature_j2. --robot: drive "
+                 "term kinds added on every joint to viscous friction and armature, which are "
+                 "always fitted (default coulomb,offset; also coulomb_asymmetry, spring, "
+                 "stribeck); none: rigid bodies only");
+  cli.add_flag("--no-default-effects", o.chain.no_default_effects,
+               "--robot: fit only the drive terms --effects names (viscous and armature too only "
+               "when listed)");
   cli.add_option("--reference-theta", o.reference_theta,
                  "torque-cv: a reference parameter vector (one value per model parameter, "
                  "comma-separated): its torque prediction errors are shown beside the estimate's");
@@ -745,9 +762,10 @@ int identify(Options o) {
   }
   require(o.chain.base.empty() && o.chain.tip.empty() && o.chain.hold.empty() &&
               o.chain.transmission.empty() && !o.chain.validate_fraction &&
-              !o.chain.rest_fraction && !o.chain.coulomb_epsilon && o.chain.write_urdf.empty(),
+              !o.chain.rest_fraction && !o.chain.coulomb_epsilon && o.chain.write_urdf.empty() &&
+              !o.chain.no_default_effects,
           "--base, --tip, --hold, --transmission, --validate-fraction, --rest-fraction, "
-          "--coulomb-epsilon and --write-urdf need --robot");
+          "--coulomb-epsilon, --write-urdf and --no-default-effects need --robot");
   if (uses_torque_cv(o)) return identify_from_runs(o);
   require(o.inputs.size() == 1,
           "several runs are fitted together only with --smoothing torque-cv "

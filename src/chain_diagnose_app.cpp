@@ -1,7 +1,7 @@
 #include "chain_diagnose_app.hpp"
 
 #include <sid/chain_consistency.hpp>
-#include <sid/cvode/chain_free_simulation.hpp>
+#include <sid/cvode/chain_motion_check.hpp>
 #include <sid/diagnose_chain.hpp>
 
 #include "app.hpp"
@@ -27,23 +27,10 @@ std::string width(const sid::DriveTerm& term) {
              : std::string();
 }
 
-/// Simulations of the torque noise alone per run, and their seed: the figure is a scale, and four
-/// runs give it to about a quarter.
-constexpr int kNoiseRuns = 4;
-constexpr std::uint64_t kNoiseSeed = 20261205;
-/// A joint whose final free-simulation error exceeds this many times the noise alone's moves in
-/// a way the final model does not explain: the two-link check's threshold.
-constexpr double kSimulationThreshold = 6.0;
-
-/// The free simulations of the nominal and the final model (each at its physically consistent
-/// fit), their angle error per joint over all runs.
+/// The free simulations and their verdict, or why there are none.
 struct FreeSimulations {
-  std::string note;     ///< why there are none
-  std::string failure;  ///< the first failed segment's message
-  Eigen::VectorXd nominal, final;
-  /// What white torque noise at the floor alone does to the final model's simulation, per joint.
-  Eigen::VectorXd noise_alone;
-  Eigen::Index segments = 0, failed_nominal = 0, failed_final = 0;
+  std::string note;
+  sid::ChainMotionCheck check;
   double seconds = 0.0;
 };
 
@@ -56,71 +43,16 @@ FreeSimulations free_simulations(const LoadedChain& loaded, const sid::ChainDiag
     out.note = "no free simulation: a DH table has no link inertias";
     return out;
   }
-  sid::ChainIdentifyOptions given = options.identify;
-  given.cutoff_hz.assign(r.cutoff_hz.data(), r.cutoff_hz.data() + r.cutoff_hz.size());
   const sid::ChainModel& nominal = loaded.model;
   const sid::ChainModel final_model(nominal.chain(), nominal.joint_names(), r.final_terms,
                                     nominal.transmission(), nominal.coulomb_epsilon());
-  const int n = nominal.joints();
-  // The final model lives at the true angles: the measured ones plus the named offsets.
-  const auto corrected = [&](Eigen::MatrixXd q) {
-    q.rowwise() += r.angle_offset.transpose();
-    return q;
-  };
-  std::vector<sid::ChainTrajectory<double>> corrected_runs = runs;
-  for (auto& run : corrected_runs) run.q = corrected(run.q);
-  // The noise-alone runs only set a scale: a looser tolerance (as the two-link check's).
-  sid::ChainFreeSimulationOptions loose;
-  loose.simulator.rtol = loose.simulator.atol = 1e-5;
-  Eigen::VectorXd noise_squares = Eigen::VectorXd::Zero(n);
-  double noise_samples = 0.0;
-  for (const bool is_final : {false, true}) {
-    const sid::ChainModel& model = is_final ? final_model : nominal;
-    const sid::ChainIdentification id =
-        sid::identify_chain(model, is_final ? corrected_runs : runs, given);
-    if (!id.fit.ok()) {
-      out.note = "no free simulation: " + id.fit.message;
-      return out;
-    }
-    const sid::ChainConsistentFit fit =
-        sid::consistent_chain_parameters(model, id, description_prior(loaded.robot, model));
-    Eigen::VectorXd squares = Eigen::VectorXd::Zero(n), counts = Eigen::VectorXd::Zero(n);
-    for (const auto& k : r.kinematics) {
-      // Compared at up to 500 samples per second: enough for the motion, and CVODE stops at
-      // every output time.
-      const double period = (k.t[k.t.size() - 1] - k.t[0]) / static_cast<double>(k.t.size() - 1);
-      const auto stride = static_cast<Eigen::Index>(std::max(1.0, std::round(0.002 / period)));
-      const Eigen::Index rows = (k.t.size() + stride - 1) / stride;
-      const auto every = Eigen::seqN(0, rows, stride);
-      sid::ChainKinematics<double> sampled;
-      sampled.t = k.t(every);
-      sampled.q = k.q(every, Eigen::all);
-      if (is_final) sampled.q = corrected(sampled.q);
-      sampled.qd = k.qd(every, Eigen::all);
-      sampled.qdd = k.qdd(every, Eigen::all);
-      sampled.tau = k.tau(every, Eigen::all);
-      const sid::ChainFreeSimulation sim = sid::free_chain_simulation(model, fit.theta, sampled);
-      if (is_final) {
-        const Eigen::VectorXd alone = sid::chain_noise_alone_error(
-            model, fit.theta, sampled, r.noise_floor, kNoiseRuns, kNoiseSeed, loose);
-        const auto samples = static_cast<double>(sampled.t.size());
-        noise_squares += samples * alone.array().square().matrix();
-        noise_samples += samples;
-      }
-      (is_final ? out.failed_final : out.failed_nominal) += sim.failed_segments;
-      if (out.failure.empty() && !sim.ok())
-        out.failure = std::string(is_final ? "final" : "nominal") + " model, " + sim.message;
-      if (!is_final) out.segments += sim.segments;
-      for (Eigen::Index i = 0; i < sim.error.rows(); ++i)
-        for (int j = 0; j < n; ++j)
-          if (std::isfinite(sim.error(i, j))) {
-            squares[j] += sim.error(i, j) * sim.error(i, j);
-            counts[j] += 1.0;
-          }
-    }
-    (is_final ? out.final : out.nominal) = (squares.array() / counts.array().max(1.0)).sqrt();
-  }
-  out.noise_alone = (noise_squares / std::max(noise_samples, 1.0)).cwiseSqrt();
+  out.check = sid::check_chain_motion(nominal, r, runs, options.identify,
+                                      description_prior(loaded.robot, final_model));
+  if (!out.check.final_error.allFinite() || !out.check.threshold.allFinite())
+    out.note = "no free-simulation verdict: " +
+               std::string(out.check.final_error.allFinite()
+                               ? "no exact-model replicate could be fitted and simulated"
+                               : "the final model could not be fitted or simulated");
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }
@@ -140,6 +72,9 @@ std::string separating(const ChainDiagnoseAppOptions& o, const sid::ChainEffectT
          option("--hold", o.chain.hold) + option("--transmission", o.chain.transmission) +
          " --separate " + ids + "\n";
 }
+
+/// The motion check's margin over its exact-model replicates, as the library's default.
+const double kMotionMargin = sid::ChainMotionCheckOptions().margin;
 
 std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel& nominal,
                         const sid::ChainDiagnosis& r, const FreeSimulations& sim) {
@@ -173,29 +108,33 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
   double unexplained = 0.0;
   for (Eigen::Index j = 0; j < r.unexplained_rms.size(); ++j)
     unexplained = std::max(unexplained, r.unexplained_rms[j] / r.noise_floor[j]);
-  if (sim.nominal.size()) {
-    out << "\nfree simulation (" << sim.segments
+  const sid::ChainMotionCheck& m = sim.check;
+  if (m.final_error.size()) {
+    out << "\nfree simulation (" << m.segments
         << " segments of 1 s from the smoothed state, driven by the smoothed torque; each model "
-           "at its physically consistent fit): angle error RMS nominal -> final [rad], and what "
-           "white torque noise at the floor alone does to the final model\n";
+           "at its physically consistent fit): angle error RMS nominal -> final [rad], against "
+           "the largest of "
+        << m.replicate_error.rows()
+        << " exact-model replicates of this log (the final model's motion and torque, with this "
+           "log's noise, fitted and simulated alike)\n";
     std::string beyond;
     for (int j = 0; j < nominal.joints(); ++j) {
       const std::string& name = nominal.joint_names()[static_cast<std::size_t>(j)];
-      const double ratio = sim.final[j] / sim.noise_alone[j];
-      out << "  " << name << ": " << number("%.3g", sim.nominal[j]) << " -> "
-          << number("%.3g", sim.final[j]) << " (noise alone " << number("%.2g", sim.noise_alone[j])
-          << ", " << number("%.2g", ratio) << "x)\n";
-      if (ratio > kSimulationThreshold) beyond += (beyond.empty() ? "" : ", ") + name;
+      out << "  " << name << ": " << number("%.3g", m.nominal_error[j]) << " -> "
+          << number("%.3g", m.final_error[j]) << " (replicates up to "
+          << number("%.2g", m.threshold[j] / kMotionMargin) << ", "
+          << number("%.2g", m.final_error[j] * kMotionMargin / m.threshold[j]) << "x)\n";
     }
+    for (const int j : m.beyond)
+      beyond += (beyond.empty() ? "" : ", ") + nominal.joint_names()[static_cast<std::size_t>(j)];
     out << (beyond.empty()
-                ? "  the final model follows the motion within " +
-                      number("%.0f", kSimulationThreshold) + "x what the noise alone gives\n"
-                : "  beyond " + number("%.0f", kSimulationThreshold) +
-                      "x what the noise alone gives: " + beyond +
-                      ": motion the final model does not explain\n");
-    if (sim.failed_nominal + sim.failed_final > 0)
-      out << "  segments that blew up or failed: nominal " << sim.failed_nominal << ", final "
-          << sim.failed_final << " (first: " << sim.failure << ")\n";
+                ? "  the final model follows the motion as an exact model does (within " +
+                      number("%.0f", kMotionMargin) + "x the replicates)\n"
+                : "  beyond " + number("%.0f", kMotionMargin) + "x what an exact model gives: " +
+                      beyond + ": motion the final model does not explain\n");
+    if (m.failed_nominal + m.failed_final > 0)
+      out << "  segments that blew up or failed: nominal " << m.failed_nominal << ", final "
+          << m.failed_final << " (first: " << m.failure << ")\n";
   }
   if (!sim.note.empty()) out << "\n" << sim.note << "\n";
   out << "\n"
@@ -236,16 +175,27 @@ nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainMod
   for (const auto& e : r.named) j["named"].push_back(test_json(e));
   j["not_named"] = nlohmann::json::array();
   for (const auto& t : r.not_named) j["not_named"].push_back(test_json(t));
-  if (sim.nominal.size())
-    j["free_simulation"] = {{"segments", sim.segments},
-                            {"error_rms_nominal", to_json_array(sim.nominal)},
-                            {"error_rms_final", to_json_array(sim.final)},
-                            {"noise_alone_rms", to_json_array(sim.noise_alone)},
-                            {"threshold", kSimulationThreshold},
-                            {"failed_segments_nominal", sim.failed_nominal},
-                            {"failed_segments_final", sim.failed_final}};
-  else
-    j["free_simulation"] = sim.note;
+  const sid::ChainMotionCheck& m = sim.check;
+  if (m.final_error.size()) {
+    nlohmann::json replicates = nlohmann::json::array();
+    for (Eigen::Index b = 0; b < m.replicate_error.rows(); ++b)
+      replicates.push_back(to_json_array(Eigen::VectorXd(m.replicate_error.row(b).transpose())));
+    nlohmann::json beyond = nlohmann::json::array();
+    for (const int j : m.beyond)
+      beyond.push_back(nominal.joint_names()[static_cast<std::size_t>(j)]);
+    j["free_simulation"] = {{"segments", m.segments},
+                            {"error_rms_nominal", to_json_array(m.nominal_error)},
+                            {"error_rms_final", to_json_array(m.final_error)},
+                            {"replicate_error_rms", replicates},
+                            {"angle_noise", to_json_array(m.angle_noise)},
+                            {"margin", kMotionMargin},
+                            {"threshold", to_json_array(m.threshold)},
+                            {"beyond", beyond},
+                            {"failed_segments_nominal", m.failed_nominal},
+                            {"failed_segments_final", m.failed_final},
+                            {"failed_segments_replicates", m.failed_replicates}};
+  }
+  if (!sim.note.empty()) j["free_simulation_note"] = sim.note;
   j["seconds"] = r.seconds;
   return j;
 }

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -60,6 +61,24 @@ sid::ChainIdentifyOptions make_options(const ChainIdentifyAppOptions& o, int joi
 }
 
 std::string number(const char* format, double v) { return format_number(format, v); }
+
+/// ChainConsistentFit::fits_estimate's bound on the misfit, for r base parameters.
+double misfit_limit(double r) { return r + 3.0 * std::sqrt(2.0 * r); }
+
+/// The kinds of drive term the model fits, in its order, and the names of their parameters.
+std::vector<std::string> drive_term_keywords(const sid::ChainModel& model) {
+  std::vector<std::string> kinds;
+  for (const sid::DriveTerm& t : model.terms()) {
+    const std::string word = sid::drive_term_keyword(t.kind);
+    if (std::find(kinds.begin(), kinds.end(), word) == kinds.end()) kinds.push_back(word);
+  }
+  return kinds;
+}
+
+std::vector<std::string> drive_term_parameters(const sid::ChainModel& model) {
+  const auto& names = model.parameter_names();
+  return {names.begin() + model.rigid_body_parameters(), names.end()};
+}
 
 nlohmann::json prediction_json(const sid::ChainPrediction& p) {
   nlohmann::json j;
@@ -126,6 +145,19 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
       << id.base.rank() << " base parameters of " << model.parameters() << " (rank gap "
       << number("%.2g", id.base.rank_gap) << "), condition number "
       << number("%.4g", id.fit.condition_number) << "\n";
+  {
+    const std::vector<std::string> kinds = drive_term_keywords(model);
+    std::string list;
+    for (const auto& k : kinds) list += (list.empty() ? "" : ", ") + k;
+    out << "drive terms: "
+        << (kinds.empty()
+                ? std::string("none (rigid bodies only)")
+                : list + " on every joint" +
+                      (model.transmission().coupled_motors().empty() ? std::string()
+                                                                     : " and coupled motor") +
+                      " (" + std::to_string(model.terms().size()) + " parameters)")
+        << "\n";
+  }
   if (id.structural_rank > id.base.rank())
     out << "  (" << id.structural_rank - id.base.rank()
         << " more the model has, which these runs do not tell apart: regrouped)\n";
@@ -171,10 +203,26 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
     print_prediction_rows(out, model, v);
   }
   out << "\nphysically consistent links (each a real body, near the description's values where "
-         "the data say nothing): "
+         "the data say little): "
       << number("%.2f", 100.0 * consistent.relative_residual) << " % of the torque (least squares "
-      << number("%.2f", 100.0 * consistent.least_squares_relative_residual) << " %)"
-      << (consistent.converged ? "" : ", not converged") << "\n";
+      << number("%.2f", 100.0 * consistent.least_squares_relative_residual) << " %)\n"
+      << "  prior toward the description: weight " << number("%.3g", consistent.prior_weight)
+      << " of the least-squares RSS per unit change in a link's own scale"
+      << (consistent.correlation_inflation > 1.0
+              ? " (the residuals' correlation in time inflates the estimate's variance " +
+                    number("%.3g", consistent.correlation_inflation) + "-fold)"
+              : std::string())
+      << "\n";
+  if (!consistent.converged)
+    out << "  NOT CONVERGED in " << consistent.iterations
+        << " Newton steps: the links below are the last iterate, not a result (--write-urdf "
+           "refuses them)\n";
+  else if (!consistent.fits_estimate)
+    out << "  REAL BODIES DO NOT FIT THE ESTIMATE: misfit " << number("%.3g", consistent.misfit)
+        << " where noise alone gives at most "
+        << number("%.3g", misfit_limit(static_cast<double>(id.base.rank())))
+        << " (the model probably lacks a drive term the data have; see --effects): the links "
+           "below are the nearest real bodies, not the arm's (--write-urdf refuses them)\n";
   for (int i = 0; i < model.joints(); ++i) {
     const double m = consistent.theta[10 * i];
     const Eigen::Vector3d c = consistent.theta.segment<3>(10 * i + 1) / m;
@@ -205,6 +253,8 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
   j["structural_rank"] = id.structural_rank;
   j["rank_gap"] = id.base.rank_gap;
   j["model_parameters"] = model.parameter_names();
+  j["drive_terms"] = drive_term_keywords(model);
+  j["drive_term_parameters"] = drive_term_parameters(model);
   j["coulomb_epsilon"] = model.coulomb_epsilon();
   j["cutoff_hz"] = to_json_array(id.cutoff_hz);
   j["cutoff_chosen"] = id.cutoff_chosen;
@@ -234,11 +284,38 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
   physical["least_squares_relative_residual"] = consistent.least_squares_relative_residual;
   physical["converged"] = consistent.converged;
   physical["iterations"] = consistent.iterations;
+  physical["prior_weight"] = consistent.prior_weight;
+  physical["correlation_inflation"] = consistent.correlation_inflation;
+  physical["misfit"] = consistent.misfit;
+  physical["fits_estimate"] = consistent.fits_estimate;
   j["physically_consistent"] = physical;
   return j;
 }
 
 }  // namespace
+
+std::vector<sid::DriveTermKind> identify_drive_term_kinds(const std::string& effects,
+                                                          bool no_default_effects) {
+  require(!no_default_effects || !effects.empty(),
+          "--no-default-effects: name every drive term to fit with --effects (none for rigid "
+          "bodies only)");
+  std::vector<sid::DriveTermKind> kinds;
+  if (effects == "none") return kinds;
+  if (!no_default_effects) kinds = {sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature};
+  std::vector<sid::DriveTermKind> added = {sid::DriveTermKind::Coulomb, sid::DriveTermKind::Offset};
+  if (!effects.empty()) {
+    try {
+      added = sid::parse_drive_term_kinds(effects);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(std::string("--effects: ") + e.what());
+    }
+  }
+  for (const sid::DriveTermKind kind : added)
+    if (std::find(kinds.begin(), kinds.end(), kind) == kinds.end()) kinds.push_back(kind);
+  // One order whatever the list's, so the same terms give the same parameters.
+  std::sort(kinds.begin(), kinds.end());
+  return kinds;
+}
 
 Eigen::VectorXd description_prior(const RobotDescription& robot, const sid::ChainModel& model) {
   if (robot.link_parameters.size() == 0) return {};
@@ -348,7 +425,11 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
           "--validate-fraction must be in (0, 1)");
   if (!o.json.empty()) ensure_writable(o.json, o.force);
   if (!o.write_urdf.empty()) ensure_writable(o.write_urdf, o.force);
-  LoadedChain loaded = load_chain(o, sid::default_drive_term_kinds());
+  // load_chain takes --effects as the exact list (sid_diagnose's --drives); here it adds.
+  ChainIdentifyAppOptions exact = o;
+  exact.effects.clear();
+  LoadedChain loaded =
+      load_chain(exact, identify_drive_term_kinds(o.effects, o.no_default_effects));
   const RobotDescription& robot = loaded.robot;
   require(o.write_urdf.empty() || !robot.urdf.empty(),
           "--write-urdf needs a URDF as --robot, not a DH table");
@@ -408,6 +489,16 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
   if (id.fit.ill_conditioned) std::cerr << app_name << ": warning: " << id.fit.message << "\n";
   if (!o.json.empty()) write_json(o.json, report_json(o, model, id, validation, consistent, iv));
   if (!o.write_urdf.empty()) {
+    if (!consistent.converged)
+      throw InputError("--write-urdf: the physically consistent fit did not converge in " +
+                       std::to_string(consistent.iterations) + " Newton steps; " + o.write_urdf +
+                       " is not written (its links would not be a result)");
+    if (!consistent.fits_estimate)
+      throw InputError("--write-urdf: real bodies do not reproduce the estimate (misfit " +
+                       number("%.3g", consistent.misfit) + " where noise alone gives at most " +
+                       number("%.3g", misfit_limit(static_cast<double>(id.base.rank()))) +
+                       "; a drive term the data have may be missing from --effects); " +
+                       o.write_urdf + " is not written");
     std::ofstream file(o.write_urdf, std::ios::binary);
     file << written;
     if (!file) throw std::runtime_error("cannot write '" + o.write_urdf + "'");

@@ -25,7 +25,10 @@ struct ChainIdentifyAppOptions {
   std::vector<std::string> validate;
   std::optional<double> validate_fraction;  ///< fit the first 1 - f of one run, predict the rest
   std::string cutoff;                       ///< one value or one per joint [Hz]; empty: chosen
-  std::string effects;                      ///< drive term kinds; empty: the default
+  /// Drive term kinds added to viscous friction and armature (or, with no_default_effects, the
+  /// whole list); empty: coulomb,offset; "none": rigid bodies only.
+  std::string effects;
+  bool no_default_effects = false;  ///< --effects lists every drive term (sid_identify)
   std::optional<double> rest_fraction;
   std::optional<double> coulomb_epsilon;
   std::optional<double> skip;
@@ -55,6 +58,14 @@ struct LoadedChain {
 /// @throws InputError naming the option or file at fault.
 LoadedChain load_chain(const ChainIdentifyAppOptions& options,
                        const std::vector<sid::DriveTermKind>& default_kinds);
+
+/// @brief The drive term kinds sid_identify --robot fits on every joint: viscous friction and
+/// armature (the terms every geared drive has), plus those --effects adds (coulomb and offset
+/// when it is not given), in sid::DriveTermKind's order. "none" alone gives rigid bodies only;
+/// with no_default_effects the list is exactly --effects'.
+/// @throws InputError naming --effects or --no-default-effects.
+std::vector<sid::DriveTermKind> identify_drive_term_kinds(const std::string& effects,
+                                                          bool no_default_effects);
 
 /// @brief What the description says of model's parameters: its links, and its joints'
 /// <dynamics> damping and friction for the viscous and Coulomb terms (0 elsewhere); empty for a

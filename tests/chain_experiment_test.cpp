@@ -5,6 +5,8 @@
 
 #include <sid/cvode/chain_experiment.hpp>
 #include <sid/cvode/chain_free_simulation.hpp>
+#include <sid/cvode/chain_motion_check.hpp>
+#include <sid/diagnose_chain.hpp>
 #include <sid/fourier_trajectory.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/model/urdf.hpp>
@@ -14,6 +16,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -226,36 +229,68 @@ TEST(ChainFreeSimulation, ExactModelReproducesTheMotionAndAMissingFrictionDrifts
   EXPECT_LT((one.q.topRows(100) - exact.q.topRows(100)).cwiseAbs().maxCoeff(), 1e-6);
 }
 
-// The noise-alone scale of the free simulation: none without noise, and for a small noise the
-// arm's response is linear in it, so the same draws at twice the level move it twice as far.
-TEST(ChainFreeSimulation, NoiseAloneIsZeroWithoutNoiseAndLinearInASmallOne) {
-  const Experiment e(1.0);
-  const Eigen::VectorXd none =
-      sid::chain_noise_alone_error(e.model, e.theta, e.truth, Eigen::VectorXd::Zero(6), 2);
-  EXPECT_EQ(none, Eigen::VectorXd::Zero(6));
-  const Eigen::VectorXd sigma = Eigen::VectorXd::Constant(6, 1e-4);
-  const Eigen::VectorXd small = sid::chain_noise_alone_error(e.model, e.theta, e.truth, sigma, 2);
-#ifndef SID_SANITIZED_TESTS  // the sanitizers check memory, not the numbers
-  const Eigen::VectorXd twice =
-      sid::chain_noise_alone_error(e.model, e.theta, e.truth, 2.0 * sigma, 2);
-  for (int j = 0; j < 6; ++j) {
-    EXPECT_GT(small[j], 0.0) << j;
-    EXPECT_NEAR(twice[j] / small[j], 2.0, 0.02) << j;
-  }
-  // Another seed draws other noise: a similar scale, not the same figures.
-  const Eigen::VectorXd other =
-      sid::chain_noise_alone_error(e.model, e.theta, e.truth, sigma, 2, 7);
-  EXPECT_NE(other, small);
-  EXPECT_LT((other.array() / small.array()).maxCoeff(), 3.0);
+// The motion check against exact-model replicates: on a log the nominal model explains no joint
+// is flagged, and every threshold is the margin over replicates that ran; where a spring the
+// model lacks moves joint 5 (the nominal model kept), that joint is flagged. The replicates'
+// figures do not depend on the thread count.
+TEST(ChainMotionCheck, FlagsOnlyAMotionTheModelLacksAgainstItsExactModelReplicates) {
+#ifdef SID_SANITIZED_TESTS  // the sanitizers check memory, not the numbers: a short log
+  const double duration = 3.0;
+#else
+  const double duration = 8.0;
 #endif
+  const sid::ChainModel nominal = sid_test::tx40_nominal();
+  Eigen::VectorXd prior = Eigen::VectorXd::Zero(nominal.parameters());
+  prior.head(60) = sid_test::tx40_arm().theta.head(60);
+  sid::ChainMotionCheckOptions options;
+  options.replicates = 3;
+
+  const sid::ChainTrajectory<double> exact = sid_test::tx40_hidden_term_run({}, 1, duration);
+  const sid::ChainDiagnosis d = sid::diagnose_chain(nominal, {exact});
+  ASSERT_TRUE(d.named.empty());
+  options.threads = 1;
+  const sid::ChainMotionCheck serial =
+      sid::check_chain_motion(nominal, d, {exact}, {}, prior, options);
+  options.threads = 2;
+  const sid::ChainMotionCheck m = sid::check_chain_motion(nominal, d, {exact}, {}, prior, options);
+  ASSERT_EQ(m.replicate_error.rows(), 3);
+  EXPECT_EQ(m.replicate_error, serial.replicate_error);
+  EXPECT_EQ(m.final_error, serial.final_error);
+  EXPECT_EQ(m.nominal_error, m.final_error) << "nothing named: one model";
+  EXPECT_GT(m.segments, 0);
+  for (int j = 0; j < 6; ++j) {
+    // The angle noise as drawn (1e-4 rad), from the smoothing's residual.
+    EXPECT_NEAR(m.angle_noise[j], 1e-4, 2e-5) << j;
+    EXPECT_GT(m.replicate_error.col(j).minCoeff(), 0.0) << j;
+    EXPECT_DOUBLE_EQ(m.threshold[j], options.margin * m.replicate_error.col(j).maxCoeff()) << j;
+  }
+#ifndef SID_SANITIZED_TESTS
+  EXPECT_TRUE(m.beyond.empty()) << "joint " << m.beyond.front() + 1;
+
+  const sid::DriveTerm spring{sid::DriveTermKind::Spring, 4, false};
+  const sid::ChainTrajectory<double> sprung =
+      sid_test::tx40_hidden_term_run({{spring, 1.5}}, 1, duration);
+  // The nominal model kept as if nothing had been named, at the exact log's cutoffs and noise.
+  sid::ChainDiagnosis lacking = d;
+  lacking.kinematics = {sid::smooth_chain_run(sprung, d.cutoff_hz)};
+  const sid::ChainMotionCheck flagged =
+      sid::check_chain_motion(nominal, lacking, {sprung}, {}, prior, options);
+  EXPECT_NE(std::find(flagged.beyond.begin(), flagged.beyond.end(), 4), flagged.beyond.end())
+      << "joint 5: " << flagged.final_error[4] << " against " << flagged.threshold[4];
+#endif
+
   sid_test::expect_invalid_argument(
       [&] {
-        (void)sid::chain_noise_alone_error(e.model, e.theta, e.truth, Eigen::VectorXd::Zero(5));
+        (void)sid::check_chain_motion(nominal, d, {exact, exact}, {}, prior, options);
       },
-      "sid::chain_noise_alone_error", "noise_sigma");
+      "sid::check_chain_motion", "does not belong");
   sid_test::expect_invalid_argument(
-      [&] { (void)sid::chain_noise_alone_error(e.model, e.theta, e.truth, sigma, 0); },
-      "sid::chain_noise_alone_error", "runs");
+      [&] { (void)sid::check_chain_motion(nominal, d, {exact}, {}, prior.head(10), options); },
+      "sid::check_chain_motion", "prior");
+  options.margin = 0.5;
+  sid_test::expect_invalid_argument(
+      [&] { (void)sid::check_chain_motion(nominal, d, {exact}, {}, prior, options); },
+      "sid::check_chain_motion", "margin");
 }
 
 TEST(ChainExperiment, GivenTorqueDrivesTheArmWhereTheTrackedRunWent) {

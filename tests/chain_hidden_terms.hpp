@@ -1,8 +1,10 @@
 #pragma once
-// Data of a six-axis arm (the TX40's URDF) with drive terms hidden from its nominal model, for the
-// chain diagnosis's tests and bench: rigid bodies, viscous friction 0.5 and a rotor of 0.01 on
+// Simulated arms with drive terms hidden from their nominal models, for the chain diagnosis's
+// tests and bench. The TX40 (its URDF): rigid bodies, viscous friction 0.5 and a rotor of 0.01 on
 // every joint, plus what is hidden; 10 s (by default) at 500 Hz of a random Fourier excitation
-// within ±1.2 rad of zero (joint 2: by default), σq = 1e-4 rad, σ_τ = 0.1 N m.
+// within ±1.2 rad of zero (joint 2: by default), σq = 1e-4 rad, σ_τ = 0.1 N m. A UR5 and a Panda
+// (their public URDFs) as a user would log them: viscous friction only, 20 s at 500 Hz of a
+// five-harmonic Fourier excitation (base 0.1 Hz), σq = 1e-4 rad, σ_τ 1 % of each joint's RMS.
 
 #include <sid/cvode/chain_experiment.hpp>
 #include <sid/fourier_trajectory.hpp>
@@ -19,27 +21,95 @@
 
 namespace sid_test {
 
+inline sid::UrdfChain urdf_arm(const std::string& file, const std::string& base,
+                               const std::string& tip) {
+  std::ifstream in(std::string(SID_TEST_DATA_DIR) + "/" + file);
+  if (!in) throw std::runtime_error("cannot read " + file);
+  std::stringstream text;
+  text << in.rdbuf();
+  return sid::chain_from_urdf(text.str(), base, tip);
+}
+
+/// An arm of the hidden-term suite: its description, the true drives (on every joint), the
+/// excitation's centre and reach, and the measurement noise.
+struct SuiteArm {
+  std::string name;
+  sid::UrdfChain arm;
+  Eigen::VectorXd viscous, rotor;
+  Eigen::VectorXd center, range;
+  double qd_max = 2.0;
+  double duration = 10.0;
+  double torque_noise = 0.1;  ///< σ_τ [N m], or with relative_noise each joint's share of its RMS
+  bool relative_noise = false;
+
+  int joints() const { return arm.chain.joints(); }
+};
+
 inline const sid::UrdfChain& tx40_arm() {
-  static const sid::UrdfChain arm = [] {
-    std::ifstream in(std::string(SID_TEST_DATA_DIR) + "/staubli_tx40/tx40_mdh_modified.urdf");
-    std::stringstream text;
-    text << in.rdbuf();
-    return sid::chain_from_urdf(text.str(), "base_link", "tool0");
-  }();
+  static const sid::UrdfChain arm =
+      urdf_arm("staubli_tx40/tx40_mdh_modified.urdf", "base_link", "tool0");
   return arm;
 }
 
-/// Viscous friction on every joint and a rotor on every joint but `without_rotor` (0-based; -1:
-/// none left out): what a diagnosis starts from.
-inline sid::ChainModel tx40_nominal(int without_rotor = -1) {
-  const sid::Transmission direct(6);
-  std::vector<sid::DriveTerm> terms = sid::drive_terms({sid::DriveTermKind::Viscous}, direct);
-  for (int j = 0; j < 6; ++j)
-    if (j != without_rotor) terms.push_back({sid::DriveTermKind::Armature, j, false});
-  return sid::ChainModel(tx40_arm().chain, tx40_arm().joint_names, terms, direct, 0.05);
+/// joint2_range: the excitation's reach on joint 2 [rad]; over ±1.2 rad a spring there is not
+/// separable from gravity, over ±2 rad it is.
+inline SuiteArm tx40_suite_arm(double duration = 10.0, double joint2_range = 1.2) {
+  SuiteArm a{"TX40",
+             tx40_arm(),
+             Eigen::VectorXd::Constant(6, 0.5),
+             Eigen::VectorXd::Constant(6, 0.01),
+             Eigen::VectorXd::Zero(6),
+             Eigen::VectorXd::Constant(6, 1.2)};
+  a.range[1] = joint2_range;
+  a.duration = duration;
+  return a;
 }
 
-/// A hidden drive term and its value; an armature is added to the joint's rotor of 0.01. With
+inline SuiteArm ur5_suite_arm() {
+  SuiteArm a{"UR5",
+             urdf_arm("urdf/real/ur5_robot.urdf", "base_link", "tool0"),
+             Eigen::VectorXd::Constant(6, 0.5),
+             Eigen::VectorXd::Zero(6),
+             Eigen::VectorXd::Zero(6),
+             Eigen::VectorXd::Constant(6, 1.2)};
+  a.duration = 20.0;
+  a.torque_noise = 0.01;
+  a.relative_noise = true;
+  return a;
+}
+
+/// Seven joints, centred within the joint limits of its URDF.
+inline SuiteArm panda_suite_arm() {
+  Eigen::VectorXd center(7), range(7);
+  center << 0.0, 0.0, 0.0, -1.57, 0.0, 1.87, 0.0;
+  range << 1.2, 1.0, 1.2, 1.2, 1.2, 1.2, 1.2;
+  SuiteArm a{"Panda",
+             urdf_arm("urdf/real/panda.urdf", "panda_link0", "panda_link8"),
+             Eigen::VectorXd::Constant(7, 0.5),
+             Eigen::VectorXd::Zero(7),
+             center,
+             range};
+  a.duration = 20.0;
+  a.torque_noise = 0.01;
+  a.relative_noise = true;
+  return a;
+}
+
+/// Viscous friction on every joint and a rotor on every joint but `without_rotor` (0-based; -1:
+/// none left out): what a diagnosis starts from (sid_diagnose --robot's default terms).
+inline sid::ChainModel suite_nominal(const SuiteArm& a, int without_rotor = -1) {
+  const sid::Transmission direct(a.joints());
+  std::vector<sid::DriveTerm> terms = sid::drive_terms({sid::DriveTermKind::Viscous}, direct);
+  for (int j = 0; j < a.joints(); ++j)
+    if (j != without_rotor) terms.push_back({sid::DriveTermKind::Armature, j, false});
+  return sid::ChainModel(a.arm.chain, a.arm.joint_names, terms, direct, 0.05);
+}
+
+inline sid::ChainModel tx40_nominal(int without_rotor = -1) {
+  return suite_nominal(tx40_suite_arm(), without_rotor);
+}
+
+/// A hidden drive term and its value; an armature is added to the joint's rotor. With
 /// angle_offset, an offset of joint term.index's measured angle instead: measured q = q - value.
 struct HiddenTerm {
   sid::DriveTerm term;
@@ -47,28 +117,27 @@ struct HiddenTerm {
   bool angle_offset = false;
 };
 
-/// The noise-free experiment behind tx40_hidden_term_run: the true arm, its parameters, the
-/// tracked run, and the generator the measurement noise is drawn from next.
-struct Tx40Experiment {
+/// The noise-free experiment behind suite_run: the true arm, its parameters, the tracked run,
+/// and the generator the measurement noise is drawn from next.
+struct SuiteExperiment {
   sid::ChainModel truth;
   Eigen::VectorXd theta;
   sid::ChainExperimentResult run;
   Eigen::VectorXd angle_offset;  ///< per joint: measured q = q - angle_offset
   std::mt19937_64 rng;
 };
+using Tx40Experiment = SuiteExperiment;
 
-/// joint2_range: the excitation's reach on joint 2 [rad]; over ±1.2 rad a spring there is not
-/// separable from gravity, over ±2 rad it is.
-inline Tx40Experiment tx40_hidden_term_experiment(const std::vector<HiddenTerm>& hidden,
-                                                  unsigned seed, double duration = 10.0,
-                                                  double joint2_range = 1.2) {
-  const sid::Transmission direct(6);
+inline SuiteExperiment suite_experiment(const SuiteArm& a, const std::vector<HiddenTerm>& hidden,
+                                        unsigned seed) {
+  const int n = a.joints();
+  const sid::Transmission direct(n);
   std::vector<sid::DriveTerm> terms =
       sid::drive_terms({sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature}, direct);
-  Eigen::VectorXd drives(12);
-  for (int j = 0; j < 6; ++j) drives.segment<2>(2 * j) << 0.5, 0.01;
+  Eigen::VectorXd drives(2 * n);
+  for (int j = 0; j < n; ++j) drives.segment<2>(2 * j) << a.viscous[j], a.rotor[j];
   std::vector<double> extra;
-  Eigen::VectorXd angle_offset = Eigen::VectorXd::Zero(6);
+  Eigen::VectorXd angle_offset = Eigen::VectorXd::Zero(n);
   for (const HiddenTerm& h : hidden) {
     if (h.angle_offset) {
       angle_offset[h.term.index] = h.value;
@@ -81,31 +150,54 @@ inline Tx40Experiment tx40_hidden_term_experiment(const std::vector<HiddenTerm>&
     terms.push_back(h.term);
     extra.push_back(h.value);
   }
-  sid::ChainModel truth(tx40_arm().chain, tx40_arm().joint_names, terms, direct, 0.05);
+  sid::ChainModel truth(a.arm.chain, a.arm.joint_names, terms, direct, 0.05);
   Eigen::VectorXd theta(truth.parameters());
-  theta << tx40_arm().theta.head(60), drives,
+  theta << a.arm.theta.head(10 * n), drives,
       Eigen::Map<const Eigen::VectorXd>(extra.data(), static_cast<Eigen::Index>(extra.size()));
   std::mt19937_64 rng(100 + seed);
-  Eigen::VectorXd range = Eigen::VectorXd::Constant(6, 1.2);
-  range[1] = joint2_range;
   const sid::FourierTrajectory desired = sid::random_fourier_trajectory(
-      Eigen::VectorXd::Zero(6), 5, 0.1, range, Eigen::VectorXd::Constant(6, 2.0), rng);
+      a.center, 5, 0.1, a.range, Eigen::VectorXd::Constant(n, a.qd_max), rng);
   sid::ChainExperiment experiment;
-  experiment.duration = duration;
+  experiment.duration = a.duration;
   experiment.sample_time = 0.002;
   sid::ChainExperimentResult run =
       sid::simulate_chain_experiment(truth, theta, desired, experiment);
-  if (!run.ok()) throw std::runtime_error("tx40_hidden_term_experiment: " + run.message);
+  if (!run.ok()) throw std::runtime_error("suite_experiment (" + a.name + "): " + run.message);
   return {std::move(truth), std::move(theta), std::move(run), std::move(angle_offset), rng};
+}
+
+/// The measured log: the true run with the angle offsets and the noise.
+inline sid::ChainTrajectory<double> suite_run(const SuiteArm& a,
+                                              const std::vector<HiddenTerm>& hidden,
+                                              unsigned seed) {
+  SuiteExperiment e = suite_experiment(a, hidden, seed);
+  sid::ChainTrajectory<double> measured = e.run.trajectory();
+  measured.q.rowwise() -= e.angle_offset.transpose();
+  if (!a.relative_noise)
+    return sid::add_measurement_noise(
+        measured, sid::MeasurementNoise<double>{1e-8, a.torque_noise * a.torque_noise}, e.rng);
+  const Eigen::RowVectorXd sigma =
+      a.torque_noise *
+      (measured.tau.colwise().squaredNorm() / static_cast<double>(measured.size())).cwiseSqrt();
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (Eigen::Index i = 0; i < measured.size(); ++i)
+    for (int j = 0; j < a.joints(); ++j) {
+      measured.q(i, j) += 1e-4 * normal(e.rng);
+      measured.tau(i, j) += sigma[j] * normal(e.rng);
+    }
+  return measured;
+}
+
+inline Tx40Experiment tx40_hidden_term_experiment(const std::vector<HiddenTerm>& hidden,
+                                                  unsigned seed, double duration = 10.0,
+                                                  double joint2_range = 1.2) {
+  return suite_experiment(tx40_suite_arm(duration, joint2_range), hidden, seed);
 }
 
 inline sid::ChainTrajectory<double> tx40_hidden_term_run(const std::vector<HiddenTerm>& hidden,
                                                          unsigned seed, double duration = 10.0,
                                                          double joint2_range = 1.2) {
-  Tx40Experiment e = tx40_hidden_term_experiment(hidden, seed, duration, joint2_range);
-  sid::ChainTrajectory<double> measured = e.run.trajectory();
-  measured.q.rowwise() -= e.angle_offset.transpose();
-  return sid::add_measurement_noise(measured, sid::MeasurementNoise<double>{1e-8, 1e-2}, e.rng);
+  return suite_run(tx40_suite_arm(duration, joint2_range), hidden, seed);
 }
 
 }  // namespace sid_test

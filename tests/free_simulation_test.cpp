@@ -366,7 +366,10 @@ TEST(DiagnoseWithSimulation, JudgesTheWindowsOfAHiddenSpringAgainstTheFinalModel
   for (int j = 0; j < 2; ++j) {
     // Zero only where a segment restarts from the state every run shares.
     EXPECT_GT((details.noise_rms.col(j).array() > 0.0).count(), n - 20) << "joint " << j + 1;
-    EXPECT_LT(r.final.sim_error_rms[j], 0.2 * r.nominal.sim_error_rms[j]) << "joint " << j + 1;
+    // The nominal model drifts open loop, by how much hangs on rounding (joint 2: 0.062 rad
+    // here, 0.025 without FMA contraction and vectorisation); the final one stays at the noise
+    // (0.005 rad on both). The behaviour: it is several times closer, and no window is flagged.
+    EXPECT_LT(r.final.sim_error_rms[j], 0.5 * r.nominal.sim_error_rms[j]) << "joint " << j + 1;
   }
   EXPECT_FALSE(r.nominal.sim_windows.empty());
   EXPECT_TRUE(r.final.sim_windows.empty()) << r.final.sim_windows.size() << " windows flagged";

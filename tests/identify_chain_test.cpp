@@ -393,3 +393,74 @@ TEST(ChainConsistency, ARealArmFitsAsWellAsLeastSquaresAndStaysARealBody) {
 }
 
 }  // namespace
+
+namespace {
+
+constexpr double kRelative = 1e-12;  // the same arithmetic, differently grouped
+
+/// The simulated arm identified from noisy torques, smoothed: residuals correlated in time.
+sid::ChainIdentification smoothed_arm_fit(const sid_test::SimulatedArm& arm) {
+  sid::ChainIdentifyOptions options;
+  options.cutoff_hz = {8.0};
+  return sid::identify_chain(arm.model, {arm.run(6.0, 5, 0.05)}, options);
+}
+
+TEST(ChainConsistency, PriorWeightIsTheEstimatesVarianceOverThePriors) {
+  const sid_test::SimulatedArm arm;
+  const sid::ChainIdentification id = smoothed_arm_fit(arm);
+  ASSERT_TRUE(id.fit.ok());
+  const sid::ChainConsistentFit fit = sid::consistent_chain_parameters(arm.model, id, arm.theta);
+  EXPECT_TRUE(fit.converged) << fit.iterations << " steps";
+  EXPECT_TRUE(fit.fits_estimate) << fit.misfit;
+  // κ: the HAC variances over the uncorrelated ones; smoothing correlates the residuals.
+  const double kappa = (id.std_dev.array() / id.fit.std_dev.array()).square().mean();
+  EXPECT_GT(kappa, 2.0);
+  EXPECT_NEAR(fit.correlation_inflation, kappa, kRelative * kappa);
+  const auto dof = static_cast<double>(id.fit.residual.size() - id.base.rank());
+  EXPECT_NEAR(fit.prior_weight, kappa / dof, kRelative * kappa / dof);
+  // Half the prior's standard deviation, four times its weight; a weight given is used as is.
+  sid::ChainConsistencyOptions options;
+  options.prior_std = 0.5;
+  EXPECT_NEAR(sid::consistent_chain_parameters(arm.model, id, arm.theta, options).prior_weight,
+              4.0 * fit.prior_weight, kRelative * fit.prior_weight);
+  options.prior_weight = 1e-4;
+  EXPECT_EQ(sid::consistent_chain_parameters(arm.model, id, arm.theta, options).prior_weight, 1e-4);
+  for (const auto& bad : {std::pair<double, double>{0.0, 0.0}, {1.0, -1e-4}, {NAN, 0.0}}) {
+    sid::ChainConsistencyOptions o;
+    o.prior_std = bad.first;
+    o.prior_weight = bad.second;
+    EXPECT_THROW((void)sid::consistent_chain_parameters(arm.model, id, arm.theta, o),
+                 std::invalid_argument)
+        << bad.first << ", " << bad.second;
+  }
+}
+
+TEST(ChainConsistency, SaysWhenNoRealArmReproducesTheEstimate) {
+  const sid_test::SimulatedArm arm;
+  sid::ChainIdentification id = smoothed_arm_fit(arm);
+  ASSERT_TRUE(id.fit.ok());
+  // An estimate no arm gives: every mass and friction level negated (gravity pulls up).
+  id.fit.theta = id.base.beta(-arm.theta);
+  const sid::ChainConsistentFit fit = sid::consistent_chain_parameters(arm.model, id, arm.theta);
+  EXPECT_TRUE(fit.converged);
+  const auto r = static_cast<double>(id.base.rank());
+  EXPECT_GT(fit.misfit, r + 3.0 * std::sqrt(2.0 * r));
+  EXPECT_FALSE(fit.fits_estimate);
+}
+
+// A link the description gives no mass (a URDF link without <inertial>) is unknown, not
+// massless: the prior must not pin it at zero against the data.
+TEST(ChainConsistency, ALinkThePriorGivesNoMassFollowsTheData) {
+  const sid_test::SimulatedArm arm;
+  const sid::ChainIdentification id = smoothed_arm_fit(arm);
+  ASSERT_TRUE(id.fit.ok());
+  Eigen::VectorXd prior = arm.theta;
+  prior.segment<10>(10).setZero();
+  const sid::ChainConsistentFit fit = sid::consistent_chain_parameters(arm.model, id, prior);
+  EXPECT_TRUE(fit.converged);
+  EXPECT_TRUE(fit.fits_estimate) << fit.misfit;
+  EXPECT_NEAR(fit.theta[10], arm.theta[10], 0.2 * arm.theta[10]);
+  EXPECT_LT(fit.relative_residual, 1.05 * id.fitted.relative_residual);
+}
+
+}  // namespace

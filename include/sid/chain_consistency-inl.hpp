@@ -81,6 +81,23 @@ inline Eigen::VectorXd consistency_prior(const ChainModel& model, const Eigen::V
   return prior;
 }
 
+/// κ of the file comment: the mean over the base parameters of their HAC variance over the
+/// variance the fit gives for uncorrelated residuals, at least 1; 1 when the identification has
+/// no HAC standard deviations (e.g. an instrumental-variable estimate).
+inline double correlation_inflation(const ChainIdentification& id) {
+  const Eigen::VectorXd& hac = id.std_dev;
+  const Eigen::VectorXd& plain = id.fit.std_dev;
+  if (hac.size() != plain.size() || hac.size() == 0) return 1.0;
+  double sum = 0.0;
+  int count = 0;
+  for (Eigen::Index k = 0; k < hac.size(); ++k) {
+    if (!(plain[k] > 0.0) || !std::isfinite(hac[k]) || !std::isfinite(plain[k])) continue;
+    sum += (hac[k] * hac[k]) / (plain[k] * plain[k]);
+    ++count;
+  }
+  return count ? std::max(sum / count, 1.0) : 1.0;
+}
+
 /// The convex problem of the file comment: F(θ) = ‖A (P θ − β̂)‖² + Σ w2 (θ − θ₀)² (β = P θ
 /// the base parameters) and the barrier −Σ log det J_i of the real bodies, − Σ log θ_k of the
 /// drive terms that are real only when positive.
@@ -108,11 +125,27 @@ struct ConsistencyProblem {
     // The prior's distance in each link's own scale: its mass m0 and radius of gyration r0
     // about its origin, so that a change of mass, of first moment (m0 r0) and of inertia
     // (m0 r0²) by the same fraction cost the same, whatever the link's size.
+    // A link the prior gives no mass (a URDF link without <inertial>) is unknown rather than
+    // massless: it takes the scale of a typical link of the arm, else the prior would pin it
+    // at zero mass whatever the data say.
+    double typical_mass = 0.0, typical_r2 = 0.0;
+    int massive = 0;
+    for (int i = 0; i < links; ++i) {
+      const LinkParameters<double> phi = prior.segment<10>(10 * i);
+      if (!(phi[0] > 0.0)) continue;
+      typical_mass += phi[0];
+      typical_r2 += std::max((phi[4] + phi[6] + phi[9]) / (2.0 * phi[0]), 1e-4);
+      ++massive;
+    }
+    typical_mass = massive ? typical_mass / massive : 1.0;
+    typical_r2 = massive ? typical_r2 / massive : 1e-2;
     Eigen::VectorXd scale(p);
     for (int i = 0; i < links; ++i) {
       const LinkParameters<double> phi = prior.segment<10>(10 * i);
-      const double m0 = std::max(phi[0], 1e-3);
-      const double r2 = std::max((phi[4] + phi[6] + phi[9]) / (2.0 * m0), 1e-4);
+      const bool unknown = !(phi[0] > 0.0);
+      const double m0 = unknown ? typical_mass : std::max(phi[0], 1e-3);
+      const double r2 =
+          unknown ? typical_r2 : std::max((phi[4] + phi[6] + phi[9]) / (2.0 * m0), 1e-4);
       scale.segment<10>(10 * i) << m0, Eigen::Vector3d::Constant(m0 * std::sqrt(r2)),
           Eigen::Matrix<double, 6, 1>::Constant(m0 * r2);
     }
@@ -175,7 +208,14 @@ struct ConsistencyProblem {
       const double value = t * cost(theta) + barrier(theta, &g, &h);
       const Eigen::VectorXd step = h.ldlt().solve(-g);
       const double decrement = -g.dot(step);
-      if (!(decrement > 2e-10)) return true;
+      // Close enough to t's centre: half the squared decrement bounds the distance from it, and
+      // 1e-6 of the barrier's size is far below the gap size / t that the centre stands for.
+      // At large t the barrier's value carries round-off of its own: a decrement below it
+      // cannot be resolved by the line search, which would then wander on noise until the
+      // budget ran out.
+      if (!(decrement > 1e-6 * size()) ||
+          !(decrement > 64.0 * std::numeric_limits<double>::epsilon() * std::abs(value)))
+        return true;
       double length = 1.0;
       bool descended = false;
       for (int halving = 0; halving < 60 && !descended; ++halving) {
@@ -203,10 +243,11 @@ SID_INLINE ChainConsistentFit consistent_chain_parameters(const ChainModel& mode
       static_cast<Eigen::Index>(id.base.independent.size() + id.base.dependent.size()) !=
           model.parameters())
     throw std::invalid_argument(who + "the identification failed or is not of this model");
-  if (!(options.prior_weight > 0.0) || !std::isfinite(options.prior_weight) ||
+  if (!(options.prior_std > 0.0) || !std::isfinite(options.prior_std) ||
+      !(options.prior_weight >= 0.0) || !std::isfinite(options.prior_weight) ||
       options.max_iterations < 1 || !(options.tolerance > 0.0))
-    throw std::invalid_argument(who +
-                                "prior_weight and tolerance must be > 0, max_iterations >= 1");
+    throw std::invalid_argument(
+        who + "prior_std and tolerance must be > 0, prior_weight >= 0, max_iterations >= 1");
   const Eigen::VectorXd prior = detail::consistency_prior(model, prior_in, who);
 
   ChainConsistentFit out;
@@ -220,9 +261,14 @@ SID_INLINE ChainConsistentFit consistent_chain_parameters(const ChainModel& mode
   }
   // r is upper triangular (the QR's factor): below its diagonal it holds zeros.
   const Eigen::MatrixXd a = id.fit.r * id.fit.column_scale.asDiagonal();
-  // γ in units of the fit's residual sum of squares: a unit relative change of a parameter the
-  // data do not see costs prior_weight of it, whatever the log's length and units.
+  // γ in units of the fit's residual sum of squares, so that it does not depend on the log's
+  // length and units: the prior's variance against the estimate's (see the file comment).
   const double rss = std::max(id.fit.residual.squaredNorm(), 1e-300);
+  const double dof = std::max(static_cast<double>(id.fit.residual.size() - id.base.rank()), 1.0);
+  out.correlation_inflation = detail::correlation_inflation(id);
+  out.prior_weight = options.prior_weight > 0.0 ? options.prior_weight
+                                                : out.correlation_inflation /
+                                                      (dof * options.prior_std * options.prior_std);
   // A rotor's inertia and a friction level are real only when positive (a negative rotor makes
   // the mass matrix indefinite, negative friction feeds energy in): the drive of a real arm.
   std::vector<Eigen::Index> positive;
@@ -235,7 +281,7 @@ SID_INLINE ChainConsistentFit consistent_chain_parameters(const ChainModel& mode
     }
     ++column;
   }
-  const detail::ConsistencyProblem problem(id, a, prior, n, options.prior_weight * rss, positive);
+  const detail::ConsistencyProblem problem(id, a, prior, n, out.prior_weight * rss, positive);
 
   // Interior point: the centre at t is within size / t of the optimum of F over the real bodies.
   const double barrier_size = problem.size();
@@ -255,6 +301,9 @@ SID_INLINE ChainConsistentFit consistent_chain_parameters(const ChainModel& mode
       rss / std::max(id.fitted.relative_residual * id.fitted.relative_residual, 1e-300);
   const double growth = (a * (out.beta - id.fit.theta)).squaredNorm();
   out.relative_residual = std::sqrt((rss + growth) / yy);
+  const auto r = static_cast<double>(id.base.rank());
+  out.misfit = growth * dof / (out.correlation_inflation * rss);
+  out.fits_estimate = out.misfit <= r + 3.0 * std::sqrt(2.0 * r);
   return out;
 }
 

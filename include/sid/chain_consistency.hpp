@@ -16,14 +16,33 @@
 ///   F(θ) = ‖R S (β(θ) − β̂)‖² + γ RSS ‖(θ − θ₀) / s‖²
 /// over the parameters whose links are all real bodies: R S the triangular factor of the
 /// identification's column-scaled base regressor, so the first term is the growth of the residual
-/// sum of squares over the least-squares fit; the second is small (γ = 1e-4 of the least-squares
-/// RSS per unit relative change) and decides the directions the data do not see, with s scaling
-/// each link's parameters by its prior mass m0 and radius of gyration r0 (m0; m0 r0 for first
-/// moments; m0 r0² for inertias) and each drive term by 1 + |its prior|. F is quadratic and the
-/// set is convex (linear matrix inequalities J_i(θ) ⪰ 0), so the problem is convex with one
-/// answer: it is solved by an interior-point method (Newton on t F − Σ log det J_i, t growing
-/// tenfold) to within tolerance · RSS of the optimum. The log-Cholesky numbers give it a start
-/// strictly inside.
+/// sum of squares over the least-squares fit; the second holds the links near the prior (the
+/// description) where the data say little, with s scaling each link's parameters by its prior
+/// mass m0 and radius of gyration r0 (m0; m0 r0 for first moments; m0 r0² for inertias; a link
+/// the prior gives no mass takes the mean m0 and r0² of those it does) and each drive term by
+/// 1 + |its prior|.
+///
+/// γ is the prior's weight relative to the least-squares RSS. Read as a Gaussian prior of
+/// standard deviation σ_p (ChainConsistencyOptions::prior_std) on each parameter in its link's
+/// scale, F is the negative log posterior up to the factor 2 σ² when the first term is measured
+/// in the estimate's own uncertainty: σ² = κ RSS / (N − r), N equations and r base parameters,
+/// and κ ≥ 1 the factor by which the residuals' correlation in time inflates the variance of the
+/// base parameters (the mean over them of the HAC variance over the uncorrelated one, when the
+/// identification has HAC standard deviations; else 1). So γ = κ / ((N − r) σ_p²). Without κ a
+/// misfit whose residuals are smooth in time (a drive term missing from the model) counts as
+/// thousands of independent equations, and the fit turns the base parameters it biases into
+/// bodies far from any real link (a 0.1 kg wrist with its centre of mass 0.7 m away on a UR5).
+///
+/// Whether real bodies reproduce the estimate at all is measured by the misfit
+/// ‖R S (β(θ) − β̂)‖² / σ², about χ² with r degrees of freedom when the estimate is a real arm
+/// plus noise: far above (ChainConsistentFit::fits_estimate), the estimate is no arm's, as when
+/// the model lacks a term the data have, and the bodies are not a description of the arm.
+///
+/// F is quadratic and the set is convex (linear matrix inequalities J_i(θ) ⪰ 0), so the problem
+/// is convex with one answer: it is solved by an interior-point method (Newton on
+/// t F − Σ log det J_i, t growing tenfold, each centre found to a Newton decrement of 1e-6 of
+/// the barrier's size) to within tolerance · RSS of the optimum. The log-Cholesky numbers give
+/// it a start strictly inside.
 
 #include <sid/config.hpp>
 #include <sid/identify_chain.hpp>
@@ -39,8 +58,12 @@ namespace sid {
 
 /// @brief Options of consistent_chain_parameters.
 struct ChainConsistencyOptions {
-  /// γ, > 0, relative to the least-squares fit's residual sum of squares.
-  double prior_weight = 1e-4;
+  /// σ_p, > 0: how well the prior is known, as a standard deviation relative to each link's
+  /// scale (see the file comment); sets γ = κ / ((N − r) σ_p²) when prior_weight is 0.
+  double prior_std = 1.0;
+  /// γ, >= 0, relative to the least-squares fit's residual sum of squares; 0: from prior_std and
+  /// the identification.
+  double prior_weight = 0.0;
   int max_iterations = 500;  ///< Newton steps in all, >= 1
   /// The answer's cost is within tolerance times the least-squares RSS of the optimum.
   double tolerance = 1e-7;
@@ -57,7 +80,20 @@ struct ChainConsistentFit {
   double relative_residual = 0.0;
   double least_squares_relative_residual = 0.0;
   int iterations = 0;
+  /// The interior point reached tolerance within max_iterations; when false, theta is the last
+  /// iterate (every link a real body, but not the optimum) and is not to be used as a result.
   bool converged = false;
+  double prior_weight = 0.0;  ///< the γ used, relative to the least-squares RSS
+  /// κ, from the identification's HAC standard deviations (1 without them)
+  double correlation_inflation = 1.0;
+  /// How far β is from the least-squares estimate in the estimate's own uncertainty:
+  /// ‖R S (β − β̂)‖² (N − r) / (κ RSS), about χ² with r degrees of freedom when the estimate is a
+  /// real arm plus noise (less, as the prior pulls only where the data say little).
+  double misfit = 0.0;
+  /// misfit ≤ r + 3 √(2 r): real bodies reproduce the estimate within its uncertainty. When
+  /// false, no set of real bodies near it fits the data as well: the model lacks something
+  /// the data have (a drive term), and theta is not a description of the arm.
+  bool fits_estimate = false;
   /// Per link: why the prior's parameters are not a real body ("" when they are); such a link
   /// starts from the nearest one that is.
   std::vector<std::string> prior_inconsistency;
@@ -79,7 +115,8 @@ SID_INLINE Eigen::Matrix<double, 10, 1> log_cholesky_from_link_parameters(
 ///        the URDF's CAD values, drive terms 0); empty: every link 1 kg at its origin with
 ///        0.01 kg m² about each axis.
 /// @throws std::invalid_argument if the identification failed or does not belong to model, the
-///         prior has the wrong size or is not finite, or the options are invalid.
+///         prior has the wrong size or is not finite, or the options are invalid (prior_std not
+///         > 0, prior_weight < 0, max_iterations < 1, tolerance not > 0).
 SID_INLINE ChainConsistentFit consistent_chain_parameters(
     const ChainModel& model, const ChainIdentification& identification,
     const Eigen::VectorXd& prior = {}, const ChainConsistencyOptions& options = {});

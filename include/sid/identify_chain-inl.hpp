@@ -572,6 +572,61 @@ SID_INLINE ChainPrediction predict_chain(const ChainModel& model,
   return p;
 }
 
+SID_INLINE ChainIdentification refit_chain(const ChainModel& model,
+                                           const ChainIdentification& earlier,
+                                           const std::vector<ChainTrajectory<double>>& runs,
+                                           const ChainIdentifyOptions& options) {
+  const char* who = "sid::refit_chain";
+  const int n = model.joints();
+  detail::check_chain_options(options, n, who);
+  if (runs.empty()) throw std::invalid_argument(std::string(who) + ": no runs given");
+  if (!earlier.fit.ok() || earlier.cutoff_hz.size() != n ||
+      earlier.fit.theta.size() != earlier.base.rank() ||
+      static_cast<Eigen::Index>(earlier.base.independent.size() + earlier.base.dependent.size()) !=
+          model.parameters())
+    throw std::invalid_argument(std::string(who) +
+                                ": the earlier identification failed or is of another model");
+  std::vector<detail::SmoothedChainRun> smoothed = detail::smoothed_runs(model, runs, options, who);
+  for (auto& s : smoothed)
+    for (int j = 0; j < n; ++j) s.smooth_joint(j, earlier.cutoff_hz[j], options.filter_torque);
+  ChainIdentification id;
+  id.base = earlier.base;
+  id.structural_rank = earlier.structural_rank;
+  id.parameter_names = earlier.parameter_names;
+  id.parameter_combinations = earlier.parameter_combinations;
+  id.cutoff_hz = earlier.cutoff_hz;
+  id.cross_validation_score = std::nan("");
+  const std::vector<detail::ChainEquations> equations =
+      detail::all_equations(model, smoothed, id.base.independent, options.rest_fraction);
+  const detail::StackedChainEquations stacked = detail::stack_equations(equations);
+  if (stacked.x.rows() <= stacked.x.cols())
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(stacked.x.rows()) +
+                                " equations for " + std::to_string(stacked.x.cols()) +
+                                " base parameters; give longer or more runs");
+  LeastSquaresOptions ls = options.least_squares;
+  ls.column_names = id.parameter_names;
+  Eigen::VectorXd weight;
+  id.fit = detail::chain_fit(equations, stacked, n, options.weighted, ls, weight);
+  id.std_dev = id.fit.std_dev;
+  id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
+  id.fitted = detail::chain_prediction(equations, n, id.fit.theta);
+  return id;
+}
+
+SID_INLINE ChainKinematics<double> smooth_chain_run(const ChainTrajectory<double>& run,
+                                                    const Eigen::VectorXd& cutoff_hz,
+                                                    const ChainIdentifyOptions& options) {
+  const char* who = "sid::smooth_chain_run";
+  run.validate(who);
+  if (run.size() < 3) throw std::invalid_argument(std::string(who) + ": needs 3 samples or more");
+  if (cutoff_hz.size() != run.joints() || !(cutoff_hz.array() > 0.0).all())
+    throw std::invalid_argument(std::string(who) + ": needs one cutoff > 0 per joint (" +
+                                std::to_string(run.joints()) + ")");
+  detail::SmoothedChainRun s(run, options);
+  for (int j = 0; j < run.joints(); ++j) s.smooth_joint(j, cutoff_hz[j], options.filter_torque);
+  return std::move(s.k);
+}
+
 SID_INLINE std::pair<ChainTrajectory<double>, ChainTrajectory<double>> split_run(
     const ChainTrajectory<double>& run, double fraction) {
   const char* who = "sid::split_run";

@@ -139,6 +139,26 @@ SID_INLINE ChainPrediction predict_chain(const ChainModel& model,
                                          const ChainTrajectory<double>& run,
                                          const ChainIdentifyOptions& options = {});
 
+/// @brief Fits an earlier identification's base parameters to other runs of the same model at
+/// its cutoffs: the smoothing, the equations and least squares only. No base-parameter search, no
+/// cutoff choice, no HAC or jackknife deviations (std_dev is the fit's own) and no per-run or
+/// measured-torque predictions (fitted holds the figures over the fitted equations): what a
+/// bootstrap repeats many times.
+/// @throws std::invalid_argument as identify_chain, or if `earlier` failed or belongs to
+///         another model.
+SID_INLINE ChainIdentification refit_chain(const ChainModel& model,
+                                           const ChainIdentification& earlier,
+                                           const std::vector<ChainTrajectory<double>>& runs,
+                                           const ChainIdentifyOptions& options = {});
+
+/// @brief A run smoothed as identify_chain smooths it at the given cutoffs [Hz] (one per joint):
+/// the angles, rates and accelerations at every sample, and the torque filtered as the angles
+/// when options.filter_torque (else as measured).
+/// @throws std::invalid_argument for an invalid run or a cutoff count other than the joints'.
+SID_INLINE ChainKinematics<double> smooth_chain_run(const ChainTrajectory<double>& run,
+                                                    const Eigen::VectorXd& cutoff_hz,
+                                                    const ChainIdentifyOptions& options = {});
+
 /// @brief The samples of a run before (first) and from (second) the time t0 + fraction (t_end -
 /// t0): the time split of a single run into a part to fit and a part to predict.
 /// @throws std::invalid_argument unless 0 < fraction < 1 and both parts have samples.

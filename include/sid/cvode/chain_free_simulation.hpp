@@ -13,9 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <limits>
-#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -123,50 +121,6 @@ inline ChainFreeSimulation free_chain_simulation(const ChainModel& model,
     if (count > 0) out.error_rms[j] = std::sqrt(sum / static_cast<double>(count));
   }
   return out;
-}
-
-/// @brief What the torque noise alone does to free_chain_simulation(): per joint, the RMS over
-/// `runs` simulations driven by k.tau plus white noise of σ_j = noise_sigma[j] at every sample
-/// (std::mt19937_64(seed)) of their angles minus those of the simulation driven by k.tau.
-/// Open-loop arms drift under noise even with the exact model (a random walk the segments keep
-/// bounded): a free simulation's error far above this is motion the model does not explain.
-/// Samples where either simulation failed are left out; NaN for a joint with none left.
-/// @throws std::invalid_argument as free_chain_simulation, for noise_sigma of the wrong size or
-///         not finite and >= 0, or runs < 1.
-inline Eigen::VectorXd chain_noise_alone_error(const ChainModel& model,
-                                               const Eigen::VectorXd& theta,
-                                               const ChainKinematics<double>& k,
-                                               const Eigen::VectorXd& noise_sigma, int runs = 4,
-                                               std::uint64_t seed = 20261205,
-                                               const ChainFreeSimulationOptions& options = {}) {
-  const int n = model.joints();
-  if (noise_sigma.size() != n || !noise_sigma.allFinite() || (noise_sigma.array() < 0.0).any())
-    throw std::invalid_argument(
-        "sid::chain_noise_alone_error: noise_sigma needs one finite value >= 0 per joint");
-  if (runs < 1) throw std::invalid_argument("sid::chain_noise_alone_error: runs must be >= 1");
-  const ChainFreeSimulation plain = free_chain_simulation(model, theta, k, options);
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  Eigen::VectorXd sum = Eigen::VectorXd::Zero(n), count = Eigen::VectorXd::Zero(n);
-  ChainKinematics<double> noisy = k;
-  for (int r = 0; r < runs; ++r) {
-    for (int j = 0; j < n; ++j)
-      for (Eigen::Index i = 0; i < k.size(); ++i)
-        noisy.tau(i, j) = k.tau(i, j) + noise_sigma[j] * normal(rng);
-    const ChainFreeSimulation perturbed = free_chain_simulation(model, theta, noisy, options);
-    for (int j = 0; j < n; ++j)
-      for (Eigen::Index i = 0; i < k.size(); ++i) {
-        const double d = perturbed.q(i, j) - plain.q(i, j);
-        if (!std::isfinite(d)) continue;
-        sum[j] += d * d;
-        count[j] += 1.0;
-      }
-  }
-  Eigen::VectorXd rms(n);
-  for (int j = 0; j < n; ++j)
-    rms[j] =
-        count[j] > 0.0 ? std::sqrt(sum[j] / count[j]) : std::numeric_limits<double>::quiet_NaN();
-  return rms;
 }
 
 }  // namespace sid

@@ -46,7 +46,13 @@ struct ChainInstrumentalVariableOptions {
   /// The consistent model's prior where the data say nothing (consistent_chain_parameters);
   /// empty: its default.
   Eigen::VectorXd prior;
-  ChainConsistencyOptions consistency;
+  /// A fixed prior weight: the estimates carry no HAC covariance to scale it by, and the
+  /// instruments only need a body that follows the motion.
+  ChainConsistencyOptions consistency = [] {
+    ChainConsistencyOptions o;
+    o.prior_weight = 1e-4;
+    return o;
+  }();
   /// The instruments need far less accuracy than generating a data set does; BDF for the stiff
   /// damping that friction terms can add.
   SimulatorOptions simulator = [] {
