@@ -3,19 +3,12 @@
 // name exactly what was hidden, on its joint, and nothing where nothing was hidden; and on a
 // UR5-type arm, what an encoder offset it cannot separate leaves is named only with a caveat.
 
-#include <sid/cvode/chain_experiment.hpp>
 #include <sid/diagnose_chain.hpp>
-#include <sid/fourier_trajectory.hpp>
-#include <sid/model/urdf.hpp>
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <random>
-#include <sstream>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -28,57 +21,6 @@ using sid_test::HiddenTerm;
 using sid_test::tx40_arm;
 using sid_test::tx40_hidden_term_run;
 using sid_test::tx40_nominal;
-
-const sid::UrdfChain& ur5_arm() {
-  static const sid::UrdfChain arm = [] {
-    std::ifstream in(std::string(SID_TEST_DATA_DIR) + "/urdf/real/ur5_robot.urdf");
-    std::stringstream text;
-    text << in.rdbuf();
-    return sid::chain_from_urdf(text.str(), "base_link", "tool0");
-  }();
-  return arm;
-}
-
-/// A UR5-type arm (rigid bodies and viscous friction 0.5 on every joint) tracking a random
-/// Fourier excitation (5 harmonics of 0.1 Hz, within 1 rad and 1.5 rad/s of rest at zero, as
-/// sid_simulate --robot draws one) at 500 Hz, sigma_q = 1e-4 rad and a torque noise of 1 % of
-/// each joint's RMS torque; measured q = q - angle_offset.
-sid::ChainTrajectory<double> ur5_run(const Eigen::VectorXd& angle_offset, unsigned seed,
-                                     double duration) {
-  const sid::Transmission direct(6);
-  const sid::ChainModel truth(ur5_arm().chain, ur5_arm().joint_names,
-                              sid::drive_terms({sid::DriveTermKind::Viscous}, direct), direct);
-  Eigen::VectorXd theta(truth.parameters());
-  theta << ur5_arm().theta.head(60), Eigen::VectorXd::Constant(6, 0.5);
-  std::mt19937_64 rng(seed);
-  const sid::FourierTrajectory desired =
-      sid::random_fourier_trajectory(Eigen::VectorXd::Zero(6), 5, 0.1, Eigen::VectorXd::Ones(6),
-                                     Eigen::VectorXd::Constant(6, 1.5), rng);
-  sid::ChainExperiment experiment;
-  experiment.duration = duration;
-  experiment.sample_time = 0.002;
-  const sid::ChainExperimentResult run =
-      sid::simulate_chain_experiment(truth, theta, desired, experiment);
-  if (!run.ok()) throw std::runtime_error("ur5_run: " + run.message);
-  sid::ChainTrajectory<double> measured = run.trajectory();
-  measured.q.rowwise() -= angle_offset.transpose();
-  std::normal_distribution<double> normal;
-  for (int j = 0; j < 6; ++j) {
-    const double sigma = 0.01 * std::sqrt(measured.tau.col(j).squaredNorm() /
-                                          static_cast<double>(measured.tau.rows()));
-    for (Eigen::Index i = 0; i < measured.q.rows(); ++i) {
-      measured.q(i, j) += 1e-4 * normal(rng);
-      measured.tau(i, j) += sigma * normal(rng);
-    }
-  }
-  return measured;
-}
-
-sid::ChainModel ur5_nominal() {
-  const sid::Transmission direct(6);
-  return sid::ChainModel(ur5_arm().chain, ur5_arm().joint_names,
-                         sid::drive_terms({sid::DriveTermKind::Viscous}, direct), direct, 0.01);
-}
 
 std::vector<std::string> named_ids(const sid::ChainDiagnosis& r) {
   std::vector<std::string> ids;
@@ -208,17 +150,19 @@ TEST(DiagnoseChain, SaysWhenANamedTermMayStandForAnInseparableOne) {
   EXPECT_TRUE(without.named[0].caveat.empty()) << without.named[0].caveat;
 }
 
-// On a UR5-type arm an encoder offset of joint 2 is not separable (the parallel joints 2-4 turn
-// the links beyond them as one; only the light wrist's inertia, turned about an axis not its
-// own, tells it): what it leaves is named as a torque offset on joint 3, which must come with
-// the caveat that the encoder offset may stand behind it, at about the size hidden.
+// On a UR5 (the suite's: viscous drives, 20 s, torque noise 1 % of each joint's RMS) an encoder
+// offset of joint 2 is not separable (the parallel joints 2-4 turn the links beyond them as one;
+// only the light wrist's inertia, turned about an axis not its own, tells it): what it leaves is
+// named as a torque offset on joint 3, which must come with the caveat that the encoder offset
+// may stand behind it.
 TEST(DiagnoseChain, NamesALookAlikeOfAnInseparableTermOnAnotherJointOnlyWithItsCaveat) {
 #ifdef SID_SANITIZED_TESTS
   GTEST_SKIP() << "numbers only; the paths run in NamesTheHiddenDriveTermOnItsJoint...";
 #endif
-  Eigen::VectorXd offset = Eigen::VectorXd::Zero(6);
-  offset[1] = 0.05;
-  const sid::ChainDiagnosis r = sid::diagnose_chain(ur5_nominal(), {ur5_run(offset, 3, 10.0)});
+  const sid_test::SuiteArm ur5 = sid_test::ur5_suite_arm();
+  const sid::ChainDiagnosis r = sid::diagnose_chain(
+      sid_test::suite_nominal(ur5),
+      {sid_test::suite_run(ur5, {{{sid::DriveTermKind::Offset, 1, false}, 0.05, true}}, 5)});
   ASSERT_FALSE(r.named.empty());
   for (const auto& e : r.named) {
     EXPECT_NE(e.caveat.find("angle_offset_q2"), std::string::npos) << e.id << ": " << e.caveat;
