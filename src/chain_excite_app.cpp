@@ -96,10 +96,9 @@ std::vector<Separated> parse_separate(const std::string& text, int joints,
               "--separate: '" + given + "': motor " + std::to_string(number) +
                   " is not one the transmission couples to several joints (" +
                   (list.empty() ? "none is" : "coupled: " + list) + ")");
-      require(c.term.kind != sid::DriveTermKind::Offset,
-              "--separate: '" + given +
-                  "': a motor has no offset of its own (its joints' "
-                  "offsets hold it)");
+      require(
+          c.term.kind != sid::DriveTermKind::Offset,
+          "--separate: '" + given + "': a motor has no offset of its own (its joints' hold it)");
     } else {
       require(number <= joints,
               "--separate: '" + given + "': the chain has " + std::to_string(joints) + " joints");
