@@ -39,6 +39,18 @@ columns (the one sid_identify reports and the one printed here). NLopt (SLSQP by
 from the random excitation of --seed, within --max-evaluations; the result depends on the options
 and the seed only.
 
+Separating look-alikes (--separate ID,...): where sid_diagnose --robot names a term with a caveat
+that a candidate it cannot separate on the logged motion may stand behind it, give the two ids
+(KIND_jN or KIND_mN, KIND coulomb, coulomb_asymmetry, offset, armature, spring, viscous or
+stribeck (stribeck_jN:VS for a width other than 0.1 rad/s); angle_offset_qN for an encoder offset).
+Drive terms the model lacks join it, and an encoder offset joins W_b as the torque's slope in that
+joint's angle at the description's parameters, d(Y theta)/dq_j, the column sid_diagnose tests it
+by. The report gives each candidate's 1 - R^2 given all the other columns on the random and on the
+designed excitation: sid_diagnose calls a candidate not separable below 0.005 (given its nominal
+model, whose columns are fewer). What no motion separates is refused with the reason (a rotor
+about a vertical first axis, the last joint's encoder offset). Where the limits leave too little
+room (a spring against gravity within +-1 rad) the report says so: widen --q-range.
+
 Output (-o FILE): CSV, one row per joint, joint,base_frequency,q0,a1..aH,b1..bH, '#' comment
 lines first. sid_simulate --robot URDF --trajectory FILE simulates it; --T a multiple of 1 / f
 (10 s at 0.1 Hz) ends at rest.
@@ -49,6 +61,7 @@ Examples:
   sid_excite --robot arm.urdf -o excitation.csv
   sid_excite --robot arm.urdf --random --seed 3
   sid_excite --robot tx40.urdf --transmission drives.yaml -o excitation.csv
+  sid_excite --robot tx40.urdf --separate spring_j2,offset_j2 --q-range 2 -o separate.csv
   sid_simulate --robot arm.urdf --trajectory excitation.csv --T 10 -o run.csv
 )";
 
@@ -90,6 +103,9 @@ void define_options(CLI::App& cli, Options& options) {
   cli.add_option("--seed", options.seed,
                  "seed of std::mt19937_64 for the random excitation the design starts from")
       ->capture_default_str();
+  cli.add_option("--separate", o.separate,
+                 "candidate ids of sid_diagnose --robot (e.g. spring_j2,offset_j2 or "
+                 "angle_offset_q2) whose columns join the conditioned regressor");
   cli.add_flag("--random", o.random_only,
                "only the random excitation: its condition number (and -o writes it)");
   cli.add_option("-o,--output", o.output, "write the coefficients to this CSV file ('-': stdout)");

@@ -57,6 +57,22 @@ FreeSimulations free_simulations(const LoadedChain& loaded, const sid::ChainDiag
   return out;
 }
 
+/// The sid_excite call that designs a motion on which a named term and its look-alikes are told
+/// apart.
+std::string separating(const ChainDiagnoseAppOptions& o, const sid::ChainEffectTest& e) {
+  std::string ids = e.id;
+  if (!e.angle_offset && e.term.kind == sid::DriveTermKind::Stribeck)
+    ids += ":" + number("%.3g", e.term.velocity);
+  for (const std::string& other : e.look_alikes) ids += "," + other;
+  const auto option = [](const char* name, const std::string& value) {
+    return value.empty() ? std::string() : std::string(" ") + name + " " + value;
+  };
+  return "    a motion that separates them: sid_excite --robot " + o.chain.robot +
+         option("--base", o.chain.base) + option("--tip", o.chain.tip) +
+         option("--hold", o.chain.hold) + option("--transmission", o.chain.transmission) +
+         " --separate " + ids + "\n";
+}
+
 /// The motion check's margin over its exact-model replicates, as the library's default.
 const double kMotionMargin = sid::ChainMotionCheckOptions().margin;
 
@@ -85,7 +101,7 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
         << number("%.2g", e.p_value) << ", BIC drop " << number("%.3g", e.bic_drop) << ", CV drop "
         << number("%.2f", 100.0 * e.cv_drop) << " %, size "
         << number("%.0f", 100.0 * e.practical_size.maxCoeff()) << " % of the noise)\n"
-        << (e.caveat.empty() ? "" : "    but: " + e.caveat + "\n");
+        << (e.caveat.empty() ? "" : "    but: " + e.caveat + "\n" + separating(o, e));
   out << "\nnot named:\n";
   for (const auto& t : r.not_named)
     out << "  " << t.id << width(t.term) << ": " << t.reason << "\n";
@@ -138,6 +154,7 @@ nlohmann::json test_json(const sid::ChainEffectTest& t) {
                       {"p_value", t.p_value}, {"bic_drop", t.bic_drop},
                       {"cv_drop", t.cv_drop}, {"practical_size", to_json_array(t.practical_size)},
                       {"reason", t.reason},   {"caveat", t.caveat}};
+  j["look_alikes"] = t.look_alikes;
   if (t.term.kind == sid::DriveTermKind::Stribeck) j["stribeck_velocity"] = t.term.velocity;
   return j;
 }

@@ -28,6 +28,10 @@ struct ChainExciteOptions {
   int max_evaluations = 300;
   std::string algorithm = "slsqp";  ///< slsqp or mma
   std::uint64_t seed = 1;
+  /// Candidate ids of sid_diagnose --robot (e.g. spring_j2,offset_j2, angle_offset_q2,
+  /// stribeck_j3:0.2 for a width other than 0.1 rad/s) whose columns join the conditioned
+  /// regressor: an excitation on which they are told apart. Empty: the base regressor alone.
+  std::string separate;
   bool random_only = false;  ///< report (and write) the random excitation only
   std::string output;        ///< the coefficients file; empty: not written
   bool force = false;

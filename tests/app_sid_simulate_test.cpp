@@ -16,9 +16,13 @@
 #include <utility>
 #include <vector>
 
+#include <sid/excitation_design.hpp>
+#include <sid/identify_chain.hpp>
 #include <sid/model/two_link_arm.hpp>
+#include <sid/model/urdf.hpp>
 
 #include "app_test_support.hpp"
+#include "chain_excite_app.hpp"
 #include "csv.hpp"
 
 namespace fs = std::filesystem;
@@ -492,7 +496,7 @@ TEST_F(SidExcite, HelpNamesTheOptionsAndTheFileFormat) {
   const AppRun r = run("--help");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   for (const char* words : {"--robot", "--torque-fraction", "--qdd-max", "--random", "--force",
-                            "joint,base_frequency,q0,a1..aH,b1..bH", "--trajectory"})
+                            "joint,base_frequency,q0,a1..aH,b1..bH", "--trajectory", "--separate"})
     EXPECT_NE(r.out.find(words), std::string::npos) << words;
 }
 
@@ -534,6 +538,68 @@ TEST_F(SidExcite, TransmissionPutsTheCoupledMotorsTermsInTheRegressor) {
   const AppRun missing = run(design + " --transmission no_such.yaml");
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_NE(missing.err.find("no_such.yaml"), std::string::npos) << missing.err;
+}
+
+// --separate spring_j2,angle_offset_q4: the spring joins the model (59 base parameters of 85)
+// and the encoder offset's column d(Y theta)/dq_4 the regressor, and the condition number the
+// design reports and writes is that of those columns together, recomputed here from the file:
+// above the base regressor's alone, since a column added to unit-norm columns can only widen
+// the spread of their singular values.
+TEST_F(SidExcite, SeparateConditionsTheRegressorWithTheCandidatesColumns) {
+  const AppRun r = run(std::string("--robot ") + kTx40 +
+                       " --harmonics 3 --base-frequency 0.5 --rate 50 --max-evaluations 20"
+                       " --q-range 2 --separate spring_j2,angle_offset_q4 -o s.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("59 base parameters of 85 and 1 angle-offset column"), std::string::npos)
+      << r.out;
+  const std::string shares = "given all the others: spring_j2 ";
+  const std::size_t first = r.out.find(shares);
+  ASSERT_NE(first, std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(shares, first + 1), std::string::npos) << "random and designed: " << r.out;
+  const std::string marker = "designed excitation: condition number ";
+  const std::size_t at = r.out.find(marker);
+  ASSERT_NE(at, std::string::npos) << r.out;
+  const double reported = std::stod(r.out.substr(at + marker.size()));
+
+  std::ifstream in(SID_TEST_DATA_DIR "/staubli_tx40/tx40_mdh_modified.urdf");
+  std::stringstream text;
+  text << in.rdbuf();
+  const sid::UrdfChain arm = sid::chain_from_urdf(text.str(), "base_link", "tool0");
+  const sid::Transmission direct(6);
+  std::vector<sid::DriveTerm> terms = sid::drive_terms(sid::default_drive_term_kinds(), direct);
+  const sid::ChainModel base_model(arm.chain, arm.joint_names, terms, direct);
+  terms.push_back({sid::DriveTermKind::Spring, 1, false});
+  const sid::ChainModel model(arm.chain, arm.joint_names, terms, direct);
+  // The offset's column needs only the links: the drive terms do not depend on the angle.
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(model.parameters());
+  theta.head(60) = arm.theta.head(60);
+  const sid::FourierTrajectory designed = sid::app::read_fourier_trajectory(file("s.csv"), 6);
+  const Eigen::VectorXd grid = sid::excitation_grid(0.5, 100);
+  const double with = sid::scaled_condition_number(sid::excitation_regressor(
+      model, sid::chain_base_parameters(model).independent, designed, grid, theta, {3}));
+  const double without = sid::scaled_condition_number(sid::excitation_regressor(
+      base_model, sid::chain_base_parameters(base_model).independent, designed, grid));
+  EXPECT_NEAR(reported, with, 1e-3 * with);  // printed to 4 significant digits
+  EXPECT_GT(with, 1.01 * without);
+  EXPECT_NE(read(file("s.csv")).find("separating spring_j2,angle_offset_q4"), std::string::npos);
+}
+
+// Ids that are no candidate, or candidates no motion separates, are refused with the reason.
+TEST_F(SidExcite, SeparateRefusesBadIdsNamingThem) {
+  const std::string robot = std::string("--robot ") + kTx40 + " --random --separate ";
+  refused(robot + "foo_j2", "'foo_j2' is not a candidate id");
+  refused(robot + "spring_j", "'spring_j' is not a candidate id");
+  refused(robot + "angle_offset_q0", "'angle_offset_q0' is not a candidate id");
+  refused(robot + "spring_j7", "the chain has 6 joints");
+  refused(robot + "coulomb_m6", "motor 6 is not one the transmission couples");
+  refused(robot + "spring_j2,offset_j3,spring_j2", "'spring_j2' is given twice");
+  refused(robot + "offset_j2:0.1", "only a Stribeck candidate takes a width");
+  refused(robot + "','", "--separate");
+  // A rotor about the vertical first axis is that link's inertia; the link parameters absorb an
+  // encoder offset of the first joint (a vertical axis) and of the last.
+  refused(robot + "armature_j1", "no excitation separates it");
+  refused(robot + "angle_offset_q1", "absorb this encoder offset");
+  refused(robot + "angle_offset_q6", "absorb this encoder offset");
 }
 
 // A short design on the TX40, written, simulated through sid_simulate --trajectory: the run

@@ -1,11 +1,13 @@
 // Tests of sid::diagnose_chain on a simulated six-axis arm (the TX40's URDF) with one drive term
 // hidden at a time: the diagnosis starts from rigid bodies, viscous friction and rotors, and must
-// name exactly what was hidden, on its joint, and nothing where nothing was hidden.
+// name exactly what was hidden, on its joint, and nothing where nothing was hidden; and on a
+// UR5-type arm, what an encoder offset it cannot separate leaves is named only with a caveat.
 
 #include <sid/diagnose_chain.hpp>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -41,6 +43,10 @@ TEST(DiagnoseChain, NamesTheHiddenDriveTermOnItsJointAndNothingWithoutOne) {
     SCOPED_TRACE(id);
     const sid::ChainDiagnosis r = sid::diagnose_chain(nominal, {tx40_hidden_term_run({c}, 1)});
     ASSERT_EQ(named_ids(r), std::vector<std::string>{id});
+    // Nothing inseparable stands behind a term that was hidden: on these motions the parts of
+    // the offset on joint 5 and the spring on joint 4 correlate with an inseparable angle
+    // offset's above the threshold, and the residual refutes it.
+    EXPECT_TRUE(r.named[0].caveat.empty()) << r.named[0].caveat;
     EXPECT_NEAR(r.named[0].value, c.value, std::max(0.05 * c.value, 4.0 * r.named[0].std));
     EXPECT_GT(r.named[0].practical_size.maxCoeff(), 0.5);
     EXPECT_EQ(r.final_terms.size(), nominal.terms().size() + 1);
@@ -133,13 +139,41 @@ TEST(DiagnoseChain, SaysWhenANamedTermMayStandForAnInseparableOne) {
       tx40_hidden_term_run({{{sid::DriveTermKind::Spring, 1, false}, 1.0}}, 1);
   const sid::ChainDiagnosis r = sid::diagnose_chain(tx40_nominal(), {data});
   ASSERT_EQ(named_ids(r), std::vector<std::string>{"offset_j2"});
-  EXPECT_NE(r.named[0].caveat.find("spring_j2 is not separable"), std::string::npos)
+  EXPECT_EQ(r.named[0].look_alikes, std::vector<std::string>{"spring_j2"});
+  EXPECT_NE(r.named[0].caveat.find("spring_j2 (not separable on this motion) may stand behind"),
+            std::string::npos)
       << r.named[0].caveat;
   sid::ChainDiagnoseOptions strict;
   strict.look_alike = 1.0;
   const sid::ChainDiagnosis without = sid::diagnose_chain(tx40_nominal(), {data}, strict);
   ASSERT_EQ(named_ids(without), std::vector<std::string>{"offset_j2"});
   EXPECT_TRUE(without.named[0].caveat.empty()) << without.named[0].caveat;
+}
+
+// On a UR5 (the suite's: viscous drives, 20 s, torque noise 1 % of each joint's RMS) an encoder
+// offset of joint 2 is not separable (the parallel joints 2-4 turn the links beyond them as one;
+// only the light wrist's inertia, turned about an axis not its own, tells it): what it leaves is
+// named as a torque offset on joint 3, which must come with the caveat that the encoder offset
+// may stand behind it.
+TEST(DiagnoseChain, NamesALookAlikeOfAnInseparableTermOnAnotherJointOnlyWithItsCaveat) {
+#ifdef SID_SANITIZED_TESTS
+  GTEST_SKIP() << "numbers only; the paths run in NamesTheHiddenDriveTermOnItsJoint...";
+#endif
+  const sid_test::SuiteArm ur5 = sid_test::ur5_suite_arm();
+  const sid::ChainDiagnosis r = sid::diagnose_chain(
+      sid_test::suite_nominal(ur5),
+      {sid_test::suite_run(ur5, {{{sid::DriveTermKind::Offset, 1, false}, 0.05, true}}, 5)});
+  ASSERT_FALSE(r.named.empty());
+  for (const auto& e : r.named) {
+    EXPECT_NE(e.caveat.find("angle_offset_q2"), std::string::npos) << e.id << ": " << e.caveat;
+    EXPECT_NE(std::find(e.look_alikes.begin(), e.look_alikes.end(), "angle_offset_q2"),
+              e.look_alikes.end())
+        << e.id;
+  }
+  bool inseparable = false;
+  for (const auto& t : r.not_named)
+    if (t.id == "angle_offset_q2") inseparable = t.reason.rfind("not separable", 0) == 0;
+  EXPECT_TRUE(inseparable);
 }
 
 // An offset of a measured angle shows in the torques only where the link parameters cannot

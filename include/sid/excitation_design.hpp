@@ -80,6 +80,12 @@ struct ExcitationDesignOptions {
   /// k of the objective, >= 1: how closely it follows log cond (see the file comment).
   double sharpness = 4.0;
   ExcitationAlgorithm algorithm = ExcitationAlgorithm::Slsqp;
+  /// Joints (0-based) whose angle-offset column joins `columns` in W_b: the torque's slope in an
+  /// offset of the joint's measured angle at theta, d(Y theta)/dq_j, the column
+  /// sid::diagnose_chain tests an encoder offset by (angle_offset_qN). An excitation designed
+  /// with it is one on which the offset is told from the link parameters, where they do not
+  /// absorb it on every motion.
+  std::vector<int> angle_offsets;
 };
 
 /// @brief How much of each limit a trajectory uses: per joint, the largest |q - q0| / q_range,
@@ -152,6 +158,80 @@ inline Eigen::MatrixXd excitation_regressor(const ChainModel& model,
     trajectory.evaluate(times[k], q, qd, qdd);
     model.regressor(q, qd, qdd, y);
     w.middleRows(k * n, n) = y(Eigen::all, columns);
+  }
+  return w;
+}
+
+namespace detail {
+
+/// Per joint of `joints`, d(Y theta)/dq_j at one state by central differences into out
+/// (n x joints.size()). The step keeps truncation (~h^2 |d3 tau|) and rounding (~1e-16 |tau| /
+/// h) below 1e-8 of the torque, and leaves room for a second difference of the column in the
+/// design's gradient.
+inline void angle_offset_columns(const ChainModel& model, const Eigen::VectorXd& theta,
+                                 const std::vector<int>& joints, const ChainModel::Vector& q,
+                                 const ChainModel::Vector& qd, const ChainModel::Vector& qdd,
+                                 Eigen::MatrixXd& y, Eigen::MatrixXd& out) {
+  constexpr double kStep = 1e-4;
+  out.resize(model.joints(), static_cast<Eigen::Index>(joints.size()));
+  ChainModel::Vector shifted = q;
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    const int j = joints[i];
+    shifted[j] = q[j] + kStep;
+    model.regressor(shifted, qd, qdd, y);
+    out.col(static_cast<Eigen::Index>(i)) = y * theta;
+    shifted[j] = q[j] - kStep;
+    model.regressor(shifted, qd, qdd, y);
+    out.col(static_cast<Eigen::Index>(i)) -= y * theta;
+    out.col(static_cast<Eigen::Index>(i)) /= 2.0 * kStep;
+    shifted[j] = q[j];
+  }
+}
+
+inline void check_angle_offsets(const char* who, const std::vector<int>& joints, int n) {
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    if (joints[i] < 0 || joints[i] >= n)
+      throw std::invalid_argument(std::string(who) + ": angle offset joint " +
+                                  std::to_string(joints[i]) + " is not one of the chain's " +
+                                  std::to_string(n) + " (0-based)");
+    if (std::find(joints.begin(), joints.begin() + static_cast<std::ptrdiff_t>(i), joints[i]) !=
+        joints.begin() + static_cast<std::ptrdiff_t>(i))
+      throw std::invalid_argument(std::string(who) + ": angle offset joint " +
+                                  std::to_string(joints[i]) + " is given twice");
+  }
+}
+
+}  // namespace detail
+
+/// @brief excitation_regressor's columns, then per joint of `angle_offsets` (0-based) its
+/// angle-offset column d(Y theta)/dq_j (ExcitationDesignOptions::angle_offsets): the W_b
+/// design_excitation conditions when it is given those joints.
+/// @throws std::invalid_argument as excitation_regressor, for a theta that does not match the
+///         model or a joint out of range or repeated.
+inline Eigen::MatrixXd excitation_regressor(const ChainModel& model,
+                                            const std::vector<Eigen::Index>& columns,
+                                            const FourierTrajectory& trajectory,
+                                            const Eigen::Ref<const Eigen::VectorXd>& times,
+                                            const Eigen::Ref<const Eigen::VectorXd>& theta,
+                                            const std::vector<int>& angle_offsets) {
+  const char* who = "sid::excitation_regressor";
+  const Eigen::MatrixXd base = excitation_regressor(model, columns, trajectory, times);
+  const int n = model.joints();
+  if (theta.size() != model.parameters())
+    throw std::invalid_argument(std::string(who) + ": theta needs " +
+                                std::to_string(model.parameters()) + " entries, has " +
+                                std::to_string(theta.size()));
+  detail::check_angle_offsets(who, angle_offsets, n);
+  const auto m = static_cast<Eigen::Index>(angle_offsets.size());
+  Eigen::MatrixXd w(base.rows(), base.cols() + m);
+  w.leftCols(base.cols()) = base;
+  const Eigen::VectorXd at = theta;
+  Eigen::MatrixXd y(n, model.parameters()), slopes;
+  ChainModel::Vector q(n), qd(n), qdd(n);
+  for (Eigen::Index k = 0; k < times.size(); ++k) {
+    trajectory.evaluate(times[k], q, qd, qdd);
+    detail::angle_offset_columns(model, at, angle_offsets, q, qd, qdd, y, slopes);
+    w.block(k * n, base.cols(), n, m) = slopes;
   }
   return w;
 }
@@ -292,7 +372,10 @@ class ExcitationProblem {
     last_gradient_ = gradient;
     ++evaluations_;
     const FourierTrajectory f = trajectory_of(x);
-    const Eigen::Index k_count = t_.size(), p = static_cast<Eigen::Index>(columns_.size());
+    const auto regressor_columns = static_cast<Eigen::Index>(columns_.size());
+    const auto offsets = static_cast<Eigen::Index>(options_.angle_offsets.size());
+    const Eigen::Index k_count = t_.size(), p = regressor_columns + offsets;
+    Eigen::MatrixXd slopes;
     // States per sample: rows 3k..3k+2 hold q, qd, qdd; one column per joint.
     Eigen::MatrixXd state(3 * k_count, n_), tau(k_count, n_);
     Eigen::MatrixXd wb(k_count * n_, p), y(n_, model_.parameters());
@@ -303,8 +386,12 @@ class ExcitationProblem {
       state.row(3 * k + 1) = qd.transpose();
       state.row(3 * k + 2) = qdd.transpose();
       model_.regressor(q, qd, qdd, y);
-      wb.middleRows(k * n_, n_) = y(Eigen::all, columns_);
+      wb.block(k * n_, 0, n_, regressor_columns) = y(Eigen::all, columns_);
       tau.row(k) = (y * theta_).transpose();
+      if (offsets > 0) {
+        detail::angle_offset_columns(model_, theta_, options_.angle_offsets, q, qd, qdd, y, slopes);
+        wb.block(k * n_, regressor_columns, n_, offsets) = slopes;
+      }
     }
     Eigen::MatrixXd g = Eigen::MatrixXd::Zero(p, p);
     g.selfadjointView<Eigen::Lower>().rankUpdate(wb.transpose());
@@ -367,7 +454,8 @@ class ExcitationProblem {
     Eigen::MatrixXd df_dstate = Eigen::MatrixXd::Zero(3 * k_count, n_);
     Eigen::MatrixXd dc_dstate = Eigen::MatrixXd::Zero(3 * k_count, n_ * constraints());
     Eigen::MatrixXd y_plus(n_, model_.parameters()), y_minus(n_, model_.parameters()),
-        dy(n_, model_.parameters());
+        dy(n_, model_.parameters()), scratch(n_, model_.parameters()), slopes_plus, slopes_minus,
+        dslopes;
     for (Eigen::Index k = 0; k < k_count; ++k) {
       ChainModel::Vector s[3] = {q, qd, qdd};
       f.evaluate(t_[k], s[0], s[1], s[2]);
@@ -389,9 +477,32 @@ class ExcitationProblem {
             model_.regressor(s[0], s[1], s[2], y_minus);
             dy = (y_plus - y_minus) / (2.0 * step);
           }
+          if (pk.size() && offsets > 0) {
+            // The angle-offset columns' own differences: a larger step, since they are
+            // differences already (their rounding ~1e-12 |tau| over the step stays ~1e-8 |tau|).
+            const double step = kind == 2 ? 1.0 : kOffsetStep * std::max(1.0, std::abs(value));
+            s[kind][i] = value + step;
+            detail::angle_offset_columns(model_, theta_, options_.angle_offsets, s[0], s[1], s[2],
+                                         scratch, slopes_plus);
+            if (kind == 2) {
+              s[kind][i] = value;
+              detail::angle_offset_columns(model_, theta_, options_.angle_offsets, s[0], s[1], s[2],
+                                           scratch, slopes_minus);
+              dslopes = slopes_plus - slopes_minus;
+            } else {
+              s[kind][i] = value - step;
+              detail::angle_offset_columns(model_, theta_, options_.angle_offsets, s[0], s[1], s[2],
+                                           scratch, slopes_minus);
+              dslopes = (slopes_plus - slopes_minus) / (2.0 * step);
+            }
+          }
           s[kind][i] = value;
-          if (pk.size())
-            df_dstate(3 * k + kind, i) = pk.cwiseProduct(dy(Eigen::all, columns_)).sum();
+          if (pk.size()) {
+            df_dstate(3 * k + kind, i) =
+                pk.leftCols(regressor_columns).cwiseProduct(dy(Eigen::all, columns_)).sum();
+            if (offsets > 0)
+              df_dstate(3 * k + kind, i) += pk.rightCols(offsets).cwiseProduct(dslopes).sum();
+          }
           const Eigen::VectorXd dtau = dy * theta_;
           for (int j = 0; j < n_; ++j)
             dc_dstate(3 * k + kind, i * constraints() + 3 * n_ + j) =
@@ -425,6 +536,7 @@ class ExcitationProblem {
  private:
   static constexpr double kPi = 3.14159265358979323846;
   static constexpr double kStep = 1e-6;
+  static constexpr double kOffsetStep = 1e-4;
 
   const ChainModel& model_;
   Eigen::VectorXd theta_;
@@ -550,7 +662,9 @@ inline void check_excitation_inputs(const char* who, const ChainModel& model,
   if (options.samples < 8 * options.harmonics)
     throw std::invalid_argument(std::string(who) + ": samples must be >= 8 harmonics (" +
                                 std::to_string(8 * options.harmonics) + ")");
-  if (static_cast<Eigen::Index>(options.samples) * n <= static_cast<Eigen::Index>(columns.size()))
+  check_angle_offsets(who, options.angle_offsets, n);
+  if (static_cast<Eigen::Index>(options.samples) * n <=
+      static_cast<Eigen::Index>(columns.size() + options.angle_offsets.size()))
     throw std::invalid_argument(std::string(who) + ": " + std::to_string(options.samples) +
                                 " samples give fewer equations than base parameters");
   if (options.max_evaluations < 1 || !(options.relative_tolerance >= 0.0) ||
