@@ -75,6 +75,9 @@ struct ChainDiagnoseOptions {
   /// the simulated TX40 a spring on joint 2 (not separable from gravity there) is named as an
   /// offset with a correlation of 0.58.
   double look_alike = 0.3;
+  /// Threads for the angle offsets' linearisation and the fold Gram matrices (0 = hardware
+  /// concurrency); the result does not depend on it.
+  int threads = 0;
 };
 
 /// @brief One candidate drive term as the diagnosis judged it.
