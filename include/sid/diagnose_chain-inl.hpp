@@ -479,11 +479,16 @@ struct ChainRound {
     finish(d);
   }
 
-  /// Each column of z (columns of d.x) less its part in the basis.
-  Eigen::MatrixXd unexplained(const Eigen::Ref<const Eigen::MatrixXd>& z) const {
-    const Eigen::MatrixXd a = q.transpose() * z;
+  /// Each column of z (columns of d.x) less its part in the basis, in blocks of columns
+  /// spread over threads (fixed blocks: the same bits on any number of threads).
+  Eigen::MatrixXd unexplained(const Eigen::Ref<const Eigen::MatrixXd>& z, int threads) const {
     Eigen::MatrixXd out = z;
-    out.noalias() -= q * a;
+    constexpr Eigen::Index kBlock = 8;
+    for_each_index((z.cols() + kBlock - 1) / kBlock, threads, [&](Eigen::Index b, int) {
+      const Eigen::Index first = b * kBlock, count = std::min(kBlock, z.cols() - first);
+      const Eigen::MatrixXd a = q.transpose() * z.middleCols(first, count);
+      out.middleCols(first, count).noalias() -= q * a;
+    });
     return out;
   }
 
@@ -527,7 +532,7 @@ inline void check_chain_diagnose_options(const ChainDiagnoseOptions& o, int join
 /// chosen by the nominal model's torque prediction bends towards hiding what the model lacks.
 inline std::vector<double> gcv_cutoffs(const ChainModel& model,
                                        const std::vector<ChainTrajectory<double>>& runs,
-                                       const ChainIdentifyOptions& o) {
+                                       const ChainIdentifyOptions& o, int threads) {
   const int n = model.joints();
   std::vector<double> log_sum(static_cast<std::size_t>(n), 0.0);
   for (std::size_t r = 0; r < runs.size(); ++r) {
@@ -535,9 +540,13 @@ inline std::vector<double> gcv_cutoffs(const ChainModel& model,
     check_chain_run(model, run, "sid::diagnose_chain: run " + std::to_string(r + 1));
     const double h = (run.t[run.size() - 1] - run.t[0]) / static_cast<double>(run.size() - 1);
     const SmoothingSpline<double> spline(run.t);
+    std::vector<double> lambda(static_cast<std::size_t>(n));
+    for_each_index(n, threads, [&](Eigen::Index j, int) {
+      lambda[static_cast<std::size_t>(j)] = spline.fit_cross_validated(run.q.col(j)).lambda;
+    });
     for (int j = 0; j < n; ++j) {
-      const double lambda = spline.fit_cross_validated(run.q.col(j)).lambda;
-      const double cutoff = std::pow(1.0 / (h * lambda), 0.25) / (2.0 * 3.14159265358979323846);
+      const double cutoff = std::pow(1.0 / (h * lambda[static_cast<std::size_t>(j)]), 0.25) /
+                            (2.0 * 3.14159265358979323846);
       log_sum[static_cast<std::size_t>(j)] +=
           std::log(std::clamp(cutoff, o.min_cutoff_hz, o.max_cutoff_hz));
     }
@@ -571,7 +580,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   if (runs.empty()) throw std::invalid_argument("sid::diagnose_chain: no runs given");
   ChainIdentifyOptions given = options.identify;
   const int threads = detail::thread_count(options.threads);
-  if (given.cutoff_hz.empty()) given.cutoff_hz = detail::gcv_cutoffs(nominal, runs, given);
+  if (given.cutoff_hz.empty()) given.cutoff_hz = detail::gcv_cutoffs(nominal, runs, given, threads);
   const ChainIdentification id = detail::identify_chain_impl(nominal, runs, given, false);
   if (!id.fit.ok())
     throw std::invalid_argument("sid::diagnose_chain: the nominal model's fit failed: " +
@@ -630,12 +639,15 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
 
   // Practical sizes are judged against the torque noise: the fits use filtered torques, whose
   // residual is far below it.
+  Eigen::MatrixXd sigma(n, static_cast<Eigen::Index>(runs.size()));
+  detail::for_each_index(sigma.size(), threads, [&](Eigen::Index k, int) {
+    const auto& run = runs[static_cast<std::size_t>(k / n)];
+    sigma(k % n, k / n) = noise_sigma_gcv(run.t, run.tau.col(k % n));
+  });
   result.noise_floor = Eigen::VectorXd::Zero(n);
-  for (const auto& run : runs)
-    for (int j = 0; j < n; ++j) {
-      const double sigma = noise_sigma_gcv(run.t, run.tau.col(j));
-      result.noise_floor[j] += sigma * sigma / static_cast<double>(runs.size());
-    }
+  for (Eigen::Index r = 0; r < sigma.cols(); ++r)
+    for (int j = 0; j < n; ++j)
+      result.noise_floor[j] += sigma(j, r) * sigma(j, r) / static_cast<double>(runs.size());
   result.noise_floor = result.noise_floor.cwiseSqrt().cwiseMax(1e-300);
   // The residual against the measured torque, per joint: the figure the report compares.
   const auto measured_rms = [&](const detail::ChainRound& round) {
@@ -664,7 +676,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     Eigen::MatrixXd z(d.y.size(), static_cast<Eigen::Index>(positions.size()));
     for (std::size_t i = 0; i < positions.size(); ++i)
       z.col(static_cast<Eigen::Index>(i)) = d.x.col(base_count + positions[i]);
-    z = fit->unexplained(z);
+    z = fit->unexplained(z, threads);
     for (std::size_t i = 0; i < positions.size(); ++i)
       unexplained.col(positions[i]) = z.col(static_cast<Eigen::Index>(i));
   };
