@@ -444,11 +444,20 @@ struct ChainRound {
   Eigen::VectorXd theta, residual, rss;
   double cv_error = 0;
 
-  ChainRound(const ChainDiagnosisEquations& d, std::vector<Eigen::Index> cols)
+  ChainRound(const ChainDiagnosisEquations& d, std::vector<Eigen::Index> cols, int threads)
       : columns(std::move(cols)) {
     const Eigen::MatrixXd x = d.x(Eigen::all, columns);
     const Eigen::HouseholderQR<Eigen::MatrixXd> qr(x);
-    q = qr.householderQ() * Eigen::MatrixXd::Identity(x.rows(), x.cols());
+    // The basis is the reflectors applied to the identity's columns, in fixed blocks of columns
+    // over threads.
+    const Eigen::Index s = x.cols();
+    q = Eigen::MatrixXd::Identity(x.rows(), s);
+    const auto reflectors = qr.householderQ();
+    constexpr Eigen::Index kBlock = 16;
+    for_each_index((s + kBlock - 1) / kBlock, threads, [&](Eigen::Index b, int) {
+      auto block = q.middleCols(b * kBlock, std::min(kBlock, s - b * kBlock));
+      reflectors.applyThisOnTheLeft(block);
+    });
     r = qr.matrixQR().topRows(x.cols()).triangularView<Eigen::Upper>();
     qty = q.transpose() * d.y;
     theta = qr.solve(d.y);
@@ -682,7 +691,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   };
   while (!remaining.empty()) {
     if (!fit) {
-      fit.emplace(d, selected);
+      fit.emplace(d, selected, threads);
       std::vector<Eigen::Index> drive;
       for (const Eigen::Index c : remaining)
         if (base_count + c < first_angle_column) drive.push_back(c);
@@ -881,7 +890,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   }
 
   // The final fit: values and HAC standard deviations of the named terms.
-  if (!fit) fit.emplace(d, selected);
+  if (!fit) fit.emplace(d, selected, threads);
   while (fit->columns.size() < selected.size()) fit->add(d, selected[fit->columns.size()]);
   const detail::ChainRound& final_round = *fit;
   // Only the named terms' variances are reported: the rows of (XᵀX)⁻¹ that give them.
