@@ -122,6 +122,10 @@ TEST(DiagnoseChain, ThrowsOnBadInput) {
   sid_test::expect_invalid_argument([&] { (void)sid::diagnose_chain(nominal, {three}, o); },
                                     "sid::diagnose_chain", "negligible_size");
   o = {};
+  o.threads = -1;
+  sid_test::expect_invalid_argument([&] { (void)sid::diagnose_chain(nominal, {three}, o); },
+                                    "sid::diagnose_chain", "threads");
+  o = {};
   o.candidate_kinds.clear();
   sid_test::expect_invalid_argument([&] { (void)sid::diagnose_chain(nominal, {three}, o); },
                                     "sid::diagnose_chain", "candidate");
@@ -206,6 +210,38 @@ TEST(DiagnoseChain, NamesAnAngleOffsetOnlyWhereTheLinkParametersCannotAbsorbIt) 
     if (!t.angle_offset || t.term.index == 4) continue;
     EXPECT_EQ(t.reason.rfind("not separable", 0), 0u) << t.id << ": " << t.reason;
   }
+}
+
+// The threads share out independent work (the angle offsets' linearisation per sample, the fold
+// Gram matrices): the result is the same to the last bit on one thread or two.
+TEST(DiagnoseChain, GivesTheSameResultOnOneThreadAndOnTwo) {
+#ifdef SID_SANITIZED_TESTS
+  GTEST_SKIP() << "numbers only";
+#endif
+  const sid::ChainModel nominal = tx40_nominal();
+  const sid::ChainTrajectory<double> run =
+      tx40_hidden_term_run({{{sid::DriveTermKind::Offset, 3, false}, 0.3, true},
+                            {{sid::DriveTermKind::Spring, 4, false}, 1.0}},
+                           1);
+  sid::ChainDiagnoseOptions one, two;
+  one.threads = 1;
+  two.threads = 2;
+  const sid::ChainDiagnosis a = sid::diagnose_chain(nominal, {run}, one);
+  const sid::ChainDiagnosis b = sid::diagnose_chain(nominal, {run}, two);
+  ASSERT_EQ(named_ids(a), named_ids(b));
+  ASSERT_EQ(a.not_named.size(), b.not_named.size());
+  const auto same = [](const sid::ChainEffectTest& x, const sid::ChainEffectTest& y) {
+    EXPECT_EQ(x.id, y.id);
+    EXPECT_EQ(x.value, y.value) << x.id;
+    EXPECT_EQ(x.std, y.std) << x.id;
+    EXPECT_EQ(x.wald, y.wald) << x.id;
+    EXPECT_EQ(x.cv_drop, y.cv_drop) << x.id;
+    EXPECT_EQ(x.reason, y.reason) << x.id;
+  };
+  for (std::size_t i = 0; i < a.named.size(); ++i) same(a.named[i], b.named[i]);
+  for (std::size_t i = 0; i < a.not_named.size(); ++i) same(a.not_named[i], b.not_named[i]);
+  EXPECT_EQ(a.final_residual_rms, b.final_residual_rms);
+  EXPECT_EQ(a.angle_offset, b.angle_offset);
 }
 
 // A Stribeck curve between the grid's widths: the width is fitted (to 15 % of the truth here),

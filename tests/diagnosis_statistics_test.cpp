@@ -96,6 +96,29 @@ TEST(NeweyWest, SumAtLagZeroIsTheGramMatrixAndWeightsFollowBartlett) {
       sid::newey_west_sum(g, 1).isApprox(g.transpose() * g + 0.5 * (gamma1 + gamma1.transpose())));
 }
 
+TEST(NeweyWest, QuadraticFormsAreThoseOfTheLongRunSum) {
+  constexpr double kTol = 1e-10;
+  std::mt19937_64 rng(3);
+  Eigen::MatrixXd directions(3, 2);
+  directions << 1.0, 0.2, -0.5, 1.0, 0.3, -2.0;
+  // Prewhitened (600 rows) and, below 3 k + 8 rows, plain Newey-West; correlated columns.
+  for (const Eigen::Index n : {600, 12}) {
+    Eigen::MatrixXd scores(n, 3);
+    scores.col(0) = ar1(n, 0.8, 1.0, rng);
+    scores.col(1) = ar1(n, 0.3, 2.0, rng) + 0.5 * scores.col(0);
+    scores.col(2) = ar1(n, -0.4, 0.5, rng);
+    const Eigen::MatrixXd sum = sid::hac_long_run_sum(scores);
+    const Eigen::VectorXd forms = sid::hac_long_run_quadratic(scores, directions);
+    ASSERT_EQ(forms.size(), 2);
+    for (Eigen::Index i = 0; i < 2; ++i) {
+      const double expected = directions.col(i).dot(sum * directions.col(i));
+      EXPECT_NEAR(forms[i], expected, kTol * std::abs(expected)) << "n " << n << ", form " << i;
+    }
+  }
+  EXPECT_THROW((void)sid::hac_long_run_quadratic(Eigen::MatrixXd::Ones(20, 2), directions),
+               std::invalid_argument);
+}
+
 TEST(NeweyWest, WaldStatisticIsTheQuadraticForm) {
   Eigen::Vector2d gamma(1.0, -2.0);
   Eigen::Matrix2d v;

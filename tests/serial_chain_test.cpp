@@ -149,6 +149,28 @@ TEST_P(SixJointArm, InverseDynamicsMatchesPinocchioWithFriction) {
   }
 }
 
+TEST_P(SixJointArm, LinkTorquesOfTheRecursionAreTheRegressorsProduct) {
+  const Arm& arm = GetParam();
+  const int n = arm.chain.joints();
+  const Eigen::Index links = sid::kLinkParameters * n;
+  const Eigen::VectorXd theta = base_reference(arm.name).theta.head(links);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> angle(-kPi, kPi), rate(-2.0, 2.0), accel(-5.0, 5.0);
+  Eigen::MatrixXd y(n, sid::chain_parameter_count(n));
+  Eigen::VectorXd q(n), qd(n), qdd(n), tau(n);
+  for (int sample = 0; sample < 20; ++sample) {
+    for (int j = 0; j < n; ++j) {
+      q[j] = angle(rng);
+      qd[j] = rate(rng);
+      qdd[j] = accel(rng);
+    }
+    sid::chain_regressor(arm.chain, q, qd, qdd, y);
+    sid::detail::chain_link_torques_unchecked(arm.chain, theta, q, qd, qdd, tau);
+    EXPECT_LT((tau - y.leftCols(links) * theta).cwiseAbs().maxCoeff(), kTorqueTol)
+        << "sample " << sample;
+  }
+}
+
 TEST_P(SixJointArm, ForwardDynamicsInvertsTheTorquesAsPinocchiosAbaDoes) {
   // Pinocchio's ABA maps the rigid-body torques back to qdd to 1e-13; with friction in theta
   // and in the torques, so must sid's forward dynamics, both the O(n^3) route and the O(n)

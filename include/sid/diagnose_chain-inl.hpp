@@ -2,6 +2,7 @@
 // Definitions of sid/diagnose_chain.hpp (see sid/config.hpp). The compiled library holds them in
 // the same unit as identify_chain's, whose equation builders they share.
 
+#include <sid/detail/parallel.hpp>
 #include <sid/diagnose_chain.hpp>
 #include <sid/diagnosis/hac.hpp>
 #include <sid/diagnosis/noise_floor.hpp>
@@ -13,6 +14,7 @@
 #include <algorithm>
 #include <chrono>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 #include <cmath>
 #include <stdexcept>
@@ -125,7 +127,7 @@ struct ChainDiagnosisEquations {
 };
 
 inline ChainDiagnosisEquations chain_diagnosis_equations(const std::vector<ChainEquations>& runs,
-                                                         int joints, int blocks) {
+                                                         int joints, int blocks, int threads) {
   ChainDiagnosisEquations d;
   d.joints = joints;
   Eigen::Index rows = 0;
@@ -162,16 +164,26 @@ inline ChainDiagnosisEquations chain_diagnosis_equations(const std::vector<Chain
   d.run_rows.push_back(rows);
   d.scale = d.x.colwise().norm().transpose().cwiseMax(1e-300);
   d.x = d.x * d.scale.cwiseInverse().asDiagonal();
-  d.gram_total = Eigen::MatrixXd::Zero(columns, columns);
-  d.moment_total = Eigen::VectorXd::Zero(columns);
-  for (const auto& [begin, end] : d.folds) {
+  const auto folds = static_cast<Eigen::Index>(d.folds.size());
+  d.gram.resize(d.folds.size());
+  d.moment.resize(d.folds.size());
+  d.energy.resize(d.folds.size());
+  for_each_index(folds, threads, [&](Eigen::Index f, int) {
+    const auto k = static_cast<std::size_t>(f);
+    const auto [begin, end] = d.folds[k];
     const auto xf = d.x.middleRows(begin, end - begin);
     const auto yf = d.y.segment(begin, end - begin);
-    d.gram.push_back(xf.transpose() * xf);
-    d.moment.push_back(xf.transpose() * yf);
-    d.energy.push_back(yf.squaredNorm());
-    d.gram_total += d.gram.back();
-    d.moment_total += d.moment.back();
+    Eigen::MatrixXd g = Eigen::MatrixXd::Zero(columns, columns);  // half the work of xfᵀ xf
+    g.selfadjointView<Eigen::Lower>().rankUpdate(xf.transpose());
+    d.gram[k] = g.selfadjointView<Eigen::Lower>();
+    d.moment[k] = xf.transpose() * yf;
+    d.energy[k] = yf.squaredNorm();
+  });
+  d.gram_total = Eigen::MatrixXd::Zero(columns, columns);
+  d.moment_total = Eigen::VectorXd::Zero(columns);
+  for (std::size_t f = 0; f < d.folds.size(); ++f) {
+    d.gram_total += d.gram[f];
+    d.moment_total += d.moment[f];
   }
   return d;
 }
@@ -197,89 +209,129 @@ inline void set_column(ChainDiagnosisEquations& d, Eigen::Index c, const Eigen::
   d.gram_total.row(c) = d.gram_total.col(c).transpose();
 }
 
-/// Calls at_state(q, qd, qdd) at the smoothed state of each sample the equations are taken at,
-/// then at_row(row, joint) for each of that sample's equations.
-template <typename AtState, typename AtRow>
-void visit_equation_states(const std::vector<SmoothedChainRun>& runs,
-                           const ChainDiagnosisEquations& d, const AtState& at_state,
-                           const AtRow& at_row) {
-  Eigen::VectorXd q(d.joints), qd(d.joints), qdd(d.joints);
+/// The smoothed states the equations are taken at, in the equations' order (one per sample
+/// position that has equations), and for each equation the index of its state.
+struct EquationStates {
+  std::vector<std::pair<std::size_t, Eigen::Index>> states;  ///< (run, sample)
+  std::vector<Eigen::Index> of_row;
+};
+
+inline EquationStates equation_states(const std::vector<SmoothedChainRun>& runs,
+                                      const ChainDiagnosisEquations& d) {
+  EquationStates e;
+  e.of_row.reserve(d.at.size());
   for (std::size_t r = 0; r < runs.size(); ++r) {
-    const SmoothedChainRun& s = runs[r];
     Eigen::Index last = -1;
     for (Eigen::Index row = d.run_rows[r]; row < d.run_rows[r + 1]; ++row) {
       const Eigen::Index a = d.at[static_cast<std::size_t>(row)];
       if (a != last) {
-        const Eigen::Index i = s.samples[static_cast<std::size_t>(a)];
-        q = s.k.q.row(i).transpose();
-        qd = s.k.qd.row(i).transpose();
-        qdd = s.k.qdd.row(i).transpose();
-        at_state(q, qd, qdd);
+        e.states.emplace_back(r, runs[r].samples[static_cast<std::size_t>(a)]);
         last = a;
       }
-      at_row(row, d.joint[static_cast<std::size_t>(row)]);
+      e.of_row.push_back(static_cast<Eigen::Index>(e.states.size()) - 1);
     }
   }
+  return e;
 }
 
 /// Per equation: how the torque prediction of `model` at `theta` on the equation's joint changes
 /// per radian of offset of each joint's measured angle, ∂(Y θ)/∂q_j by forward differences at
-/// the smoothed states (one column per joint).
+/// the smoothed states (one column per joint), the states spread over `threads`.
 inline Eigen::MatrixXd angle_offset_slopes(const ChainModel& model,
                                            const std::vector<SmoothedChainRun>& runs,
                                            const ChainDiagnosisEquations& d,
-                                           const Eigen::VectorXd& theta) {
+                                           const Eigen::VectorXd& theta, int threads) {
   // Truncation ~h |∂²τ/∂q²| and rounding ~1e-16 |τ| / h: both far below the torque noise, at
-  // n + 1 regressor calls per sample.
+  // n + 1 torque evaluations per sample.
   constexpr double h = 1e-6;
   const int n = model.joints();
+  // Of the drive terms only the springs depend on the angles: the others' torques are the same
+  // at both ends of a difference, and leaving them out changes the slopes by rounding only. The
+  // links' torques come from the Newton-Euler recursion with their parameters, O(n) instead of
+  // the regressor's O(n^2) columns: that too changes them by rounding only.
+  const Eigen::Index links = model.rigid_body_parameters();
+  std::vector<std::pair<std::size_t, double>> springs;  // (the model's term, its value)
+  for (std::size_t a = 0; a < model.terms().size(); ++a) {
+    const double value = theta[links + static_cast<Eigen::Index>(a)];
+    if (model.terms()[a].kind == DriveTermKind::Spring && value != 0.0)
+      springs.emplace_back(a + 1, value);  // the model's term 0 is the links'
+  }
+  const auto& terms = model.model().terms();
+  const auto theta_links = theta.head(links);
+
+  const EquationStates e = equation_states(runs, d);
+  const auto count = static_cast<Eigen::Index>(e.states.size());
+  Eigen::MatrixXd slopes(n * n, count);  // per state, (torque of joint, angle shifted)
+  constexpr Eigen::Index kBlock = 256;
+  for_each_index((count + kBlock - 1) / kBlock, threads, [&](Eigen::Index block, int) {
+    ChainModel::Vector q(n), qd(n), qdd(n), shifted(n), tau(n), tau_shifted(n);
+    Eigen::MatrixXd column(n, 1);
+    const auto torque = [&](const ChainModel::Vector& at, ChainModel::Vector& out) {
+      detail::chain_link_torques_unchecked(model.chain(), theta_links, at, qd, qdd, out);
+      for (const auto& [term, value] : springs) {
+        terms[term].columns(at, qd, qdd, RegressorView<double, Eigen::Dynamic>(column));
+        out += value * column.col(0);
+      }
+    };
+    for (Eigen::Index s = block * kBlock; s < std::min(count, (block + 1) * kBlock); ++s) {
+      const auto [run, i] = e.states[static_cast<std::size_t>(s)];
+      const ChainKinematics<double>& k = runs[run].k;
+      q = k.q.row(i).transpose();
+      qd = k.qd.row(i).transpose();
+      qdd = k.qdd.row(i).transpose();
+      torque(q, tau);
+      shifted = q;
+      auto slope = slopes.col(s).reshaped(n, n);
+      for (int j = 0; j < n; ++j) {
+        shifted[j] = q[j] + h;
+        torque(shifted, tau_shifted);
+        slope.col(j) = (tau_shifted - tau) / h;
+        shifted[j] = q[j];
+      }
+    }
+  });
   Eigen::MatrixXd out(d.y.size(), n);
-  Eigen::MatrixXd y(n, model.parameters());
-  Eigen::MatrixXd slope(n, n);  // (torque of joint, angle shifted)
-  Eigen::VectorXd shifted(n), tau(n);
-  visit_equation_states(
-      runs, d,
-      [&](const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& qdd) {
-        model.regressor(q, qd, qdd, y);
-        tau = y * theta;
-        shifted = q;
-        for (int j = 0; j < n; ++j) {
-          shifted[j] = q[j] + h;
-          model.regressor(shifted, qd, qdd, y);
-          slope.col(j) = (y * theta - tau) / h;
-          shifted[j] = q[j];
-        }
-      },
-      [&](Eigen::Index row, int joint) { out.row(row) = slope.row(joint); });
+  for (Eigen::Index row = 0; row < out.rows(); ++row)
+    out.row(row) = slopes.col(e.of_row[static_cast<std::size_t>(row)])
+                       .reshaped(n, n)
+                       .row(d.joint[static_cast<std::size_t>(row)]);
   return out;
 }
 
-/// Per equation: the last column of `model`'s regressor (a model whose one drive term is the
-/// one wanted) at the smoothed states, on the equation's joint.
+/// Per equation: the column of `model`'s last drive term (the one wanted) at the smoothed
+/// states, on the equation's joint: that term's column function alone.
 inline Eigen::VectorXd last_drive_column(const ChainModel& model,
                                          const std::vector<SmoothedChainRun>& runs,
                                          const ChainDiagnosisEquations& d) {
+  const auto& term = model.model().terms().back();
+  const int n = model.joints();
+  const EquationStates e = equation_states(runs, d);
+  Eigen::MatrixXd columns(n, static_cast<Eigen::Index>(e.states.size()));
+  ChainModel::Vector q(n), qd(n), qdd(n);
+  Eigen::MatrixXd one(n, 1);
+  for (std::size_t s = 0; s < e.states.size(); ++s) {
+    const auto [run, i] = e.states[s];
+    const ChainKinematics<double>& k = runs[run].k;
+    q = k.q.row(i).transpose();
+    qd = k.qd.row(i).transpose();
+    qdd = k.qdd.row(i).transpose();
+    term.columns(q, qd, qdd, RegressorView<double, Eigen::Dynamic>(one));
+    columns.col(static_cast<Eigen::Index>(s)) = one;
+  }
   Eigen::VectorXd out(d.y.size());
-  Eigen::MatrixXd y(model.joints(), model.parameters());
-  visit_equation_states(
-      runs, d,
-      [&](const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& qdd) {
-        model.regressor(q, qd, qdd, y);
-      },
-      [&](Eigen::Index row, int joint) { out[row] = y(joint, model.parameters() - 1); });
+  for (Eigen::Index row = 0; row < out.size(); ++row)
+    out[row] =
+        columns(d.joint[static_cast<std::size_t>(row)], e.of_row[static_cast<std::size_t>(row)]);
   return out;
 }
 
 /// The width of a named Stribeck curve that leaves the least residual, the other columns held
 /// (Frisch–Waugh–Lovell): a log-spaced scan of [lo, hi], then a golden-section search about
-/// its best point. column_at(vs) gives the curve's unscaled column at width vs.
+/// its best point. q is an orthonormal basis of the other columns; column_at(vs) gives the
+/// curve's unscaled column at width vs.
 template <typename ColumnAt>
-double fitted_stribeck_width(const ChainDiagnosisEquations& d,
-                             const std::vector<Eigen::Index>& others, double lo, double hi,
-                             const ColumnAt& column_at) {
-  const Eigen::MatrixXd x = d.x(Eigen::all, others);
-  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(x);
-  const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(x.rows(), x.cols());
+double fitted_stribeck_width(const ChainDiagnosisEquations& d, const Eigen::MatrixXd& q, double lo,
+                             double hi, const ColumnAt& column_at) {
   const Eigen::VectorXd r0 = d.y_measured - q * (q.transpose() * d.y_measured);
   const auto rss = [&](double log_vs) {
     const Eigen::VectorXd z = column_at(std::exp(log_vs));
@@ -361,20 +413,99 @@ inline Eigen::MatrixXd chain_long_run(const ChainDiagnosisEquations& d,
   return sum;
 }
 
-/// The fit of one selection round.
+/// vᵀ S v for each column v of `directions` (a row per column), S the HAC long-run sum of
+/// chain_long_run(d, d.x(:, columns), e), without forming S.
+inline Eigen::VectorXd chain_long_run_quadratic(
+    const ChainDiagnosisEquations& d, const std::vector<Eigen::Index>& columns,
+    const Eigen::Ref<const Eigen::VectorXd>& e,
+    const Eigen::Ref<const Eigen::MatrixXd>& directions) {
+  const auto k = static_cast<Eigen::Index>(columns.size());
+  Eigen::VectorXd sum = Eigen::VectorXd::Zero(directions.cols());
+  for (std::size_t run = 0; run + 1 < d.run_rows.size(); ++run) {
+    Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(d.positions[run], k);
+    for (Eigen::Index c = 0; c < k; ++c) {
+      const auto x = d.x.col(columns[static_cast<std::size_t>(c)]);
+      auto score = scores.col(c);
+      for (Eigen::Index r = d.run_rows[run]; r < d.run_rows[run + 1]; ++r)
+        score[d.at[static_cast<std::size_t>(r)]] += e[r] * x[r];
+    }
+    sum += hac_long_run_quadratic(scores, directions);
+  }
+  return sum;
+}
+
+/// The fit of a selection round: the columns' QR factors (an orthonormal basis kept whole,
+/// against which every candidate is projected), the values, the residual.
 struct ChainRound {
   std::vector<Eigen::Index> columns;
-  Eigen::MatrixXd q;  ///< orthonormal basis of the columns
+  Eigen::MatrixXd q;    ///< orthonormal basis of the columns
+  Eigen::MatrixXd r;    ///< upper triangular, q r = the columns
+  Eigen::VectorXd qty;  ///< qᵀ y
   Eigen::VectorXd theta, residual, rss;
   double cv_error = 0;
 
-  ChainRound(const ChainDiagnosisEquations& d, std::vector<Eigen::Index> cols)
+  ChainRound(const ChainDiagnosisEquations& d, std::vector<Eigen::Index> cols, int threads)
       : columns(std::move(cols)) {
     const Eigen::MatrixXd x = d.x(Eigen::all, columns);
     const Eigen::HouseholderQR<Eigen::MatrixXd> qr(x);
-    q = qr.householderQ() * Eigen::MatrixXd::Identity(x.rows(), x.cols());
+    // The basis is the reflectors applied to the identity's columns, in fixed blocks of columns
+    // over threads.
+    const Eigen::Index s = x.cols();
+    q = Eigen::MatrixXd::Identity(x.rows(), s);
+    const auto reflectors = qr.householderQ();
+    constexpr Eigen::Index kBlock = 16;
+    for_each_index((s + kBlock - 1) / kBlock, threads, [&](Eigen::Index b, int) {
+      auto block = q.middleCols(b * kBlock, std::min(kBlock, s - b * kBlock));
+      reflectors.applyThisOnTheLeft(block);
+    });
+    r = qr.matrixQR().topRows(x.cols()).triangularView<Eigen::Upper>();
+    qty = q.transpose() * d.y;
     theta = qr.solve(d.y);
-    residual = d.y - x * theta;
+    finish(d);
+  }
+
+  /// The next round's fit, with `column` added: a Gram–Schmidt step (repeated once, which keeps
+  /// the basis orthogonal to rounding) instead of a new factorization of 60 000 rows.
+  void add(const ChainDiagnosisEquations& d, Eigen::Index column) {
+    const Eigen::Index s = q.cols();
+    Eigen::VectorXd z = d.x.col(column);
+    Eigen::VectorXd a = q.transpose() * z;
+    z.noalias() -= q * a;
+    const Eigen::VectorXd again = q.transpose() * z;
+    z.noalias() -= q * again;
+    a += again;
+    const double rho = z.norm();
+    q.conservativeResize(Eigen::NoChange, s + 1);
+    q.col(s) = z / rho;
+    r.conservativeResize(s + 1, s + 1);
+    r.col(s).head(s) = a;
+    r.row(s).setZero();
+    r(s, s) = rho;
+    qty.conservativeResize(s + 1);
+    qty[s] = q.col(s).dot(d.y);
+    theta = r.triangularView<Eigen::Upper>().solve(qty);
+    columns.push_back(column);
+    finish(d);
+  }
+
+  /// Each column of z (columns of d.x) less its part in the basis, in blocks of columns
+  /// spread over threads (fixed blocks: the same bits on any number of threads).
+  Eigen::MatrixXd unexplained(const Eigen::Ref<const Eigen::MatrixXd>& z, int threads) const {
+    Eigen::MatrixXd out = z;
+    constexpr Eigen::Index kBlock = 8;
+    for_each_index((z.cols() + kBlock - 1) / kBlock, threads, [&](Eigen::Index b, int) {
+      const Eigen::Index first = b * kBlock, count = std::min(kBlock, z.cols() - first);
+      const Eigen::MatrixXd a = q.transpose() * z.middleCols(first, count);
+      out.middleCols(first, count).noalias() -= q * a;
+    });
+    return out;
+  }
+
+ private:
+  void finish(const ChainDiagnosisEquations& d) {
+    residual = d.y;
+    for (std::size_t k = 0; k < columns.size(); ++k)
+      residual -= theta[static_cast<Eigen::Index>(k)] * d.x.col(columns[k]);
     rss = per_joint_squares(d, residual);
     cv_error = chain_cv_error(d, columns);
   }
@@ -394,6 +525,7 @@ inline void check_chain_diagnose_options(const ChainDiagnoseOptions& o, int join
   if (!(o.family_alpha > 0.0 && o.family_alpha < 1.0))
     throw std::invalid_argument(who + "family_alpha must be in (0, 1)");
   if (o.cv_blocks < 2) throw std::invalid_argument(who + "cv_blocks must be >= 2");
+  if (o.threads < 0) throw std::invalid_argument(who + "threads must be >= 0");
   if (!(o.min_cv_gain >= 0.0 && o.min_cv_gain < 1.0))
     throw std::invalid_argument(who + "min_cv_gain must be in [0, 1)");
   if (!(o.separability_r2 > 0.0 && o.separability_r2 < 1.0))
@@ -409,7 +541,7 @@ inline void check_chain_diagnose_options(const ChainDiagnoseOptions& o, int join
 /// chosen by the nominal model's torque prediction bends towards hiding what the model lacks.
 inline std::vector<double> gcv_cutoffs(const ChainModel& model,
                                        const std::vector<ChainTrajectory<double>>& runs,
-                                       const ChainIdentifyOptions& o) {
+                                       const ChainIdentifyOptions& o, int threads) {
   const int n = model.joints();
   std::vector<double> log_sum(static_cast<std::size_t>(n), 0.0);
   for (std::size_t r = 0; r < runs.size(); ++r) {
@@ -417,9 +549,13 @@ inline std::vector<double> gcv_cutoffs(const ChainModel& model,
     check_chain_run(model, run, "sid::diagnose_chain: run " + std::to_string(r + 1));
     const double h = (run.t[run.size() - 1] - run.t[0]) / static_cast<double>(run.size() - 1);
     const SmoothingSpline<double> spline(run.t);
+    std::vector<double> lambda(static_cast<std::size_t>(n));
+    for_each_index(n, threads, [&](Eigen::Index j, int) {
+      lambda[static_cast<std::size_t>(j)] = spline.fit_cross_validated(run.q.col(j)).lambda;
+    });
     for (int j = 0; j < n; ++j) {
-      const double lambda = spline.fit_cross_validated(run.q.col(j)).lambda;
-      const double cutoff = std::pow(1.0 / (h * lambda), 0.25) / (2.0 * 3.14159265358979323846);
+      const double cutoff = std::pow(1.0 / (h * lambda[static_cast<std::size_t>(j)]), 0.25) /
+                            (2.0 * 3.14159265358979323846);
       log_sum[static_cast<std::size_t>(j)] +=
           std::log(std::clamp(cutoff, o.min_cutoff_hz, o.max_cutoff_hz));
     }
@@ -452,8 +588,9 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   detail::check_chain_diagnose_options(options, n);
   if (runs.empty()) throw std::invalid_argument("sid::diagnose_chain: no runs given");
   ChainIdentifyOptions given = options.identify;
-  if (given.cutoff_hz.empty()) given.cutoff_hz = detail::gcv_cutoffs(nominal, runs, given);
-  const ChainIdentification id = identify_chain(nominal, runs, given);
+  const int threads = detail::thread_count(options.threads);
+  if (given.cutoff_hz.empty()) given.cutoff_hz = detail::gcv_cutoffs(nominal, runs, given, threads);
+  const ChainIdentification id = detail::identify_chain_impl(nominal, runs, given, false);
   if (!id.fit.ok())
     throw std::invalid_argument("sid::diagnose_chain: the nominal model's fit failed: " +
                                 id.fit.message);
@@ -502,7 +639,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     e.x.rightCols(angle_columns).setZero();
   }
   detail::ChainDiagnosisEquations d =
-      detail::chain_diagnosis_equations(equations, n, options.cv_blocks);
+      detail::chain_diagnosis_equations(equations, n, options.cv_blocks, threads);
   const auto first_angle_column = static_cast<Eigen::Index>(base_count + candidates.size());
   result.equations = d.y.size();
   const auto log_rows = std::log(static_cast<double>(d.y.size()));
@@ -511,12 +648,15 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
 
   // Practical sizes are judged against the torque noise: the fits use filtered torques, whose
   // residual is far below it.
+  Eigen::MatrixXd sigma(n, static_cast<Eigen::Index>(runs.size()));
+  detail::for_each_index(sigma.size(), threads, [&](Eigen::Index k, int) {
+    const auto& run = runs[static_cast<std::size_t>(k / n)];
+    sigma(k % n, k / n) = noise_sigma_gcv(run.t, run.tau.col(k % n));
+  });
   result.noise_floor = Eigen::VectorXd::Zero(n);
-  for (const auto& run : runs)
-    for (int j = 0; j < n; ++j) {
-      const double sigma = noise_sigma_gcv(run.t, run.tau.col(j));
-      result.noise_floor[j] += sigma * sigma / static_cast<double>(runs.size());
-    }
+  for (Eigen::Index r = 0; r < sigma.cols(); ++r)
+    for (int j = 0; j < n; ++j)
+      result.noise_floor[j] += sigma(j, r) * sigma(j, r) / static_cast<double>(runs.size());
   result.noise_floor = result.noise_floor.cwiseSqrt().cwiseMax(1e-300);
   // The residual against the measured torque, per joint: the figure the report compares.
   const auto measured_rms = [&](const detail::ChainRound& round) {
@@ -535,8 +675,37 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   std::vector<Eigen::Index> last_tested, inseparable, named_positions;
   Eigen::MatrixXd nominal_q;  // orthonormal basis of the nominal model's columns
   bool angle_columns_stale = angle_columns > 0;
+  // Each round's fit grows from the last one's by the column named, and so does each
+  // candidate's column less its part in the model's columns (zr), by one step per column named;
+  // the angle offsets' columns, which change each round, are projected anew.
+  std::optional<detail::ChainRound> fit;
+  Eigen::MatrixXd unexplained(d.y.size(), static_cast<Eigen::Index>(prototypes.size()));
+  const auto project_anew = [&](const std::vector<Eigen::Index>& positions) {
+    if (positions.empty()) return;
+    Eigen::MatrixXd z(d.y.size(), static_cast<Eigen::Index>(positions.size()));
+    for (std::size_t i = 0; i < positions.size(); ++i)
+      z.col(static_cast<Eigen::Index>(i)) = d.x.col(base_count + positions[i]);
+    z = fit->unexplained(z, threads);
+    for (std::size_t i = 0; i < positions.size(); ++i)
+      unexplained.col(positions[i]) = z.col(static_cast<Eigen::Index>(i));
+  };
   while (!remaining.empty()) {
-    const detail::ChainRound round(d, selected);
+    if (!fit) {
+      fit.emplace(d, selected, threads);
+      std::vector<Eigen::Index> drive;
+      for (const Eigen::Index c : remaining)
+        if (base_count + c < first_angle_column) drive.push_back(c);
+      project_anew(drive);
+    } else {
+      fit->add(d, selected.back());
+      // The column added, less its part in the others, is the basis's last: each candidate
+      // loses its part along it.
+      const auto added = fit->q.col(fit->q.cols() - 1);
+      for (const Eigen::Index c : remaining)
+        if (base_count + c < first_angle_column)
+          unexplained.col(c) -= added.dot(unexplained.col(c)) * added;
+    }
+    const detail::ChainRound& round = *fit;
     // The first round fits the nominal model alone.
     if (result.nominal_residual_rms.size() == 0) {
       result.nominal_residual_rms = measured_rms(round);
@@ -555,12 +724,16 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
         else if (column < first_angle_column)
           theta[nominal.parameters() + column - base_count] = value;
       }
-      const Eigen::MatrixXd slopes = detail::angle_offset_slopes(full, smoothed, d, theta);
+      const Eigen::MatrixXd slopes = detail::angle_offset_slopes(full, smoothed, d, theta, threads);
+      std::vector<Eigen::Index> angles;
       for (const Eigen::Index c : remaining) {
         const Eigen::Index column = base_count + c;
-        if (column >= first_angle_column)
+        if (column >= first_angle_column) {
           detail::set_column(d, column, slopes.col(column - first_angle_column));
+          angles.push_back(c);
+        }
       }
+      project_anew(angles);
       angle_columns_stale = false;
     }
     std::vector<ChainEffectTest> tests;
@@ -569,8 +742,8 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     for (auto it = remaining.begin(); it != remaining.end();) {
       const Eigen::Index column = base_count + *it;
       ChainEffectTest t = make_test(*it);
-      const Eigen::VectorXd z = d.x.col(column);
-      const Eigen::VectorXd zr = z - round.q * (round.q.transpose() * z);
+      const auto z = d.x.col(column);
+      const auto zr = unexplained.col(*it);
       const double zz = zr.squaredNorm();
       if (!(zz > (1.0 - options.separability_r2) * z.squaredNorm())) {
         t.reason =
@@ -661,7 +834,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
       const auto [lo, hi] = std::minmax_element(options.stribeck_velocities.begin(),
                                                 options.stribeck_velocities.end());
       const double width =
-          detail::fitted_stribeck_width(d, selected, 0.5 * *lo, 2.0 * *hi, column_at);
+          detail::fitted_stribeck_width(d, round.q, 0.5 * *lo, 2.0 * *hi, column_at);
       result.named.back().term.velocity = width;
       detail::set_column(d, base_count + chosen, column_at(width));
     }
@@ -694,12 +867,19 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     }
 
   // The final fit: values and HAC standard deviations of the named terms.
-  const detail::ChainRound final_round(d, selected);
-  const Eigen::MatrixXd x = d.x(Eigen::all, selected);
+  if (!fit) fit.emplace(d, selected, threads);
+  while (fit->columns.size() < selected.size()) fit->add(d, selected[fit->columns.size()]);
+  const detail::ChainRound& final_round = *fit;
+  // Only the named terms' variances are reported: the rows of (XᵀX)⁻¹ that give them.
+  const auto named_count = static_cast<Eigen::Index>(result.named.size());
   const Eigen::MatrixXd bread =
-      (x.transpose() * x).ldlt().solve(Eigen::MatrixXd::Identity(x.cols(), x.cols()));
-  const Eigen::MatrixXd covariance =
-      bread * detail::chain_long_run(d, x, final_round.residual) * bread;
+      d.gram_total(selected, selected)
+          .ldlt()
+          .solve(Eigen::MatrixXd::Identity(static_cast<Eigen::Index>(selected.size()),
+                                           static_cast<Eigen::Index>(selected.size())))
+          .rightCols(named_count);
+  const Eigen::VectorXd variance =
+      detail::chain_long_run_quadratic(d, selected, final_round.residual, bread);
   result.final_terms = nominal.terms();
   result.angle_offset = Eigen::VectorXd::Zero(n);
   for (std::size_t i = 0; i < result.named.size(); ++i) {
@@ -707,9 +887,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     const Eigen::Index column = selected[k];
     ChainEffectTest& t = result.named[i];
     t.value = final_round.theta[static_cast<Eigen::Index>(k)] / d.scale[column];
-    t.std = std::sqrt(std::max(
-                covariance(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(k)), 0.0)) /
-            d.scale[column];
+    t.std = std::sqrt(std::max(variance[static_cast<Eigen::Index>(i)], 0.0)) / d.scale[column];
     if (t.angle_offset)
       result.angle_offset[t.term.index] = t.value;
     else

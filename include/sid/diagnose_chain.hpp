@@ -84,6 +84,9 @@ struct ChainDiagnoseOptions {
   /// refuted at z > 13. On a UR5 an encoder offset of joint 2 is named as a torque offset on joint
   /// 3 (0.69) or as an encoder offset of joint 4 (0.2-0.47).
   double look_alike = 0.1;
+  /// Threads for the angle offsets' linearisation and the fold Gram matrices (0 = hardware
+  /// concurrency); the result does not depend on it.
+  int threads = 0;
 };
 
 /// @brief One candidate drive term as the diagnosis judged it.

@@ -127,6 +127,58 @@ SID_INLINE Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::Matrix
          (static_cast<double>(n) / static_cast<double>(n - 1));
 }
 
+namespace detail {
+
+/// The Newey–West sum of one series: sᵀs + 2 Σ_l (1 − l/(lag + 1)) Σ_t s_t s_{t−l}.
+inline double newey_west_scalar(const Eigen::Ref<const Eigen::VectorXd>& s, int lag) {
+  const Eigen::Index n = s.size();
+  double sum = s.squaredNorm();
+  for (Eigen::Index l = 1; l <= lag && l < n; ++l) {
+    const double w = 1.0 - static_cast<double>(l) / static_cast<double>(lag + 1);
+    sum += 2.0 * w * s.tail(n - l).dot(s.head(n - l));
+  }
+  return sum;
+}
+
+}  // namespace detail
+
+SID_INLINE Eigen::VectorXd hac_long_run_quadratic(
+    const Eigen::Ref<const Eigen::MatrixXd>& scores,
+    const Eigen::Ref<const Eigen::MatrixXd>& directions) {
+  const Eigen::Index n = scores.rows(), k = scores.cols();
+  if (directions.rows() != k)
+    throw std::invalid_argument("sid::hac_long_run_quadratic: directions need one row per column");
+  Eigen::VectorXd out(directions.cols());
+  const auto plain = [&] {
+    const int lag = newey_west_bandwidth(scores);
+    for (Eigen::Index i = 0; i < directions.cols(); ++i)
+      out[i] = detail::newey_west_scalar(scores * directions.col(i), lag);
+    return out;
+  };
+  // As hac_long_run_sum, step by step.
+  if (n < 3 * k + 8) return plain();
+  const auto before = scores.topRows(n - 1);
+  const auto after = scores.bottomRows(n - 1);
+  Eigen::MatrixXd b = (before.transpose() * before).ldlt().solve(before.transpose() * after);
+  if (!b.allFinite()) return plain();
+  Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(
+      b, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  constexpr double kMaxRoot = 0.97;
+  if (svd.singularValues().maxCoeff() > kMaxRoot)
+    b = svd.matrixU() * svd.singularValues().cwiseMin(kMaxRoot).asDiagonal() *
+        svd.matrixV().transpose();
+  const Eigen::MatrixXd u = after - before * b;
+  const int lag = newey_west_bandwidth(u);
+  const Eigen::MatrixXd recolour = (Eigen::MatrixXd::Identity(k, k) - b.transpose())
+                                       .partialPivLu()
+                                       .solve(Eigen::MatrixXd::Identity(k, k));
+  const double factor = static_cast<double>(n) / static_cast<double>(n - 1);
+  for (Eigen::Index i = 0; i < directions.cols(); ++i)
+    out[i] =
+        detail::newey_west_scalar(u * (recolour.transpose() * directions.col(i)), lag) * factor;
+  return out;
+}
+
 SID_INLINE double wald_statistic(const Eigen::Ref<const Eigen::VectorXd>& gamma,
                                  const Eigen::Ref<const Eigen::MatrixXd>& covariance) {
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(covariance);

@@ -66,6 +66,15 @@ SID_INLINE Eigen::MatrixXd newey_west_sum(const Eigen::Ref<const Eigen::MatrixXd
 /// fewer than 3 k + 8 rows.
 SID_INLINE Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::MatrixXd>& scores);
 
+/// @brief vᵀ S v for each column v of `directions` (k rows), S = hac_long_run_sum(scores): the
+/// same prewhitening and bandwidth, but each form is the Newey–West sum of one series, the
+/// whitened scores times (I − B)⁻¹ v, so the k × k lagged products are never formed.
+/// Why: the variance of a few combinations of many parameters (the named terms of a fit on 60
+/// columns) in O(n k²) instead of O(n k² L), L the bandwidth; equal to S's forms to rounding.
+SID_INLINE Eigen::VectorXd hac_long_run_quadratic(
+    const Eigen::Ref<const Eigen::MatrixXd>& scores,
+    const Eigen::Ref<const Eigen::MatrixXd>& directions);
+
 /// @brief Wald statistic γ̂ᵀ V⁻¹ γ̂ (V symmetric positive definite; pseudo-inverse otherwise).
 SID_INLINE double wald_statistic(const Eigen::Ref<const Eigen::VectorXd>& gamma,
                                  const Eigen::Ref<const Eigen::MatrixXd>& covariance);

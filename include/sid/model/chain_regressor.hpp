@@ -179,6 +179,39 @@ void chain_link_columns_unchecked(const SerialChain<Scalar>& chain, const Joints
   }
 }
 
+/// Y_links(q, qd, qdd) theta_links, the links' part of the torques [N m or N], by the
+/// Newton-Euler recursion with the parameters themselves: each link's wrench (as in
+/// link_power_row) carried from the tip to the base. O(n) where the regressor has O(n^2) rows
+/// of ten; equal to the regressor's product to rounding.
+template <typename Scalar, typename Links, typename Joints, typename Tau>
+void chain_link_torques_unchecked(const SerialChain<Scalar>& chain, const Links& theta,
+                                  const Joints& q, const Joints& qd, const Joints& qdd, Tau& tau) {
+  ChainMotion<Scalar> m;
+  chain_motion(chain, q, qd, qdd, m);
+  const int n = chain.joints();
+  // The wrench of links i..n-1 about frame i's origin, in frame i.
+  Vector3<Scalar> f = Vector3<Scalar>::Zero(), torque = Vector3<Scalar>::Zero();
+  for (int i = n - 1; i >= 0; --i) {
+    const auto k = static_cast<std::size_t>(i);
+    const auto p = theta.template segment<kLinkParameters>(kLinkParameters * i);
+    const Vector3<Scalar> h(p[1], p[2], p[3]);
+    Matrix3<Scalar> inertia;
+    inertia << p[4], p[5], p[7], p[5], p[6], p[8], p[7], p[8], p[9];
+    const Vector3<Scalar>& w = m.w[k];
+    const Vector3<Scalar>& wd = m.wd[k];
+    const Vector3<Scalar>& a = m.a[k];
+    if (i + 1 < n) {
+      const Matrix3<Scalar>& r = m.pose[k + 1].rotation;
+      const Vector3<Scalar> child = r * f;
+      torque = r * torque + m.pose[k + 1].translation.cross(child);
+      f = child;
+    }
+    f += p[0] * a + wd.cross(h) + w.cross(w.cross(h));
+    torque += inertia * wd + w.cross(inertia * w) + h.cross(a);
+    tau[i] = m.u[k].dot(torque) + m.ru[k].dot(f);
+  }
+}
+
 template <typename Scalar, typename Joints, typename Out>
 void chain_regressor_unchecked(const SerialChain<Scalar>& chain, const Joints& q, const Joints& qd,
                                const Joints& qdd, Out& out) {
