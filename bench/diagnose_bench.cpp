@@ -521,6 +521,25 @@ void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)())
   state.counters["wrong"] = wrong;
 }
 
+const sid_test::SuiteArm& ur5();
+
+// The whole chain check a user runs (sid_diagnose --robot without its file reading): the
+// diagnosis and the motion check against its replicates, on an effect-free 20 s, 500 Hz UR5 log
+// (60 000 equations), on every core.
+void BM_WholeChainCheckUr5(benchmark::State& state) {
+  const sid_test::SuiteArm& a = ur5();
+  const sid::ChainTrajectory<double> run = sid_test::suite_run(a, {}, 1);
+  const sid::ChainModel nominal = sid_test::suite_nominal(a);
+  Eigen::VectorXd prior = Eigen::VectorXd::Zero(nominal.parameters());
+  prior.head(60) = a.arm.theta.head(60);
+  for (auto _ : state) {
+    const sid::ChainDiagnosis r = sid::diagnose_chain(nominal, {run});
+    benchmark::DoNotOptimize(
+        sid::check_chain_motion(nominal, r, {run}, sid::ChainIdentifyOptions{}, prior));
+  }
+}
+BENCHMARK(BM_WholeChainCheckUr5)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);
+
 const sid_test::SuiteArm& tx40() {
   static const sid_test::SuiteArm a = sid_test::tx40_suite_arm();
   return a;

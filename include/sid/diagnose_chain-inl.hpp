@@ -590,7 +590,8 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   ChainIdentifyOptions given = options.identify;
   const int threads = detail::thread_count(options.threads);
   if (given.cutoff_hz.empty()) given.cutoff_hz = detail::gcv_cutoffs(nominal, runs, given, threads);
-  const ChainIdentification id = detail::identify_chain_impl(nominal, runs, given, false);
+  given.statistics = false;
+  const ChainIdentification id = identify_chain(nominal, runs, given);
   if (!id.fit.ok())
     throw std::invalid_argument("sid::diagnose_chain: the nominal model's fit failed: " +
                                 id.fit.message);
@@ -911,6 +912,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
       const Eigen::VectorXd z = d.x.col(base_count + c);
       return Eigen::VectorXd(z - nominal_q * (nominal_q.transpose() * z));
     };
+    const Eigen::LDLT<Eigen::MatrixXd> final_gram(d.gram_total(selected, selected));
     std::vector<Eigen::VectorXd> parts;  // of the named terms
     for (const Eigen::Index c : named_positions) parts.push_back(given_nominal(c));
     for (const Eigen::Index c : inseparable) {
@@ -919,7 +921,8 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
       if (!(b.norm() > kExplainedExactly)) continue;
       // Columns are scaled to unit norm: values in scaled units, then in the other's own.
       const Eigen::VectorXd z = d.x.col(base_count + c);
-      const Eigen::VectorXd share = bread * (x.transpose() * z);  // per unit of the other
+      // Per unit of the other: its least squares on the final columns.
+      const Eigen::VectorXd share = final_gram.solve(d.x(Eigen::all, selected).transpose() * z);
       std::vector<std::size_t> takers;
       std::vector<double> correlations;
       double along = 0.0, squares = 0.0;

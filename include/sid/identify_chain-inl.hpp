@@ -475,15 +475,9 @@ SID_INLINE BaseParameters<double> chain_base_parameters(const ChainModel& model,
   return base_parameters_in_order(w, o.base_tolerance);
 }
 
-namespace detail {
-
-/// identify_chain; without `statistics` only the base parameters, the cutoffs and the fit (the
-/// HAC and jackknife standard deviations and the predictions are left empty): what the diagnosis
-/// takes from it, at a third of the time.
-inline ChainIdentification identify_chain_impl(const ChainModel& model,
-                                               const std::vector<ChainTrajectory<double>>& runs,
-                                               const ChainIdentifyOptions& options,
-                                               bool statistics) {
+SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
+                                              const std::vector<ChainTrajectory<double>>& runs,
+                                              const ChainIdentifyOptions& options) {
   const char* who = "sid::identify_chain";
   detail::check_chain_options(options, model.joints(), who);
   if (runs.empty()) throw std::invalid_argument(std::string(who) + ": no runs given");
@@ -534,10 +528,14 @@ inline ChainIdentification identify_chain_impl(const ChainModel& model,
   ls.column_names = id.parameter_names;
   Eigen::VectorXd weight;
   id.fit = detail::chain_fit(equations, stacked, n, options.weighted, ls, weight);
-  if (!statistics) return id;
+  id.fitted = detail::chain_prediction(equations, n, id.fit.theta);
+  if (!options.statistics) {
+    id.std_dev = id.fit.std_dev;
+    id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
+    return id;
+  }
   id.std_dev = detail::chain_hac_std_dev(equations, id.fit, weight);
   id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
-  id.fitted = detail::chain_prediction(equations, n, id.fit.theta);
   for (std::size_t r = 0; r < equations.size(); ++r) {
     id.per_run.push_back(detail::chain_prediction({equations[r]}, n, id.fit.theta));
     detail::add_measured(id.per_run.back(),
@@ -550,14 +548,6 @@ inline ChainIdentification identify_chain_impl(const ChainModel& model,
   if (runs.size() >= 3 && id.fit.ok())
     id.jackknife_std_dev = detail::chain_jackknife_std_dev(equations, ls);
   return id;
-}
-
-}  // namespace detail
-
-SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
-                                              const std::vector<ChainTrajectory<double>>& runs,
-                                              const ChainIdentifyOptions& options) {
-  return detail::identify_chain_impl(model, runs, options, true);
 }
 
 SID_INLINE ChainPrediction predict_chain(const ChainModel& model,

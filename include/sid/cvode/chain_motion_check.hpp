@@ -182,6 +182,7 @@ inline ChainMotionCheck check_chain_motion(const ChainModel& nominal,
                                 std::to_string(final_model.parameters()) + " parameters");
   identify.cutoff_hz.assign(diagnosis.cutoff_hz.data(),
                             diagnosis.cutoff_hz.data() + diagnosis.cutoff_hz.size());
+  identify.statistics = false;  // the fits' standard deviations serve nothing here
 
   // The final model lives at the true angles: the measured ones plus the named offsets.
   std::vector<ChainTrajectory<double>> corrected = runs;
