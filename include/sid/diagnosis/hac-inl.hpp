@@ -103,13 +103,14 @@ SID_INLINE Eigen::MatrixXd newey_west_sum(const Eigen::Ref<const Eigen::MatrixXd
   return s;
 }
 
-SID_INLINE Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::MatrixXd>& scores) {
-  const Eigen::Index n = scores.rows(), k = scores.cols();
-  if (n < 3 * k + 8) return newey_west_sum(scores, newey_west_bandwidth(scores));
-  const auto before = scores.topRows(n - 1);
-  const auto after = scores.bottomRows(n - 1);
+namespace detail {
+
+/// The prewhitening VAR(1) coefficient B of scores (s_t ≈ s_{t−1} B), its singular values capped
+/// at 0.97 so that the recolouring stays finite; not finite where the fit fails.
+inline Eigen::MatrixXd prewhitening(const Eigen::Ref<const Eigen::MatrixXd>& before,
+                                    const Eigen::Ref<const Eigen::MatrixXd>& after) {
   Eigen::MatrixXd b = (before.transpose() * before).ldlt().solve(before.transpose() * after);
-  if (!b.allFinite()) return newey_west_sum(scores, newey_west_bandwidth(scores));
+  if (!b.allFinite()) return b;
   // B is square: Eigen's QR preconditioner would never run, and instantiating it costs
   // seconds of compile time in every file that includes this header.
   Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(
@@ -118,6 +119,18 @@ SID_INLINE Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::Matrix
   if (svd.singularValues().maxCoeff() > kMaxRoot)
     b = svd.matrixU() * svd.singularValues().cwiseMin(kMaxRoot).asDiagonal() *
         svd.matrixV().transpose();
+  return b;
+}
+
+}  // namespace detail
+
+SID_INLINE Eigen::MatrixXd hac_long_run_sum(const Eigen::Ref<const Eigen::MatrixXd>& scores) {
+  const Eigen::Index n = scores.rows(), k = scores.cols();
+  if (n < 3 * k + 8) return newey_west_sum(scores, newey_west_bandwidth(scores));
+  const auto before = scores.topRows(n - 1);
+  const auto after = scores.bottomRows(n - 1);
+  const Eigen::MatrixXd b = detail::prewhitening(before, after);
+  if (!b.allFinite()) return newey_west_sum(scores, newey_west_bandwidth(scores));
   const Eigen::MatrixXd u = after - before * b;
   const Eigen::MatrixXd s_u = newey_west_sum(u, newey_west_bandwidth(u));
   const Eigen::MatrixXd recolour = (Eigen::MatrixXd::Identity(k, k) - b.transpose())
@@ -159,14 +172,8 @@ SID_INLINE Eigen::VectorXd hac_long_run_quadratic(
   if (n < 3 * k + 8) return plain();
   const auto before = scores.topRows(n - 1);
   const auto after = scores.bottomRows(n - 1);
-  Eigen::MatrixXd b = (before.transpose() * before).ldlt().solve(before.transpose() * after);
+  const Eigen::MatrixXd b = detail::prewhitening(before, after);
   if (!b.allFinite()) return plain();
-  Eigen::JacobiSVD<Eigen::MatrixXd, Eigen::NoQRPreconditioner> svd(
-      b, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  constexpr double kMaxRoot = 0.97;
-  if (svd.singularValues().maxCoeff() > kMaxRoot)
-    b = svd.matrixU() * svd.singularValues().cwiseMin(kMaxRoot).asDiagonal() *
-        svd.matrixV().transpose();
   const Eigen::MatrixXd u = after - before * b;
   const int lag = newey_west_bandwidth(u);
   const Eigen::MatrixXd recolour = (Eigen::MatrixXd::Identity(k, k) - b.transpose())
