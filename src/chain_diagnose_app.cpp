@@ -52,7 +52,8 @@ FreeSimulations free_simulations(const LoadedChain& loaded, const sid::ChainDiag
     out.note = "no free-simulation verdict: " +
                std::string(out.check.final_error.allFinite()
                                ? "no exact-model replicate could be fitted and simulated"
-                               : "the final model could not be fitted or simulated");
+                               : "the final model could not be fitted or simulated") +
+               (out.check.failure.empty() ? "" : " (" + out.check.failure + ")");
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
 }

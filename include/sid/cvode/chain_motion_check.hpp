@@ -75,7 +75,8 @@ struct ChainMotionCheck {
   std::vector<int> beyond;          ///< joints (0-based) whose final error exceeds the threshold
   Eigen::Index segments = 0;        ///< per simulation over all runs
   Eigen::Index failed_nominal = 0, failed_final = 0, failed_replicates = 0;
-  std::string failure;  ///< the first failed segment's message, empty if none failed
+  /// Why a model could not be fitted, else the first failed segment's message; empty if all ran.
+  std::string failure;
 };
 
 namespace detail {
@@ -186,7 +187,7 @@ inline ChainMotionCheck check_chain_motion(const ChainModel& nominal,
 
   // The final model lives at the true angles: the measured ones plus the named offsets.
   std::vector<ChainTrajectory<double>> corrected = runs;
-  std::vector<ChainKinematics<double>> measured = diagnosis.kinematics, corrected_kinematics;
+  std::vector<ChainKinematics<double>> corrected_kinematics;
   for (auto& run : corrected) run.q.rowwise() += diagnosis.angle_offset.transpose();
   for (auto k : diagnosis.kinematics) {
     k.q.rowwise() += diagnosis.angle_offset.transpose();
@@ -210,7 +211,7 @@ inline ChainMotionCheck check_chain_motion(const ChainModel& nominal,
   detail::for_each_index(same ? 1 : 2, threads, [&](Eigen::Index task, int) {
     const Eigen::Index m = same ? 1 : task;
     models[static_cast<std::size_t>(m)] =
-        m == 0 ? detail::fit_and_simulate(nominal, runs, measured, identify,
+        m == 0 ? detail::fit_and_simulate(nominal, runs, diagnosis.kinematics, identify,
                                           prior.size()
                                               ? Eigen::VectorXd(prior.head(nominal.parameters()))
                                               : Eigen::VectorXd(),
@@ -226,9 +227,11 @@ inline ChainMotionCheck check_chain_motion(const ChainModel& nominal,
   out.segments = final_sim.segments;
   out.failed_nominal = nominal_sim.failed;
   out.failed_final = final_sim.failed;
-  out.failure = !nominal_sim.failure.empty() ? "nominal model, " + nominal_sim.failure
-                : !final_sim.failure.empty() ? "final model, " + final_sim.failure
-                                             : std::string();
+  out.failure = !final_sim.note.empty()        ? "final model not fitted: " + final_sim.note
+                : !nominal_sim.note.empty()    ? "nominal model not fitted: " + nominal_sim.note
+                : !nominal_sim.failure.empty() ? "nominal model, " + nominal_sim.failure
+                : !final_sim.failure.empty()   ? "final model, " + final_sim.failure
+                                               : std::string();
   const auto nan = std::numeric_limits<double>::quiet_NaN();
   out.replicate_error = Eigen::MatrixXd::Constant(options.replicates, n, nan);
   out.threshold = Eigen::VectorXd::Constant(n, nan);
