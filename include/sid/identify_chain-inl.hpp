@@ -475,6 +475,37 @@ SID_INLINE BaseParameters<double> chain_base_parameters(const ChainModel& model,
   return base_parameters_in_order(w, o.base_tolerance);
 }
 
+namespace detail {
+
+/// Smooths the runs at id.cutoff_hz and fits id's base parameters to their equations: id.fit,
+/// id.fitted over the fitted equations, the fit's own standard deviations. Returns the
+/// equations; `weight` gets the rows' weights (Gautier's WLS).
+inline std::vector<ChainEquations> fit_at_cutoffs(const ChainModel& model,
+                                                  std::vector<SmoothedChainRun>& smoothed,
+                                                  const ChainIdentifyOptions& options,
+                                                  const char* who, ChainIdentification& id,
+                                                  Eigen::VectorXd& weight) {
+  const int n = model.joints();
+  for (auto& s : smoothed)
+    for (int j = 0; j < n; ++j) s.smooth_joint(j, id.cutoff_hz[j], options.filter_torque);
+  std::vector<ChainEquations> equations =
+      all_equations(model, smoothed, id.base.independent, options.rest_fraction);
+  const StackedChainEquations stacked = stack_equations(equations);
+  if (stacked.x.rows() <= stacked.x.cols())
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(stacked.x.rows()) +
+                                " equations for " + std::to_string(stacked.x.cols()) +
+                                " base parameters; give longer or more runs");
+  LeastSquaresOptions ls = options.least_squares;
+  ls.column_names = id.parameter_names;
+  id.fit = chain_fit(equations, stacked, n, options.weighted, ls, weight);
+  id.std_dev = id.fit.std_dev;
+  id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
+  id.fitted = chain_prediction(equations, n, id.fit.theta);
+  return equations;
+}
+
+}  // namespace detail
+
 SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
                                               const std::vector<ChainTrajectory<double>>& runs,
                                               const ChainIdentifyOptions& options) {
@@ -513,27 +544,10 @@ SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
     id.cutoff_hz = detail::expand_cutoffs(options.cutoff_hz, n);
     id.cross_validation_score = std::nan("");
   }
-  for (auto& s : smoothed)
-    for (int j = 0; j < n; ++j) s.smooth_joint(j, id.cutoff_hz[j], options.filter_torque);
-
-  const std::vector<detail::ChainEquations> equations =
-      detail::all_equations(model, smoothed, columns, options.rest_fraction);
-  const detail::StackedChainEquations stacked = detail::stack_equations(equations);
-  const Eigen::Index rows = stacked.x.rows();
-  if (rows <= static_cast<Eigen::Index>(columns.size()))
-    throw std::invalid_argument(std::string(who) + ": " + std::to_string(rows) + " equations for " +
-                                std::to_string(columns.size()) +
-                                " base parameters; give longer or more runs");
-  LeastSquaresOptions ls = options.least_squares;
-  ls.column_names = id.parameter_names;
   Eigen::VectorXd weight;
-  id.fit = detail::chain_fit(equations, stacked, n, options.weighted, ls, weight);
-  id.fitted = detail::chain_prediction(equations, n, id.fit.theta);
-  if (!options.statistics) {
-    id.std_dev = id.fit.std_dev;
-    id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
-    return id;
-  }
+  const std::vector<detail::ChainEquations> equations =
+      detail::fit_at_cutoffs(model, smoothed, options, who, id, weight);
+  if (!options.statistics) return id;
   id.std_dev = detail::chain_hac_std_dev(equations, id.fit, weight);
   id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
   for (std::size_t r = 0; r < equations.size(); ++r) {
@@ -545,8 +559,11 @@ SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
   detail::add_measured(id.fitted, detail::all_equations(model, smoothed, columns, 0.0), n,
                        id.fit.theta);
 
-  if (runs.size() >= 3 && id.fit.ok())
+  if (runs.size() >= 3 && id.fit.ok()) {
+    LeastSquaresOptions ls = options.least_squares;
+    ls.column_names = id.parameter_names;
     id.jackknife_std_dev = detail::chain_jackknife_std_dev(equations, ls);
+  }
   return id;
 }
 
@@ -592,8 +609,6 @@ SID_INLINE ChainIdentification refit_chain(const ChainModel& model,
     throw std::invalid_argument(std::string(who) +
                                 ": the earlier identification failed or is of another model");
   std::vector<detail::SmoothedChainRun> smoothed = detail::smoothed_runs(model, runs, options, who);
-  for (auto& s : smoothed)
-    for (int j = 0; j < n; ++j) s.smooth_joint(j, earlier.cutoff_hz[j], options.filter_torque);
   ChainIdentification id;
   id.base = earlier.base;
   id.structural_rank = earlier.structural_rank;
@@ -601,20 +616,8 @@ SID_INLINE ChainIdentification refit_chain(const ChainModel& model,
   id.parameter_combinations = earlier.parameter_combinations;
   id.cutoff_hz = earlier.cutoff_hz;
   id.cross_validation_score = std::nan("");
-  const std::vector<detail::ChainEquations> equations =
-      detail::all_equations(model, smoothed, id.base.independent, options.rest_fraction);
-  const detail::StackedChainEquations stacked = detail::stack_equations(equations);
-  if (stacked.x.rows() <= stacked.x.cols())
-    throw std::invalid_argument(std::string(who) + ": " + std::to_string(stacked.x.rows()) +
-                                " equations for " + std::to_string(stacked.x.cols()) +
-                                " base parameters; give longer or more runs");
-  LeastSquaresOptions ls = options.least_squares;
-  ls.column_names = id.parameter_names;
   Eigen::VectorXd weight;
-  id.fit = detail::chain_fit(equations, stacked, n, options.weighted, ls, weight);
-  id.std_dev = id.fit.std_dev;
-  id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
-  id.fitted = detail::chain_prediction(equations, n, id.fit.theta);
+  (void)detail::fit_at_cutoffs(model, smoothed, options, who, id, weight);
   return id;
 }
 
