@@ -411,8 +411,8 @@ double hidden_value(const sid_test::SuiteArm& a, const SuiteKind& k, int j,
 void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)()) {
   const sid_test::SuiteArm& a = make();
   const int n = a.joints();
-  int right = 0, inseparable = 0, caveated = 0, wrong = 0, total = 0, false_named = 0,
-      false_flagged = 0, controls = 0, flagged_effect = 0;
+  int right = 0, inseparable = 0, caveated = 0, below_limit = 0, wrong = 0, total = 0,
+      false_named = 0, false_flagged = 0, controls = 0, flagged_effect = 0;
   double seconds = 0.0, worst = 0.0, worst_ratio = 0.0;
   std::string report;
   for (auto _ : state) {
@@ -431,7 +431,8 @@ void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)())
     };
     const auto record = [&](const std::string& hidden, unsigned seed, const sid::ChainDiagnosis& r,
                             const sid::ChainMotionCheck& m, const std::string& expected,
-                            double time) {
+                            double time, const sid::DriveTerm& term = {},
+                            double hidden_size = 0.0) {
       std::string named, not_separable, beyond;
       bool named_with_caveat = !r.named.empty();
       for (const auto& e : r.named) {
@@ -453,6 +454,15 @@ void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)())
                         ("," + not_separable + ",").find("," + expected + ",") != std::string::npos;
       // Said not separable and nothing named, or what is named carries a caveat.
       const bool insep = said && (r.named.empty() || named_with_caveat);
+      // Nothing named, and the hidden term's test says this log shows it only from a size above
+      // the one hidden (at the hidden Stribeck curve's width).
+      double limit = std::numeric_limits<double>::quiet_NaN();
+      for (const auto& t : r.not_named)
+        if (t.id == expected && std::isfinite(t.detection_limit) &&
+            (t.term.kind != sid::DriveTermKind::Stribeck ||
+             std::abs(t.term.velocity - term.velocity) < 1e-12))
+          limit = t.detection_limit;
+      const bool below = !ok && !insep && r.named.empty() && std::abs(hidden_size) < limit;
       if (expected.empty()) {
         ++controls;
         false_named += r.named.empty() ? 0 : 1;
@@ -462,7 +472,8 @@ void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)())
         right += ok ? 1 : 0;
         inseparable += insep ? 1 : 0;
         caveated += insep && !r.named.empty() ? 1 : 0;
-        wrong += ok || insep ? 0 : 1;
+        below_limit += below ? 1 : 0;
+        wrong += ok || insep || below ? 0 : 1;
         flagged_effect += m.beyond.empty() ? 0 : 1;
       }
       ++total;
@@ -471,15 +482,25 @@ void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)())
       char line[640];
       std::snprintf(line, sizeof line,
                     "  %-20s seed %2u | %-5s | %-44s | motion %4.2f of threshold%s%s | %.2f s | "
-                    "not separable: %s\n",
+                    "not separable: %s%s\n",
                     hidden.c_str(), seed,
                     ok      ? "right"
                     : insep ? "insep"
+                    : below ? "below"
                             : "WRONG",
                     named.empty() ? "(none)" : named.c_str(), ratio,
                     beyond.empty() ? "" : ", beyond: ", beyond.c_str(), time,
-                    not_separable.empty() ? "-" : not_separable.c_str());
+                    not_separable.empty() ? "-" : not_separable.c_str(),
+                    below ? (" | hidden " + std::to_string(std::abs(hidden_size)) +
+                             ", shown from " + std::to_string(limit))
+                                .c_str()
+                          : "");
       report += line;
+      if (!ok && !insep && !below && !expected.empty())
+        for (const auto& t : r.not_named)
+          if (t.id == expected)
+            report += "      " + t.id + " at " + std::to_string(t.term.velocity) + ": " + t.reason +
+                      ", shown from " + std::to_string(t.detection_limit) + "\n";
     };
     double time = 0.0;
     for (unsigned seed = 1; seed <= 10; ++seed) {
@@ -495,14 +516,14 @@ void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)())
         const double value = hidden_value(a, k, j, plain.run.truth);
         const auto [r, m] = whole_check(sid_test::suite_nominal(a, rotor ? j : -1),
                                         sid_test::suite_run(a, {{term, value}}, 1), time);
-        record(sid::drive_term_id(term), 1, r, m, sid::drive_term_id(term), time);
+        record(sid::drive_term_id(term), 1, r, m, sid::drive_term_id(term), time, term, value);
       }
     for (int j = 0; j < n; ++j) {
       const std::string id = "angle_offset_q" + std::to_string(j + 1);
       const sid::DriveTerm joint{sid::DriveTermKind::Offset, j, false};
       const auto [r, m] = whole_check(sid_test::suite_nominal(a),
                                       sid_test::suite_run(a, {{joint, 0.05, true}}, 1), time);
-      record(id, 1, r, m, id, time);
+      record(id, 1, r, m, id, time, joint, 0.05);
     }
   }
   std::printf(
@@ -510,14 +531,17 @@ void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)())
       "%s\n%s"
       "effect-free logs: %d; a term named on %d, motion flagged on %d (largest final error %.2f "
       "of the threshold)\nhidden terms: %d logs; named exactly %d; said not separable %d (%d of "
-      "them with the look-alike named under a caveat); wrong %d; motion flagged on %d\n"
+      "them with the look-alike named under a caveat); below the size the log shows %d; wrong "
+      "%d; motion flagged on %d\n"
       "whole check (diagnosis + motion check) mean %.2f s, worst %.2f s per log\n\n",
       a.name.c_str(), n, a.duration, a.relative_noise ? "1 % of each joint's RMS" : "0.1 N m",
       report.c_str(), controls, false_named, false_flagged, worst_ratio, total - controls, right,
-      inseparable, caveated, wrong, flagged_effect, seconds / std::max(total, 1), worst);
+      inseparable, caveated, below_limit, wrong, flagged_effect, seconds / std::max(total, 1),
+      worst);
   state.counters["false_named"] = false_named;
   state.counters["false_flagged"] = false_flagged;
   state.counters["right"] = right;
+  state.counters["below_limit"] = below_limit;
   state.counters["wrong"] = wrong;
 }
 

@@ -105,7 +105,11 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
         << (e.caveat.empty() ? "" : "    but: " + e.caveat + "\n" + separating(o, e));
   out << "\nnot named:\n";
   for (const auto& t : r.not_named)
-    out << "  " << t.id << width(t.term) << ": " << t.reason << "\n";
+    out << "  " << t.id << width(t.term) << ": " << t.reason
+        << (std::isfinite(t.detection_limit) ? "; this log shows it from about " +
+                                                   number("%.2g", t.detection_limit) + " " + t.unit
+                                             : "")
+        << "\n";
   double unexplained = 0.0;
   for (Eigen::Index j = 0; j < r.unexplained_rms.size(); ++j)
     unexplained = std::max(unexplained, r.unexplained_rms[j] / r.noise_floor[j]);
@@ -156,6 +160,8 @@ nlohmann::json test_json(const sid::ChainEffectTest& t) {
                       {"cv_drop", t.cv_drop}, {"practical_size", to_json_array(t.practical_size)},
                       {"reason", t.reason},   {"caveat", t.caveat}};
   j["look_alikes"] = t.look_alikes;
+  j["detection_limit"] = std::isfinite(t.detection_limit) ? nlohmann::json(t.detection_limit)
+                                                          : nlohmann::json(nullptr);
   if (t.term.kind == sid::DriveTermKind::Stribeck) j["stribeck_velocity"] = t.term.velocity;
   return j;
 }

@@ -65,6 +65,33 @@ TEST(DiagnoseChain, NamesTheHiddenDriveTermOnItsJointAndNothingWithoutOne) {
 #endif
 }
 
+// A term the diagnosis does not name is reported with the size from which the log would show
+// it: hidden well below that size it goes unnamed as "not significant", hidden well above it
+// is named.
+TEST(DiagnoseChain, SaysFromWhatSizeTheLogShowsATermItDidNotName) {
+  const sid::ChainModel nominal = tx40_nominal();
+  const sid::ChainDiagnosis control = sid::diagnose_chain(nominal, {tx40_hidden_term_run({}, 2)});
+  ASSERT_TRUE(control.named.empty());
+  double limit = std::nan("");
+  for (const auto& t : control.not_named) {
+    if (t.reason.rfind("not significant", 0) != 0) continue;
+    SCOPED_TRACE(t.id);
+    // Not significant after Holm means below the first step's level: |value| under the limit.
+    ASSERT_TRUE(std::isfinite(t.detection_limit));
+    EXPECT_LE(std::abs(t.value), t.detection_limit);
+    EXPECT_GT(t.detection_limit, 3.0 * t.std);
+    if (t.id == "coulomb_j3") limit = t.detection_limit;
+  }
+  ASSERT_TRUE(std::isfinite(limit));
+  const sid::DriveTerm coulomb{sid::DriveTermKind::Coulomb, 2, false};
+  const sid::ChainDiagnosis below =
+      sid::diagnose_chain(nominal, {tx40_hidden_term_run({{coulomb, 0.3 * limit}}, 2)});
+  EXPECT_TRUE(below.named.empty()) << ::testing::PrintToString(named_ids(below));
+  const sid::ChainDiagnosis above =
+      sid::diagnose_chain(nominal, {tx40_hidden_term_run({{coulomb, 3.0 * limit}}, 2)});
+  EXPECT_EQ(named_ids(above), std::vector<std::string>{"coulomb_j3"});
+}
+
 // Practical size: a Coulomb level of 0.04 N m on joint 6 (against a torque noise of 0.1 N m) is
 // named by default; with the threshold above its size it is reported as significant but
 // negligible instead, and the model is left as it was.

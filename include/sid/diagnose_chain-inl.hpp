@@ -786,10 +786,13 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     last_tested = tested;
     if (tests.empty()) break;
     const std::vector<double> p = holm_adjusted(p_raw);
+    const double critical_z = std::sqrt(
+        chi_square_critical(options.family_alpha / static_cast<double>(tests.size()), 1.0));
     int best = -1;
     for (std::size_t i = 0; i < tests.size(); ++i) {
       ChainEffectTest& t = tests[i];
       t.p_value = p[i];
+      t.detection_limit = critical_z * t.std;
       const bool positive = t.angle_offset || t.term.kind == DriveTermKind::Offset || t.value > 0.0;
       if (!(t.p_value < options.family_alpha))
         t.reason =
@@ -817,6 +820,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     const Eigen::Index chosen = tested[static_cast<std::size_t>(best)];
     ChainEffectTest named = std::move(tests[static_cast<std::size_t>(best)]);
     named.reason.clear();
+    named.detection_limit = std::numeric_limits<double>::quiet_NaN();
     const DriveTerm chosen_term = named.term;
     const bool chosen_stribeck = !named.angle_offset && chosen_term.kind == DriveTermKind::Stribeck;
     result.named.push_back(std::move(named));

@@ -101,6 +101,10 @@ struct ChainEffectTest {
   double value = 0;  ///< the term's parameter (final fit for a named term, else at its test)
   double std = 0;    ///< its HAC standard deviation
   double wald = 0, p_value = 1;  ///< HAC Wald statistic and Holm-adjusted p-value
+  /// For a tested term that was not named: the smallest |value| its round's Wald test would
+  /// have called significant on its own (family_alpha over the candidates tested), in unit.
+  /// A term hidden below it is beyond what this log can show. NaN where it was not tested.
+  double detection_limit = std::numeric_limits<double>::quiet_NaN();
   double bic_drop = 0, cv_drop = 0;
   /// Per joint: RMS of the change to the torque prediction / the joint's torque noise.
   Eigen::VectorXd practical_size;
