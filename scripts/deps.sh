@@ -18,3 +18,17 @@ sid_install_missing_packages() {
 }
 
 sid_jobs() { nproc 2>/dev/null || echo 2; }
+
+# Builds the Python package into a virtual environment under build/ and runs its tests.
+# $1: a build directory of this checkout whose libraries the extension links (its apps are the
+# CLI the tests compare with); the package is otherwise built as `pip install .` builds it.
+sid_python_package() {
+  local root build venv
+  root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+  build=$1
+  venv="$root/build/python-venv"
+  [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+  SID_PYTHON_PREBUILT="$build" "$venv/bin/python" -m pip install --quiet --disable-pip-version-check \
+    --config-settings=build-dir="$root/build/python" "$root[test]"
+  (cd "$root" && SID_APPS_DIR="$build/apps" "$venv/bin/python" -m pytest -q python/tests)
+}

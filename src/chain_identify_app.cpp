@@ -417,30 +417,17 @@ IvSummary refine_by_iv(const sid::ChainModel& model, const RobotDescription& rob
 
 }  // namespace
 
-int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
-  require(!o.inputs.empty(), "no run given");
-  require(!o.validate_fraction || o.inputs.size() == 1,
+ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChain loaded,
+                                    std::vector<ChainRunFile> held_out) {
+  require(!loaded.runs.empty(), "no run given");
+  require(!o.validate_fraction || loaded.runs.size() == 1,
           "--validate-fraction splits one run; give one run (or use --validate)");
   require(!o.validate_fraction || (*o.validate_fraction > 0.0 && *o.validate_fraction < 1.0),
           "--validate-fraction must be in (0, 1)");
-  if (!o.json.empty()) ensure_writable(o.json, o.force);
-  if (!o.write_urdf.empty()) ensure_writable(o.write_urdf, o.force);
-  // load_chain takes --effects as the exact list (sid_diagnose's --drives); here it adds.
-  ChainIdentifyAppOptions exact = o;
-  exact.effects.clear();
-  LoadedChain loaded =
-      load_chain(exact, identify_drive_term_kinds(o.effects, o.no_default_effects));
   const RobotDescription& robot = loaded.robot;
-  require(o.write_urdf.empty() || !robot.urdf.empty(),
-          "--write-urdf needs a URDF as --robot, not a DH table");
-  const int n = robot.chain.joints();
   const sid::ChainModel& model = loaded.model;
   const sid::ChainIdentifyOptions& options = loaded.options;
   std::vector<ChainRunFile>& runs = loaded.runs;
-  std::vector<ChainRunFile> held_out;
-  for (const auto& f : o.validate)
-    held_out.push_back(load_run(f, loaded.transmission, loaded.motor_side,
-                                chain_columns(o.columns, n, "--columns")));
   if (o.validate_fraction) {
     try {
       auto [first, last] = sid::split_run(runs.front().data, 1.0 - *o.validate_fraction);
@@ -465,7 +452,8 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
   id.fitted.source = runs.size() == 1 ? runs.front().file : "all runs";
   const IvSummary iv =
       o.estimator == "iv" ? refine_by_iv(model, robot, data, runs, options, id) : IvSummary{};
-  if (iv.used && !iv.applied) std::cerr << app_name << ": warning: " << iv.message << "\n";
+  std::vector<std::string> warnings;
+  if (iv.used && !iv.applied) warnings.push_back(iv.message);
   std::vector<sid::ChainPrediction> validation;
   for (const auto& r : held_out) {
     try {
@@ -476,29 +464,60 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
     validation.back().source = r.file;
   }
   // The consistent fit stays near the description where the data say nothing.
-  const sid::ChainConsistentFit consistent =
+  sid::ChainConsistentFit consistent =
       sid::consistent_chain_parameters(model, id, description_prior(robot, model));
-  std::string written;
+  if (id.fit.ill_conditioned) warnings.push_back(id.fit.message);
+  std::string text = report_text(o, model, id, validation, consistent, robot.link_names, iv);
+  nlohmann::json json = report_json(o, model, id, validation, consistent, iv);
+  return {std::move(loaded), std::move(id),   std::move(validation), std::move(consistent),
+          std::move(text),   std::move(json), std::move(warnings)};
+}
+
+std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& what) {
+  const RobotDescription& robot = r.loaded.robot;
+  require(!robot.urdf.empty(), what + " needs a URDF as the robot, not a DH table");
+  if (!r.consistent.converged)
+    throw InputError(what + ": the physically consistent fit did not converge in " +
+                     std::to_string(r.consistent.iterations) +
+                     " Newton steps; its links would not be a result");
+  if (!r.consistent.fits_estimate)
+    throw InputError(what + ": real bodies do not reproduce the estimate (misfit " +
+                     number("%.3g", r.consistent.misfit) + " where noise alone gives at most " +
+                     number("%.3g", misfit_limit(static_cast<double>(r.id.base.rank()))) +
+                     "; a drive term the data have may be missing from the effects)");
+  std::vector<sid::LinkParameters<double>> phi;
+  for (int i = 0; i < robot.chain.joints(); ++i)
+    phi.push_back(r.consistent.theta.segment<10>(10 * i));
+  return urdf_with_link_parameters(robot.urdf, robot.base, robot.tip, robot.link_names, phi);
+}
+
+int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
+  require(!o.inputs.empty(), "no run given");
+  if (!o.json.empty()) ensure_writable(o.json, o.force);
+  if (!o.write_urdf.empty()) ensure_writable(o.write_urdf, o.force);
+  // load_chain takes --effects as the exact list (sid_diagnose's --drives); here it adds.
+  ChainIdentifyAppOptions exact = o;
+  exact.effects.clear();
+  LoadedChain loaded =
+      load_chain(exact, identify_drive_term_kinds(o.effects, o.no_default_effects));
+  require(o.write_urdf.empty() || !loaded.robot.urdf.empty(),
+          "--write-urdf needs a URDF as --robot, not a DH table");
+  std::vector<ChainRunFile> held_out;
+  for (const auto& f : o.validate)
+    held_out.push_back(
+        load_run(f, loaded.transmission, loaded.motor_side,
+                 chain_columns(o.columns, loaded.robot.chain.joints(), "--columns")));
+  const ChainIdentifyResult r = identify_loaded(o, std::move(loaded), std::move(held_out));
+  (o.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
+  for (const auto& w : r.warnings) std::cerr << app_name << ": warning: " << w << "\n";
+  if (!o.json.empty()) write_json(o.json, r.json);
   if (!o.write_urdf.empty()) {
-    std::vector<sid::LinkParameters<double>> phi;
-    for (int i = 0; i < n; ++i) phi.push_back(consistent.theta.segment<10>(10 * i));
-    written = urdf_with_link_parameters(robot.urdf, robot.base, robot.tip, robot.link_names, phi);
-  }
-  (o.json == "-" ? std::cerr : std::cout)
-      << report_text(o, model, id, validation, consistent, robot.link_names, iv) << std::flush;
-  if (id.fit.ill_conditioned) std::cerr << app_name << ": warning: " << id.fit.message << "\n";
-  if (!o.json.empty()) write_json(o.json, report_json(o, model, id, validation, consistent, iv));
-  if (!o.write_urdf.empty()) {
-    if (!consistent.converged)
-      throw InputError("--write-urdf: the physically consistent fit did not converge in " +
-                       std::to_string(consistent.iterations) + " Newton steps; " + o.write_urdf +
-                       " is not written (its links would not be a result)");
-    if (!consistent.fits_estimate)
-      throw InputError("--write-urdf: real bodies do not reproduce the estimate (misfit " +
-                       number("%.3g", consistent.misfit) + " where noise alone gives at most " +
-                       number("%.3g", misfit_limit(static_cast<double>(id.base.rank()))) +
-                       "; a drive term the data have may be missing from --effects); " +
-                       o.write_urdf + " is not written");
+    std::string written;
+    try {
+      written = consistent_urdf(r, "--write-urdf");
+    } catch (const InputError& e) {
+      throw InputError(std::string(e.what()) + "; " + o.write_urdf + " is not written");
+    }
     std::ofstream file(o.write_urdf, std::ios::binary);
     file << written;
     if (!file) throw std::runtime_error("cannot write '" + o.write_urdf + "'");

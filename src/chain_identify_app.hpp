@@ -3,10 +3,13 @@
 /// @brief sid_identify --robot: identification of any serial chain from its robot description
 /// and its logs, with the text report and the JSON.
 
+#include <sid/chain_consistency.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/model/chain_model.hpp>
 
 #include "robot_description.hpp"
+
+#include <nlohmann/json.hpp>
 
 #include <optional>
 #include <string>
@@ -72,6 +75,25 @@ std::vector<sid::DriveTermKind> identify_drive_term_kinds(const std::string& eff
 /// DH table, which has no inertias. The prior a physically consistent fit stays near.
 Eigen::VectorXd description_prior(const RobotDescription& robot, const sid::ChainModel& model);
 
+/// @brief An identification as sid_identify --robot makes it, with its report.
+struct ChainIdentifyResult {
+  LoadedChain loaded;  ///< the fitted runs (the first cut by --validate-fraction)
+  sid::ChainIdentification id;
+  std::vector<sid::ChainPrediction> validation;  ///< one per held-out run
+  sid::ChainConsistentFit consistent;
+  std::string text;                   ///< the report sid_identify prints
+  nlohmann::json json;                ///< what --json writes
+  std::vector<std::string> warnings;  ///< said on stderr by the tool
+};
+/// @brief Identifies loaded's model from its runs (options o: estimator, validate_fraction,
+/// cutoff, ...) and predicts held_out.
+/// @throws InputError naming what is wrong with the runs or options.
+ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChain loaded,
+                                    std::vector<ChainRunFile> held_out);
+/// @brief The robot's URDF with the physically consistent links of r.
+/// @throws InputError (prefixed with what) for a DH table, an unconverged fit or bodies that do
+/// not reproduce the estimate: links that are no result are never written.
+std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& what);
 /// @brief Runs the identification and prints the report (the JSON too with --json).
 /// @return the exit code; bad input throws InputError.
 int identify_robot(const ChainIdentifyAppOptions& options, const char* app_name);

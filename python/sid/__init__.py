@@ -1,0 +1,21 @@
+"""sid: dynamic parameters of robot arms from measured joint angles and torques.
+
+Each measured angle is smoothed with a cubic smoothing spline, its rates and accelerations are
+taken from the spline, and the linear model tau = Y(q, qd, qdd) theta is solved by least squares.
+The package calls the same compiled code as the command-line tools (sid_identify, ...), so it
+gives their numbers and their messages: bad input raises ValueError.
+
+    import sid
+    robot = sid.Robot.from_urdf("arm.urdf", tip="tool0")
+    run = sid.Run.from_csv("run.csv")
+    fit = sid.identify(robot, [run], validate=[sid.Run.from_csv("other.csv")])
+    print(fit.parameter_names, fit.theta, fit.std_dev, fit.validation[0].relative_residual)
+"""
+
+from __future__ import annotations
+
+from ._core import Fit, Prediction, Robot, Run, Spline, identify, smooth
+from .bag import read_bag
+
+__all__ = ["Fit", "Prediction", "Robot", "Run", "Spline", "identify", "read_bag", "smooth"]
+__version__ = "0.1.0"

@@ -1,0 +1,361 @@
+"""Robots, runs and identification: the Python face of sid_identify --robot."""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from typing import Any, Iterable, Mapping, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _sid
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+class Robot:
+    """A serial chain from its URDF or DH table, as ``sid_identify --robot`` reads it."""
+
+    def __init__(self, handle: Any) -> None:
+        self._handle = handle
+
+    @classmethod
+    def from_urdf(
+        cls,
+        path: PathLike,
+        base: Optional[str] = None,
+        tip: Optional[str] = None,
+        transmission: Optional[PathLike] = None,
+        hold: Optional[Mapping[str, float]] = None,
+    ) -> "Robot":
+        """The chain of a URDF from ``base`` to ``tip`` (default: the root and its one leaf).
+
+        transmission: a YAML (or URDF) transmission file; the runs are then motor-side.
+        hold: joints off the chain held at the given values [rad or m], e.g. {"finger": 0.0}.
+        """
+        held = ",".join(f"{name}={float(value)!r}" for name, value in (hold or {}).items())
+        return cls(
+            _sid.load_robot(
+                os.fspath(path),
+                base or "",
+                tip or "",
+                os.fspath(transmission) if transmission is not None else "",
+                held,
+            )
+        )
+
+    @classmethod
+    def from_dh(cls, path: PathLike, transmission: Optional[PathLike] = None) -> "Robot":
+        """A chain from a DH table (the format ``sid_identify --robot`` reads)."""
+        robot = cls(
+            _sid.load_robot(
+                os.fspath(path),
+                "",
+                "",
+                os.fspath(transmission) if transmission is not None else "",
+                "",
+            )
+        )
+        if robot._handle.urdf:
+            raise ValueError(f"{os.fspath(path)} is a URDF, not a DH table: use Robot.from_urdf")
+        return robot
+
+    @property
+    def joint_names(self) -> list[str]:
+        """The chain's joints from base to tip: the runs' columns, in this order."""
+        return list(self._handle.joint_names)
+
+    @property
+    def joints(self) -> int:
+        return len(self._handle.joint_names)
+
+    @property
+    def motor_side(self) -> bool:
+        """Whether runs are motor-side (a transmission was given)."""
+        return bool(self._handle.motor_side)
+
+    def joint_side(self, run: "Run") -> "Run":
+        """The run at the joints: a motor-side run through the transmission (angles, and
+        torques or currents as the transmission scales them); else the run itself."""
+        t, q, tau = _sid.joint_side(self._handle, _as_run(run, "run")._data())
+        return Run(t, q, tau, name=run.name)
+
+    def __repr__(self) -> str:
+        return f"sid.Robot({self._handle.path!r}, joints={self.joint_names})"
+
+
+def _float_array(name: str, value: Any, ndim: int) -> np.ndarray:
+    array = np.asarray(value, dtype=np.float64)
+    if array.ndim == 1 and ndim == 2:
+        array = array.reshape(-1, 1)
+    if array.ndim != ndim:
+        raise ValueError(f"{name} must be a {ndim}-D array, got shape {array.shape}")
+    return np.ascontiguousarray(array)
+
+
+class Run:
+    """A log: times t (N,) [s], angles q (N, n) [rad] and torques tau (N, n) [N m], one column
+    per joint in the robot's order."""
+
+    def __init__(self, t: Any, q: Any, tau: Any, name: str = "run") -> None:
+        self.t = _float_array("t", t, 1)
+        self.q = _float_array("q", q, 2)
+        self.tau = _float_array("tau", tau, 2)
+        self.name = str(name)
+        if self.q.shape[0] != self.t.shape[0] or self.tau.shape[0] != self.t.shape[0]:
+            raise ValueError(
+                f"{self.name}: t, q and tau must have the same number of rows "
+                f"(t: {self.t.shape[0]}, q: {self.q.shape[0]}, tau: {self.tau.shape[0]})"
+            )
+        if self.q.shape[1] != self.tau.shape[1]:
+            raise ValueError(
+                f"{self.name}: q and tau must have the same number of joints "
+                f"(q: {self.q.shape[1]}, tau: {self.tau.shape[1]})"
+            )
+
+    @property
+    def joints(self) -> int:
+        return int(self.q.shape[1])
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def __repr__(self) -> str:
+        return f"sid.Run({self.name!r}, samples={len(self)}, joints={self.joints})"
+
+    @classmethod
+    def from_csv(
+        cls,
+        path: PathLike,
+        columns: Optional[Mapping[str, str]] = None,
+        joints: Optional[int] = None,
+    ) -> "Run":
+        """A log from CSV with columns t, q1..qn, tau1..taun (others ignored), as the tools read it.
+
+        columns renames some: {"t": "time", "q1": "pos_1", "tau1": "effort_1", ...}.
+        joints: n; by default the number of q1, q2, ... columns (after renaming).
+        """
+        path = os.fspath(path)
+        renames = dict(columns or {})
+        if joints is None:
+            names = set(_sid.csv_column_names(path))
+            joints = 0
+            while renames.get(f"q{joints + 1}", f"q{joints + 1}") in names:
+                joints += 1
+            if joints == 0:
+                raise ValueError(f"{path}: no column 'q1' (give columns= or joints=)")
+        mapping = ",".join(f"{key}={value}" for key, value in renames.items())
+        t, q, tau = _sid.read_chain_csv(path, mapping, int(joints))
+        return cls(t, q, tau, name=path)
+
+    @classmethod
+    def from_dataframe(
+        cls, df: Any, columns: Optional[Mapping[str, str]] = None, joints: Optional[int] = None,
+        name: str = "dataframe",
+    ) -> "Run":
+        """A log from a pandas DataFrame with the columns from_csv takes."""
+        renames = dict(columns or {})
+        if joints is None:
+            joints = 0
+            while renames.get(f"q{joints + 1}", f"q{joints + 1}") in df.columns:
+                joints += 1
+            if joints == 0:
+                raise ValueError(f"{name}: no column 'q1' (give columns= or joints=)")
+
+        def column(key: str) -> np.ndarray:
+            label = renames.get(key, key)
+            if label not in df.columns:
+                raise ValueError(
+                    f"{name}: no column '{label}'; columns are: {', '.join(map(str, df.columns))}"
+                )
+            return df[label].to_numpy(dtype=np.float64)
+
+        q = np.column_stack([column(f"q{j + 1}") for j in range(joints)])
+        tau = np.column_stack([column(f"tau{j + 1}") for j in range(joints)])
+        return cls(column("t"), q, tau, name=name)
+
+    def _data(self) -> Any:
+        return _sid._RunData(self.name, self.t, self.q, self.tau)
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """How a parameter set predicts a run's torques (the CLI's JSON: validation)."""
+
+    name: str
+    residual_rms: np.ndarray  #: per joint, over the fitted equations [N m]
+    residual_rms_measured: np.ndarray  #: per joint, every sample as recorded [N m]
+    relative_residual: float  #: ||tau - Y theta|| / ||tau|| over the fitted equations
+    relative_residual_measured: float  #: the same over the log as recorded
+
+    @classmethod
+    def _from(cls, d: Mapping[str, Any]) -> "Prediction":
+        return cls(
+            name=d["name"],
+            residual_rms=np.asarray(d["residual_rms"]),
+            residual_rms_measured=np.asarray(d["residual_rms_measured"]),
+            relative_residual=float(d["relative_residual"]),
+            relative_residual_measured=float(d["relative_residual_measured"]),
+        )
+
+
+class Fit:
+    """An identification: the base parameters, their uncertainty and how well they predict."""
+
+    def __init__(self, handle: Any, robot: Robot) -> None:
+        self._handle = handle
+        self._robot = robot
+        fitted = handle.fitted
+        self.parameter_names: list[str] = list(handle.parameter_names)
+        self.theta: np.ndarray = np.asarray(handle.theta)
+        #: HAC standard deviations (residuals on smoothed data are correlated).
+        self.std_dev: np.ndarray = np.asarray(handle.std_dev)
+        self.residual_rms: np.ndarray = np.asarray(fitted["residual_rms"])
+        self.residual_rms_measured: np.ndarray = np.asarray(fitted["residual_rms_measured"])
+        self.relative_residual: float = float(fitted["relative_residual"])
+        self.validation: list[Prediction] = [Prediction._from(v) for v in handle.validation]
+        #: The text sid_identify prints, and the warnings it says on stderr.
+        self.report: str = handle.report
+        self.warnings: list[str] = list(handle.warnings)
+
+    @property
+    def robot(self) -> Robot:
+        return self._robot
+
+    def to_dict(self) -> dict[str, Any]:
+        """Everything ``sid_identify --robot --json`` writes, under the same keys."""
+        return json.loads(self._handle.json())
+
+    def predict(self, run: Run) -> np.ndarray:
+        """The model's torques (N, n) at the joints, on the run's spline-smoothed motion at the
+        fit's cutoffs (a motor-side run goes through the transmission first)."""
+        return np.asarray(self._handle.predict(_as_run(run, "run")._data()))
+
+    def write_urdf(self, path: PathLike, force: bool = False) -> None:
+        """A copy of the robot's URDF with the physically consistent links of this fit.
+
+        Refuses (ValueError) where the consistent fit did not converge or real bodies do not
+        reproduce the estimate, and an existing file unless force.
+        """
+        path = os.fspath(path)
+        if os.path.exists(path) and not force:
+            raise ValueError(f"{path} exists; pass force=True to overwrite it")
+        text = self._handle.consistent_urdf()
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+
+    def __repr__(self) -> str:
+        return (
+            f"sid.Fit({len(self.theta)} base parameters, relative residual "
+            f"{self.relative_residual:.4g})"
+        )
+
+
+def _as_run(run: Any, what: str) -> Run:
+    if not isinstance(run, Run):
+        raise ValueError(f"{what} must be a sid.Run, not {type(run).__name__}")
+    return run
+
+
+def _join(value: Union[None, str, Iterable[Any]]) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, str):
+        return value
+    return ",".join(str(v) for v in value)
+
+
+def identify(
+    robot: Robot,
+    runs: Union[Run, Sequence[Run]],
+    validate: Union[Run, Sequence[Run]] = (),
+    estimator: str = "ls",
+    effects: Union[None, str, Sequence[str]] = None,
+    no_default_effects: bool = False,
+    cutoff: Union[None, float, Sequence[float]] = None,
+    skip: Optional[float] = None,
+    rest_fraction: Optional[float] = None,
+    coulomb_epsilon: Optional[float] = None,
+    validate_fraction: Optional[float] = None,
+) -> Fit:
+    """Identifies the robot's base parameters from runs, as ``sid_identify --robot`` does.
+
+    validate: held-out runs to predict. estimator: "ls", "wls" or "iv". effects: drive term
+    kinds added to viscous friction and armature (default coulomb and offset; "none": rigid
+    bodies only; with no_default_effects they are the whole list). cutoff: the smoothing [Hz],
+    one or one per joint (default: chosen by held-out prediction). The other options are the
+    tool's --skip, --rest-fraction, --coulomb-epsilon and --validate-fraction.
+    """
+    if not isinstance(robot, Robot):
+        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    runs = [runs] if isinstance(runs, Run) else list(runs)
+    validate = [validate] if isinstance(validate, Run) else list(validate)
+    options = _sid._IdentifyOptions()
+    options.estimator = estimator
+    options.effects = _join(effects)
+    options.no_default_effects = bool(no_default_effects)
+    options.cutoff = _join([cutoff] if isinstance(cutoff, (int, float)) else cutoff)
+    options.skip = skip
+    options.rest_fraction = rest_fraction
+    options.coulomb_epsilon = coulomb_epsilon
+    options.validate_fraction = validate_fraction
+    data = [_as_run(r, "runs")._data() for r in runs]
+    held = [_as_run(r, "validate")._data() for r in validate]
+    return Fit(_sid.identify(robot._handle, data, held, options), robot)
+
+
+def smooth(
+    x: Any,
+    y: Any,
+    lam: Optional[float] = None,
+    weights: Any = None,
+    smoothing: str = "gcv",
+) -> "Spline":
+    """The cubic smoothing spline of (x, y): x strictly increasing.
+
+    At a given lam it minimises sum w (y - f)^2 + lam * integral f''^2 (SciPy's
+    make_smoothing_spline(x, y, w, lam); csaps' smooth = 1 / (1 + lam)); without lam, lam
+    minimises the generalized ("gcv") or leave-one-out ("cv") cross-validation score. Returns a
+    spline s callable as s(x, nu=0) for the value (nu = 0), slope (1) or curvature (2); s.lam
+    is the lam used.
+    """
+    xs = _float_array("x", x, 1)
+    ys = _float_array("y", y, 1)
+    w = None if weights is None else _float_array("weights", weights, 1)
+    return Spline(_sid.smooth(xs, ys, lam, w, smoothing))
+
+
+class Spline:
+    """A cubic spline from smooth(): s(x, nu=0) evaluates it (nu = 0, 1, 2) at x, a number or an
+    array; outside the data it continues as a straight line (a natural spline)."""
+
+    def __init__(self, handle: Any) -> None:
+        self._handle = handle
+
+    def __call__(self, x: Any, nu: int = 0) -> Any:
+        array = np.asarray(x, dtype=np.float64)
+        values = np.asarray(self._handle(np.ascontiguousarray(array.reshape(-1)), int(nu)))
+        return float(values[0]) if array.ndim == 0 else values.reshape(array.shape)
+
+    @property
+    def lam(self) -> float:
+        """The penalty weight used (given, or chosen by cross-validation)."""
+        return float(self._handle.lam)
+
+    @property
+    def knots(self) -> np.ndarray:
+        return np.asarray(self._handle.knots)
+
+    @property
+    def dof(self) -> float:
+        """tr A, the fit's equivalent degrees of freedom (NaN at a given lam)."""
+        return float(self._handle.trace)
+
+    @property
+    def sigma(self) -> float:
+        """The noise level the cross-validated fit implies (NaN at a given lam)."""
+        return float(self._handle.sigma)
+
+    def __repr__(self) -> str:
+        return f"sid.Spline(knots={len(self.knots)}, lam={self.lam:.6g})"

@@ -1,0 +1,309 @@
+// sid._sid: the compiled half of the Python package. It holds no logic of its own: each call
+// goes to the code the command-line tools run (src/), so that Python and the CLI give the same
+// numbers and the same messages. The Python half (python/sid) shapes the API.
+#include <sid/identify_chain.hpp>
+#include <sid/smoothing_spline.hpp>
+
+#include "app.hpp"
+#include "chain_identify_app.hpp"
+#include "csv.hpp"
+#include "robot_description.hpp"
+
+#include <nanobind/eigen/dense.h>
+#include <nanobind/nanobind.h>
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/tuple.h>
+#include <nanobind/stl/vector.h>
+
+#include <cmath>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace nb = nanobind;
+using namespace nb::literals;
+
+namespace {
+
+using sid::app::InputError;
+
+/// A robot description with the options that read it, as sid_identify --robot takes them.
+struct Robot {
+  sid::app::ChainIdentifyAppOptions source;
+  std::vector<std::string> joint_names;
+  bool motor_side = false;
+  bool urdf = false;
+  sid::Transmission transmission{1};
+};
+
+Robot load_robot(const std::string& path, const std::string& base, const std::string& tip,
+                 const std::string& transmission, const std::string& hold) {
+  Robot r;
+  r.source.robot = path;
+  r.source.base = base;
+  r.source.tip = tip;
+  r.source.transmission = transmission;
+  r.source.hold = hold;
+  const sid::app::LoadedChain loaded = sid::app::load_chain(r.source, {});
+  r.joint_names = loaded.robot.joint_names;
+  r.motor_side = loaded.motor_side;
+  r.urdf = !loaded.robot.urdf.empty();
+  r.transmission = loaded.transmission;
+  return r;
+}
+
+/// A log as given from Python: its label and samples.
+struct RunData {
+  std::string name;
+  Eigen::VectorXd t;
+  Eigen::MatrixXd q, tau;
+};
+
+sid::app::ChainRunFile chain_run(const RunData& r, const sid::app::LoadedChain& loaded) {
+  const int n = loaded.robot.chain.joints();
+  if (r.q.cols() != n || r.tau.cols() != n)
+    throw InputError(r.name + ": q and tau need one column per joint of the robot (" +
+                     std::to_string(n) + "), got " + std::to_string(r.q.cols()) + " and " +
+                     std::to_string(r.tau.cols()));
+  sid::ChainTrajectory<double> run{r.t, r.q, r.tau};
+  try {
+    run.validate(r.name.c_str());
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
+  if (run.size() < 4)
+    throw InputError(r.name + ": identification needs at least 4 samples, got " +
+                     std::to_string(run.size()));
+  try {
+    if (loaded.motor_side) run = loaded.transmission.joint_side(run);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(r.name + ": " + e.what());
+  }
+  return {r.name, std::move(run)};
+}
+
+/// A motor-side run at the joints (the robot's transmission applied); a joint-side robot's run
+/// as it is.
+std::tuple<Eigen::VectorXd, Eigen::MatrixXd, Eigen::MatrixXd> joint_side(const Robot& robot,
+                                                                         const RunData& data) {
+  sid::ChainTrajectory<double> run{data.t, data.q, data.tau};
+  try {
+    run.validate(data.name.c_str());
+    if (robot.motor_side) run = robot.transmission.joint_side(run);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
+  return {run.t, run.q, run.tau};
+}
+
+/// The options of identify(), named as sid_identify's.
+struct IdentifyOptions {
+  std::string estimator = "ls";
+  std::string effects;
+  bool no_default_effects = false;
+  std::string cutoff;
+  std::optional<double> skip, rest_fraction, coulomb_epsilon, validate_fraction;
+};
+
+/// An identification, as sid_identify --robot makes it.
+class Fit {
+ public:
+  explicit Fit(sid::app::ChainIdentifyResult result) : r_(std::move(result)) {}
+
+  const sid::app::ChainIdentifyResult& result() const { return r_; }
+
+  /// The model's torque at each sample of a run, on its spline-smoothed motion at the fit's
+  /// cutoffs (joint side).
+  Eigen::MatrixXd predict(const RunData& data) const {
+    const sid::app::ChainRunFile run = chain_run(data, r_.loaded);
+    sid::ChainIdentifyOptions options = r_.loaded.options;
+    sid::ChainKinematics<double> k;
+    try {
+      k = sid::smooth_chain_run(run.data, r_.id.cutoff_hz, options);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(data.name + ": " + e.what());
+    }
+    const sid::ChainModel& model = r_.loaded.model;
+    const auto& independent = r_.id.base.independent;
+    Eigen::MatrixXd w(model.joints(), model.parameters());
+    Eigen::MatrixXd tau(k.size(), model.joints());
+    for (Eigen::Index i = 0; i < k.size(); ++i) {
+      const Eigen::VectorXd q = k.q.row(i).transpose(), qd = k.qd.row(i).transpose(),
+                            qdd = k.qdd.row(i).transpose();
+      model.regressor(q, qd, qdd, w);
+      tau.row(i) = (w(Eigen::all, independent) * r_.id.fit.theta).transpose();
+    }
+    return tau;
+  }
+
+ private:
+  sid::app::ChainIdentifyResult r_;
+};
+
+Fit identify(const Robot& robot, const std::vector<RunData>& runs,
+             const std::vector<RunData>& validate, const IdentifyOptions& options) {
+  sid::app::ChainIdentifyAppOptions o = robot.source;
+  o.estimator = options.estimator;
+  o.cutoff = options.cutoff;
+  o.skip = options.skip;
+  o.rest_fraction = options.rest_fraction;
+  o.coulomb_epsilon = options.coulomb_epsilon;
+  o.validate_fraction = options.validate_fraction;
+  o.effects = options.effects;
+  o.no_default_effects = options.no_default_effects;
+  sid::app::require(!runs.empty(), "no run given");
+  sid::app::ChainIdentifyAppOptions exact = o;
+  exact.effects.clear();
+  sid::app::LoadedChain loaded = sid::app::load_chain(
+      exact, sid::app::identify_drive_term_kinds(o.effects, o.no_default_effects));
+  for (const auto& r : runs) loaded.runs.push_back(chain_run(r, loaded));
+  std::vector<sid::app::ChainRunFile> held_out;
+  for (const auto& r : validate) held_out.push_back(chain_run(r, loaded));
+  return Fit(sid::app::identify_loaded(o, std::move(loaded), std::move(held_out)));
+}
+
+/// A smoothing spline fitted to (x, y), callable as s(x, nu).
+class Spline {
+ public:
+  explicit Spline(sid::SmoothingFit<double> fit) : fit_(std::move(fit)) {}
+  Eigen::VectorXd operator()(const Eigen::VectorXd& x, int nu) const {
+    if (nu < 0 || nu > 2)
+      throw std::invalid_argument("nu must be 0, 1 or 2, not " + std::to_string(nu));
+    return fit_.spline.evaluate(x, nu);
+  }
+  const sid::SmoothingFit<double>& fit() const { return fit_; }
+
+ private:
+  sid::SmoothingFit<double> fit_;
+};
+
+Spline smooth(const Eigen::VectorXd& x, const Eigen::VectorXd& y, std::optional<double> lam,
+              std::optional<Eigen::VectorXd> weights, const std::string& smoothing) {
+  if (x.size() != y.size())
+    throw std::invalid_argument(
+        "x and y must have the same length (x: " + std::to_string(x.size()) +
+        ", y: " + std::to_string(y.size()) + ")");
+  Eigen::VectorXd dy = Eigen::VectorXd::Ones(x.size());
+  if (weights) {
+    if (weights->size() != x.size())
+      throw std::invalid_argument("weights must have one entry per point (" +
+                                  std::to_string(x.size()) + "), got " +
+                                  std::to_string(weights->size()));
+    for (Eigen::Index i = 0; i < weights->size(); ++i)
+      if (!((*weights)[i] > 0.0) || !std::isfinite((*weights)[i]))
+        throw std::invalid_argument("weights must be finite and > 0 (weights[" + std::to_string(i) +
+                                    "] is not)");
+    dy = weights->cwiseSqrt().cwiseInverse();
+  }
+  const sid::SmoothingSpline<double> spline(x);
+  if (lam) {
+    if (!(*lam >= 0.0) || std::isnan(*lam)) throw std::invalid_argument("lam must be >= 0");
+    const double p = *lam == 0.0 ? std::numeric_limits<double>::infinity() : 1.0 / *lam;
+    return Spline(spline.fit_penalized(y, dy, p));
+  }
+  if (smoothing != "gcv" && smoothing != "cv")
+    throw std::invalid_argument("smoothing must be 'gcv' or 'cv' (or give lam), not '" + smoothing +
+                                "'");
+  return Spline(spline.fit_cross_validated(
+      y, dy, smoothing == "gcv" ? sid::SmoothingCriterion::Gcv : sid::SmoothingCriterion::Cv));
+}
+
+/// A chain log from a CSV file, by sid_identify's column rules.
+std::tuple<Eigen::VectorXd, Eigen::MatrixXd, Eigen::MatrixXd> read_chain_csv(
+    const std::string& path, const std::string& columns, int joints) {
+  const sid::app::CsvTable table = sid::app::read_csv(path);
+  const sid::ChainTrajectory<double> run = sid::app::chain_trajectory_from_table(
+      table, joints, sid::app::chain_columns(columns, joints, "columns"));
+  return {run.t, run.q, run.tau};
+}
+
+std::vector<std::string> csv_column_names(const std::string& path) {
+  return sid::app::read_csv(path).names;
+}
+
+nb::dict prediction_dict(const sid::ChainPrediction& p) {
+  nb::dict d;
+  d["name"] = p.source;
+  d["residual_rms"] = p.residual_rms;
+  d["residual_rms_measured"] = p.measured_residual_rms;
+  d["relative_residual"] = p.relative_residual;
+  d["relative_residual_measured"] = p.measured_relative_residual;
+  return d;
+}
+
+}  // namespace
+
+NB_MODULE(_sid, m) {
+  m.doc() = "The compiled core of sid; use the sid package.";
+  nb::register_exception_translator([](const std::exception_ptr& p, void*) {
+    try {
+      std::rethrow_exception(p);
+    } catch (const InputError& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const sid::SmoothingError& e) {
+      PyErr_SetString(PyExc_RuntimeError, e.what());
+    }
+  });
+
+  nb::class_<Robot>(m, "_Robot")
+      .def_ro("joint_names", &Robot::joint_names)
+      .def_ro("motor_side", &Robot::motor_side)
+      .def_ro("urdf", &Robot::urdf)
+      .def_prop_ro("path", [](const Robot& r) { return r.source.robot; });
+  m.def("joint_side", &joint_side, "robot"_a, "run"_a, nb::call_guard<nb::gil_scoped_release>());
+  m.def("load_robot", &load_robot, "path"_a, "base"_a, "tip"_a, "transmission"_a, "hold"_a,
+        nb::call_guard<nb::gil_scoped_release>());
+
+  nb::class_<RunData>(m, "_RunData")
+      .def(nb::init<std::string, Eigen::VectorXd, Eigen::MatrixXd, Eigen::MatrixXd>(), "name"_a,
+           "t"_a, "q"_a, "tau"_a);
+
+  nb::class_<IdentifyOptions>(m, "_IdentifyOptions")
+      .def(nb::init<>())
+      .def_rw("estimator", &IdentifyOptions::estimator)
+      .def_rw("effects", &IdentifyOptions::effects)
+      .def_rw("no_default_effects", &IdentifyOptions::no_default_effects)
+      .def_rw("cutoff", &IdentifyOptions::cutoff)
+      .def_rw("skip", &IdentifyOptions::skip)
+      .def_rw("rest_fraction", &IdentifyOptions::rest_fraction)
+      .def_rw("coulomb_epsilon", &IdentifyOptions::coulomb_epsilon)
+      .def_rw("validate_fraction", &IdentifyOptions::validate_fraction);
+
+  nb::class_<Fit>(m, "_Fit")
+      .def_prop_ro("parameter_names", [](const Fit& f) { return f.result().id.parameter_names; })
+      .def_prop_ro("theta", [](const Fit& f) { return Eigen::VectorXd(f.result().id.fit.theta); })
+      .def_prop_ro("std_dev", [](const Fit& f) { return Eigen::VectorXd(f.result().id.std_dev); })
+      .def_prop_ro("fitted", [](const Fit& f) { return prediction_dict(f.result().id.fitted); })
+      .def_prop_ro("validation",
+                   [](const Fit& f) {
+                     nb::list l;
+                     for (const auto& v : f.result().validation) l.append(prediction_dict(v));
+                     return l;
+                   })
+      .def_prop_ro("report", [](const Fit& f) { return f.result().text; })
+      .def_prop_ro("warnings", [](const Fit& f) { return f.result().warnings; })
+      .def("json", [](const Fit& f) { return f.result().json.dump(); })
+      .def("predict", &Fit::predict, "run"_a, nb::call_guard<nb::gil_scoped_release>())
+      .def("consistent_urdf",
+           [](const Fit& f) { return sid::app::consistent_urdf(f.result(), "write_urdf"); });
+  m.def("identify", &identify, "robot"_a, "runs"_a, "validate"_a, "options"_a,
+        nb::call_guard<nb::gil_scoped_release>());
+
+  nb::class_<Spline>(m, "Spline")
+      .def("__call__", &Spline::operator(), "x"_a, "nu"_a = 0,
+           nb::call_guard<nb::gil_scoped_release>())
+      .def_prop_ro("lam", [](const Spline& s) { return s.fit().lambda; })
+      .def_prop_ro("p", [](const Spline& s) { return s.fit().p; })
+      .def_prop_ro("trace", [](const Spline& s) { return s.fit().trace; })
+      .def_prop_ro("sigma", [](const Spline& s) { return s.fit().sigma; })
+      .def_prop_ro("knots", [](const Spline& s) { return s.fit().spline.knots(); });
+  m.def("smooth", &smooth, "x"_a, "y"_a, "lam"_a = nb::none(), "weights"_a = nb::none(),
+        "smoothing"_a = "gcv", nb::call_guard<nb::gil_scoped_release>());
+
+  m.def("read_chain_csv", &read_chain_csv, "path"_a, "columns"_a, "joints"_a,
+        nb::call_guard<nb::gil_scoped_release>());
+  m.def("csv_column_names", &csv_column_names, "path"_a);
+}
