@@ -7,6 +7,7 @@
 #include <iostream>
 #include <optional>
 #include <sid/identify.hpp>
+#include <sid/close_abscissae.hpp>
 #include <sid/smoothing_spline.hpp>
 #include <stdexcept>
 #include <string>
@@ -252,26 +253,42 @@ int smooth(const Options& o) {
     // One dy for the signal (1 without --sigma/--weights), unless a --weights column.
     const double dy = sigma.empty() ? 1.0 : sigma[sigma.size() == 1 ? 0 : k];
     sid::SmoothingFit<double> fit;
+    bool merged = false;  // the spline's knots are not the rows
     switch (mode) {
       case Mode::SConstraint:
         fit = dy_column ? smoother.fit_constrained(y, *dy_column, S)
                         : smoother.fit_constrained(y, dy, S);
         break;
       case Mode::Lambda:
-        fit = dy_column ? smoother.fit_penalized(y, *dy_column, 1.0 / *o.lambda)
-                        : smoother.fit_penalized(y, dy, 1.0 / *o.lambda);
-        break;
       case Mode::Gcv:
       case Mode::Cv: {
+        // Samples so close that the banded system loses its digits are merged (see
+        // sid/close_abscissae.hpp); the spline is still evaluated at every row.
         const auto criterion =
             mode == Mode::Gcv ? sid::SmoothingCriterion::Gcv : sid::SmoothingCriterion::Cv;
-        fit = dy_column ? smoother.fit_cross_validated(y, *dy_column, criterion)
-                        : smoother.fit_cross_validated(y, dy, criterion);
+        const Eigen::VectorXd dys =
+            dy_column ? *dy_column : Eigen::VectorXd::Constant(t.size(), dy);
+        const sid::ScatteredFit<double> scattered = sid::fit_merging_close_abscissae<double>(
+            t, y, dys,
+            [&](const sid::SmoothingSpline<double>& s, const Eigen::VectorXd& ym,
+                const Eigen::VectorXd& dym) {
+              return mode == Mode::Lambda ? s.fit_penalized(ym, dym, 1.0 / *o.lambda)
+                                          : s.fit_cross_validated(ym, dym, criterion);
+            });
+        fit = scattered.fit;
+        merged = scattered.knots < t.size();
+        if (merged && !o.quiet)
+          std::cerr << kName << ": " << signals[k] << ": samples closer than "
+                    << short_number(scattered.merge_tolerance) << " in " << o.time << " merged ("
+                    << t.size() - scattered.knots
+                    << " rows), the banded system being otherwise not numerically positive "
+                       "definite\n";
         break;
       }
     }
     for (int order = 0; order <= 2; ++order)
-      columns.push_back(fit.spline.derivatives_at_knots(order));
+      columns.push_back(merged ? fit.spline.evaluate(t, order)
+                               : fit.spline.derivatives_at_knots(order));
     if (o.quiet) continue;
     std::cerr << kName << ": " << signals[k] << ": p = " << short_number(fit.p)
               << ", lambda = " << short_number(fit.lambda) << ", F = " << short_number(fit.F);

@@ -209,9 +209,8 @@ nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainMod
 
 }  // namespace
 
-int diagnose_robot(const ChainDiagnoseAppOptions& o) {
-  require(!o.chain.inputs.empty(), "no run given");
-  if (!o.chain.json.empty()) ensure_writable(o.chain.json, o.chain.force);
+ChainDiagnoseResult diagnose_loaded(const ChainDiagnoseAppOptions& o, const LoadedChain& loaded) {
+  require(!loaded.runs.empty(), "no run given");
   sid::ChainDiagnoseOptions options;
   if (!o.candidates.empty()) {
     // angle_offset is not a drive term: the rest of the list is.
@@ -238,9 +237,6 @@ int diagnose_robot(const ChainDiagnoseAppOptions& o) {
             "--negligible-size must be in [0, 1)");
     options.negligible_size = *o.negligible_size;
   }
-  // The options are checked before the files are read.
-  const LoadedChain loaded =
-      load_chain(o.chain, {sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature});
   options.identify = loaded.options;
   std::vector<sid::ChainTrajectory<double>> runs;
   for (const auto& r : loaded.runs) runs.push_back(r.data);
@@ -251,9 +247,20 @@ int diagnose_robot(const ChainDiagnoseAppOptions& o) {
     throw InputError(e.what());
   }
   const FreeSimulations sim = free_simulations(loaded, result, options, runs);
-  (o.chain.json == "-" ? std::cerr : std::cout)
-      << report_text(o, loaded.model, result, sim) << std::flush;
-  if (!o.chain.json.empty()) write_json(o.chain.json, report_json(o, loaded.model, result, sim));
+  std::string text = report_text(o, loaded.model, result, sim);
+  nlohmann::json json = report_json(o, loaded.model, result, sim);
+  return {std::move(result), sim.check, sim.note, std::move(text), std::move(json)};
+}
+
+int diagnose_robot(const ChainDiagnoseAppOptions& o) {
+  require(!o.chain.inputs.empty(), "no run given");
+  if (!o.chain.json.empty()) ensure_writable(o.chain.json, o.chain.force);
+  // The options are checked before the files are read.
+  const LoadedChain loaded =
+      load_chain(o.chain, {sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature});
+  const ChainDiagnoseResult r = diagnose_loaded(o, loaded);
+  (o.chain.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
+  if (!o.chain.json.empty()) write_json(o.chain.json, r.json);
   return kExitOk;
 }
 

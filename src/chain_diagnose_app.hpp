@@ -3,10 +3,15 @@
 /// @brief sid_diagnose --robot: which drive terms a chain's logs support beyond its nominal
 /// model, with the text report and the JSON.
 
-#include <optional>
-#include <string>
+#include <sid/cvode/chain_motion_check.hpp>
+#include <sid/diagnose_chain.hpp>
 
 #include "chain_identify_app.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <optional>
+#include <string>
 
 namespace sid::app {
 
@@ -19,6 +24,20 @@ struct ChainDiagnoseAppOptions {
       candidates;  ///< drive term kinds to try; empty: coulomb, offset, armature, spring, viscous
   std::optional<double> negligible_size;
 };
+
+/// @brief A chain diagnosis as sid_diagnose --robot makes it, with its report.
+struct ChainDiagnoseResult {
+  sid::ChainDiagnosis diagnosis;
+  sid::ChainMotionCheck motion;  ///< the free simulations' verdict (empty without one)
+  std::string motion_note;       ///< why there is no verdict, when there is none
+  std::string text;              ///< the report sid_diagnose prints
+  nlohmann::json json;           ///< what --json writes
+};
+
+/// @brief Diagnoses loaded's runs (loaded.model: the nominal model) with the options o gives
+/// (candidates, negligible_size).
+/// @throws InputError naming what is wrong.
+ChainDiagnoseResult diagnose_loaded(const ChainDiagnoseAppOptions& o, const LoadedChain& loaded);
 
 /// @return the exit code; bad input throws InputError.
 int diagnose_robot(const ChainDiagnoseAppOptions& options);

@@ -8,6 +8,7 @@
 #include <sid/banded.hpp>
 #include <sid/base_parameters.hpp>
 #include <sid/butterworth.hpp>
+#include <sid/close_abscissae.hpp>
 #include <sid/cubic_spline.hpp>
 #include <sid/diagnose.hpp>
 #include <sid/diagnose_runs.hpp>

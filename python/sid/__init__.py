@@ -16,6 +16,19 @@ from __future__ import annotations
 
 from ._core import Fit, Prediction, Robot, Run, Spline, identify, smooth
 from .bag import read_bag
+from .diagnosis import Diagnosis, Term, diagnose
 
-__all__ = ["Fit", "Prediction", "Robot", "Run", "Spline", "identify", "read_bag", "smooth"]
+__all__ = [
+    "Diagnosis",
+    "Fit",
+    "Prediction",
+    "Robot",
+    "Run",
+    "Spline",
+    "Term",
+    "diagnose",
+    "identify",
+    "read_bag",
+    "smooth",
+]
 __version__ = "0.1.0"

@@ -245,6 +245,13 @@ class Fit:
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
 
+    def plot(self, run: int = 0) -> Any:
+        """Measured and predicted torque per joint over fitted run `run`, and the residuals
+        (a matplotlib figure)."""
+        from .plots import plot_fit
+
+        return plot_fit(self, run)
+
     def __repr__(self) -> str:
         return (
             f"sid.Fit({len(self.theta)} base parameters, relative residual "
@@ -312,13 +319,15 @@ def smooth(
     weights: Any = None,
     smoothing: str = "gcv",
 ) -> "Spline":
-    """The cubic smoothing spline of (x, y): x strictly increasing.
+    """The cubic smoothing spline of (x, y): x sorted (not decreasing).
 
     At a given lam it minimises sum w (y - f)^2 + lam * integral f''^2 (SciPy's
     make_smoothing_spline(x, y, w, lam); csaps' smooth = 1 / (1 + lam)); without lam, lam
     minimises the generalized ("gcv") or leave-one-out ("cv") cross-validation score. Returns a
     spline s callable as s(x, nu=0) for the value (nu = 0), slope (1) or curvature (2); s.lam
-    is the lam used.
+    is the lam used. Samples at one x are merged into their weighted mean (weights summed); so
+    are samples so close that the fit's banded system loses its digits (s.merge_tolerance),
+    as R's smooth.spline does.
     """
     xs = _float_array("x", x, 1)
     ys = _float_array("y", y, 1)
@@ -345,7 +354,15 @@ class Spline:
 
     @property
     def knots(self) -> np.ndarray:
+        """The abscissae the spline has its knots at: x, with samples closer than
+        merge_tolerance merged."""
         return np.asarray(self._handle.knots)
+
+    @property
+    def merge_tolerance(self) -> float:
+        """The largest gap between samples merged into one: 0 (exact ties only) unless the
+        fit's banded system needed it (near-duplicate abscissae)."""
+        return float(self._handle.merge_tolerance)
 
     @property
     def dof(self) -> float:

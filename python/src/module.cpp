@@ -1,10 +1,12 @@
 // sid._sid: the compiled half of the Python package. It holds no logic of its own: each call
 // goes to the code the command-line tools run (src/), so that Python and the CLI give the same
 // numbers and the same messages. The Python half (python/sid) shapes the API.
+#include <sid/close_abscissae.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/smoothing_spline.hpp>
 
 #include "app.hpp"
+#include "chain_diagnose_app.hpp"
 #include "chain_identify_app.hpp"
 #include "csv.hpp"
 #include "robot_description.hpp"
@@ -118,13 +120,34 @@ class Fit {
   /// The model's torque at each sample of a run, on its spline-smoothed motion at the fit's
   /// cutoffs (joint side).
   Eigen::MatrixXd predict(const RunData& data) const {
-    const sid::app::ChainRunFile run = chain_run(data, r_.loaded);
-    sid::ChainIdentifyOptions options = r_.loaded.options;
+    return predict_joint_side(chain_run(data, r_.loaded).data, data.name);
+  }
+
+  /// Each fitted run at the joints (the first cut by validate_fraction): its label, times,
+  /// measured torque and the model's.
+  nb::list fitted_runs() const {
+    nb::list out;
+    for (const auto& run : r_.loaded.runs) {
+      Eigen::MatrixXd model;
+      {
+        nb::gil_scoped_release release;
+        model = predict_joint_side(run.data, run.file);
+      }
+      out.append(nb::make_tuple(run.file, Eigen::VectorXd(run.data.t),
+                                Eigen::MatrixXd(run.data.tau), model));
+    }
+    return out;
+  }
+
+ private:
+  Eigen::MatrixXd predict_joint_side(const sid::ChainTrajectory<double>& run,
+                                     const std::string& name) const {
+    const sid::ChainIdentifyOptions& options = r_.loaded.options;
     sid::ChainKinematics<double> k;
     try {
-      k = sid::smooth_chain_run(run.data, r_.id.cutoff_hz, options);
+      k = sid::smooth_chain_run(run, r_.id.cutoff_hz, options);
     } catch (const std::invalid_argument& e) {
-      throw InputError(data.name + ": " + e.what());
+      throw InputError(name + ": " + e.what());
     }
     const sid::ChainModel& model = r_.loaded.model;
     const auto& independent = r_.id.base.independent;
@@ -139,7 +162,6 @@ class Fit {
     return tau;
   }
 
- private:
   sid::app::ChainIdentifyResult r_;
 };
 
@@ -165,19 +187,56 @@ Fit identify(const Robot& robot, const std::vector<RunData>& runs,
   return Fit(sid::app::identify_loaded(o, std::move(loaded), std::move(held_out)));
 }
 
+/// The options of diagnose(), named as sid_diagnose --robot's.
+struct DiagnoseOptions {
+  std::string drives, candidates, cutoff;
+  std::optional<double> rest_fraction, negligible_size;
+};
+
+sid::app::ChainDiagnoseResult diagnose(const Robot& robot, const std::vector<RunData>& runs,
+                                       const DiagnoseOptions& options) {
+  sid::app::ChainDiagnoseAppOptions o;
+  o.chain = robot.source;
+  o.chain.effects = options.drives;
+  o.chain.cutoff = options.cutoff;
+  o.chain.rest_fraction = options.rest_fraction;
+  o.candidates = options.candidates;
+  o.negligible_size = options.negligible_size;
+  sid::app::require(!runs.empty(), "no run given");
+  sid::app::LoadedChain loaded =
+      sid::app::load_chain(o.chain, {sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature});
+  for (const auto& r : runs) loaded.runs.push_back(chain_run(r, loaded));
+  return sid::app::diagnose_loaded(o, loaded);
+}
+
+nb::dict effect_test_dict(const sid::ChainEffectTest& t) {
+  nb::dict d;
+  d["id"] = t.id;
+  d["value"] = t.value;
+  d["std"] = t.std;
+  d["unit"] = t.unit;
+  d["p_value"] = t.p_value;
+  d["detection_limit"] = t.detection_limit;
+  d["reason"] = t.reason;
+  d["caveat"] = t.caveat;
+  d["look_alikes"] = t.look_alikes;
+  return d;
+}
+
 /// A smoothing spline fitted to (x, y), callable as s(x, nu).
 class Spline {
  public:
-  explicit Spline(sid::SmoothingFit<double> fit) : fit_(std::move(fit)) {}
+  explicit Spline(sid::ScatteredFit<double> fit) : fit_(std::move(fit)) {}
   Eigen::VectorXd operator()(const Eigen::VectorXd& x, int nu) const {
     if (nu < 0 || nu > 2)
       throw std::invalid_argument("nu must be 0, 1 or 2, not " + std::to_string(nu));
-    return fit_.spline.evaluate(x, nu);
+    return fit_.fit.spline.evaluate(x, nu);
   }
-  const sid::SmoothingFit<double>& fit() const { return fit_; }
+  const sid::SmoothingFit<double>& fit() const { return fit_.fit; }
+  double merge_tolerance() const { return fit_.merge_tolerance; }
 
  private:
-  sid::SmoothingFit<double> fit_;
+  sid::ScatteredFit<double> fit_;
 };
 
 Spline smooth(const Eigen::VectorXd& x, const Eigen::VectorXd& y, std::optional<double> lam,
@@ -198,17 +257,25 @@ Spline smooth(const Eigen::VectorXd& x, const Eigen::VectorXd& y, std::optional<
                                     "] is not)");
     dy = weights->cwiseSqrt().cwiseInverse();
   }
-  const sid::SmoothingSpline<double> spline(x);
-  if (lam) {
-    if (!(*lam >= 0.0) || std::isnan(*lam)) throw std::invalid_argument("lam must be >= 0");
-    const double p = *lam == 0.0 ? std::numeric_limits<double>::infinity() : 1.0 / *lam;
-    return Spline(spline.fit_penalized(y, dy, p));
-  }
-  if (smoothing != "gcv" && smoothing != "cv")
+  if (lam && (!(*lam >= 0.0) || !std::isfinite(*lam)))
+    throw std::invalid_argument("lam must be finite and >= 0");
+  if (!lam && smoothing != "gcv" && smoothing != "cv")
     throw std::invalid_argument("smoothing must be 'gcv' or 'cv' (or give lam), not '" + smoothing +
                                 "'");
-  return Spline(spline.fit_cross_validated(
-      y, dy, smoothing == "gcv" ? sid::SmoothingCriterion::Gcv : sid::SmoothingCriterion::Cv));
+  for (Eigen::Index i = 0; i < x.size(); ++i)
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i]))
+      throw std::invalid_argument("x[" + std::to_string(i) + "] or y[" + std::to_string(i) +
+                                  "] is not finite");
+  const auto criterion =
+      smoothing == "cv" ? sid::SmoothingCriterion::Cv : sid::SmoothingCriterion::Gcv;
+  return Spline(sid::fit_merging_close_abscissae<double>(
+      x, y, dy,
+      [&](const sid::SmoothingSpline<double>& s, const Eigen::VectorXd& ym,
+          const Eigen::VectorXd& dym) {
+        if (!lam) return s.fit_cross_validated(ym, dym, criterion);
+        return *lam == 0.0 ? s.fit_penalized(ym, dym, std::numeric_limits<double>::infinity())
+                           : s.fit_penalized(ym, dym, 1.0 / *lam);
+      }));
 }
 
 /// A chain log from a CSV file, by sid_identify's column rules.
@@ -287,9 +354,49 @@ NB_MODULE(_sid, m) {
       .def_prop_ro("warnings", [](const Fit& f) { return f.result().warnings; })
       .def("json", [](const Fit& f) { return f.result().json.dump(); })
       .def("predict", &Fit::predict, "run"_a, nb::call_guard<nb::gil_scoped_release>())
+      .def("fitted_runs", &Fit::fitted_runs)
+      .def_prop_ro("joint_names", [](const Fit& f) { return f.result().loaded.robot.joint_names; })
       .def("consistent_urdf",
            [](const Fit& f) { return sid::app::consistent_urdf(f.result(), "write_urdf"); });
   m.def("identify", &identify, "robot"_a, "runs"_a, "validate"_a, "options"_a,
+        nb::call_guard<nb::gil_scoped_release>());
+
+  nb::class_<DiagnoseOptions>(m, "_DiagnoseOptions")
+      .def(nb::init<>())
+      .def_rw("drives", &DiagnoseOptions::drives)
+      .def_rw("candidates", &DiagnoseOptions::candidates)
+      .def_rw("cutoff", &DiagnoseOptions::cutoff)
+      .def_rw("rest_fraction", &DiagnoseOptions::rest_fraction)
+      .def_rw("negligible_size", &DiagnoseOptions::negligible_size);
+  using Diagnosis = sid::app::ChainDiagnoseResult;
+  nb::class_<Diagnosis>(m, "_Diagnosis")
+      .def_prop_ro("named",
+                   [](const Diagnosis& d) {
+                     nb::list l;
+                     for (const auto& t : d.diagnosis.named) l.append(effect_test_dict(t));
+                     return l;
+                   })
+      .def_prop_ro("not_named",
+                   [](const Diagnosis& d) {
+                     nb::list l;
+                     for (const auto& t : d.diagnosis.not_named) l.append(effect_test_dict(t));
+                     return l;
+                   })
+      .def_prop_ro("noise_floor",
+                   [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.noise_floor); })
+      .def_prop_ro(
+          "nominal_residual_rms",
+          [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.nominal_residual_rms); })
+      .def_prop_ro(
+          "final_residual_rms",
+          [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.final_residual_rms); })
+      .def_prop_ro("unexplained_rms",
+                   [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.unexplained_rms); })
+      .def_prop_ro("beyond", [](const Diagnosis& d) { return d.motion.beyond; })
+      .def_prop_ro("motion_note", [](const Diagnosis& d) { return d.motion_note; })
+      .def_prop_ro("report", [](const Diagnosis& d) { return d.text; })
+      .def("json", [](const Diagnosis& d) { return d.json.dump(); });
+  m.def("diagnose", &diagnose, "robot"_a, "runs"_a, "options"_a,
         nb::call_guard<nb::gil_scoped_release>());
 
   nb::class_<Spline>(m, "Spline")
@@ -299,7 +406,8 @@ NB_MODULE(_sid, m) {
       .def_prop_ro("p", [](const Spline& s) { return s.fit().p; })
       .def_prop_ro("trace", [](const Spline& s) { return s.fit().trace; })
       .def_prop_ro("sigma", [](const Spline& s) { return s.fit().sigma; })
-      .def_prop_ro("knots", [](const Spline& s) { return s.fit().spline.knots(); });
+      .def_prop_ro("knots", [](const Spline& s) { return s.fit().spline.knots(); })
+      .def_prop_ro("merge_tolerance", &Spline::merge_tolerance);
   m.def("smooth", &smooth, "x"_a, "y"_a, "lam"_a = nb::none(), "weights"_a = nb::none(),
         "smoothing"_a = "gcv", nb::call_guard<nb::gil_scoped_release>());
 

@@ -1,0 +1,95 @@
+"""The chain diagnosis, as ``sid_diagnose --robot`` makes it: which drive terms a robot's logs
+support beyond its nominal model."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Any, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _sid
+from ._core import Robot, Run, _as_run, _join
+
+
+@dataclass(frozen=True)
+class Term:
+    """A candidate term: named (value and std from the final fit) or not (the reason, and the
+    size from which the log would show it)."""
+
+    id: str  #: e.g. coulomb_j3, armature_j5, angle_offset_q2
+    value: float
+    std: float
+    unit: str
+    p_value: float  #: HAC Wald test, Holm-adjusted
+    reason: str = ""  #: why it was not named ("" for a named term)
+    detection_limit: float = float("nan")  #: for a tested, unnamed term [unit]
+    caveat: str = ""  #: for a named term: the inseparable candidates that may stand behind it
+    look_alikes: list[str] = field(default_factory=list)
+
+    @classmethod
+    def _from(cls, d: dict[str, Any]) -> "Term":
+        return cls(**{k: d[k] for k in cls.__dataclass_fields__})
+
+
+class Diagnosis:
+    """What the diagnosis found: the named terms, the others with the reason, the residuals per
+    joint and the free simulations' verdict."""
+
+    def __init__(self, handle: Any, robot: Robot) -> None:
+        self._handle = handle
+        self.robot = robot
+        self.named: list[Term] = [Term._from(d) for d in handle.named]
+        self.not_named: list[Term] = [Term._from(d) for d in handle.not_named]
+        #: per joint [N m]: the torque noise, the nominal and final models' residual RMS, and
+        #: what the final model leaves above the noise.
+        self.noise_floor: np.ndarray = np.asarray(handle.noise_floor)
+        self.nominal_residual_rms: np.ndarray = np.asarray(handle.nominal_residual_rms)
+        self.final_residual_rms: np.ndarray = np.asarray(handle.final_residual_rms)
+        self.unexplained_rms: np.ndarray = np.asarray(handle.unexplained_rms)
+        #: the joints (names) whose free simulation the final model does not explain
+        self.motion_not_explained: list[str] = [robot.joint_names[j] for j in handle.beyond]
+        self.report: str = handle.report
+
+    def to_dict(self) -> dict[str, Any]:
+        """Everything ``sid_diagnose --robot --json`` writes, under the same keys."""
+        return json.loads(self._handle.json())
+
+    def plot(self, ax: Any = None) -> Any:
+        """Per joint: the torque residual of the nominal and the final model against the noise
+        floor, with the named terms (matplotlib)."""
+        from .plots import plot_diagnosis
+
+        return plot_diagnosis(self, ax)
+
+    def __repr__(self) -> str:
+        return f"sid.Diagnosis(named={[t.id for t in self.named]})"
+
+
+def diagnose(
+    robot: Robot,
+    runs: Union[Run, Sequence[Run]],
+    drives: Union[None, str, Sequence[str]] = None,
+    candidates: Union[None, str, Sequence[str]] = None,
+    cutoff: Union[None, float, Sequence[float]] = None,
+    rest_fraction: Optional[float] = None,
+    negligible_size: Optional[float] = None,
+) -> Diagnosis:
+    """Which drive terms the runs support beyond the nominal model (rigid bodies and drives,
+    default viscous friction and armature), as ``sid_diagnose --robot``.
+
+    candidates: the kinds tried (default coulomb, offset, armature, spring, viscous, stribeck and
+    angle_offset). Several runs are judged by the runs each fit has not seen.
+    """
+    if not isinstance(robot, Robot):
+        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    runs = [runs] if isinstance(runs, Run) else list(runs)
+    options = _sid._DiagnoseOptions()
+    options.drives = _join(drives)
+    options.candidates = _join(candidates)
+    options.cutoff = _join([cutoff] if isinstance(cutoff, (int, float)) else cutoff)
+    options.rest_fraction = rest_fraction
+    options.negligible_size = negligible_size
+    data = [_as_run(r, "runs")._data() for r in runs]
+    return Diagnosis(_sid.diagnose(robot._handle, data, options), robot)
