@@ -207,10 +207,9 @@ nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainMod
   return j;
 }
 
-}  // namespace
-
-ChainDiagnoseResult diagnose_loaded(const ChainDiagnoseAppOptions& o, const LoadedChain& loaded) {
-  require(!loaded.runs.empty(), "no run given");
+/// The library's options from the tool's (--candidates, --negligible-size).
+/// @throws InputError naming the option at fault.
+sid::ChainDiagnoseOptions chain_diagnose_options(const ChainDiagnoseAppOptions& o) {
   sid::ChainDiagnoseOptions options;
   if (!o.candidates.empty()) {
     // angle_offset is not a drive term: the rest of the list is.
@@ -237,6 +236,14 @@ ChainDiagnoseResult diagnose_loaded(const ChainDiagnoseAppOptions& o, const Load
             "--negligible-size must be in [0, 1)");
     options.negligible_size = *o.negligible_size;
   }
+  return options;
+}
+
+}  // namespace
+
+ChainDiagnoseResult diagnose_loaded(const ChainDiagnoseAppOptions& o, const LoadedChain& loaded) {
+  require(!loaded.runs.empty(), "no run given");
+  sid::ChainDiagnoseOptions options = chain_diagnose_options(o);
   options.identify = loaded.options;
   std::vector<sid::ChainTrajectory<double>> runs;
   for (const auto& r : loaded.runs) runs.push_back(r.data);
@@ -256,6 +263,7 @@ int diagnose_robot(const ChainDiagnoseAppOptions& o) {
   require(!o.chain.inputs.empty(), "no run given");
   if (!o.chain.json.empty()) ensure_writable(o.chain.json, o.chain.force);
   // The options are checked before the files are read.
+  (void)chain_diagnose_options(o);
   const LoadedChain loaded =
       load_chain(o.chain, {sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature});
   const ChainDiagnoseResult r = diagnose_loaded(o, loaded);

@@ -231,7 +231,7 @@ sid::FourierTrajectory read_fourier_trajectory(const std::string& path, int join
   return f;
 }
 
-int excite_robot(const ChainExciteOptions& o, const char* app_name) {
+ChainExcitation design_robot_excitation(const ChainExciteOptions& o, const char* app_name) {
   require(o.harmonics >= 2 && o.harmonics <= 50,
           "--harmonics must be 2..50 (the first harmonic is spent on starting at rest)");
   const auto positive = [](double v, const std::string& option, const std::string& unit) {
@@ -254,7 +254,6 @@ int excite_robot(const ChainExciteOptions& o, const char* app_name) {
           "--rate / --base-frequency = " + shortest_number(samples) +
               " grid points per period; needs 8 x --harmonics (" + std::to_string(8 * o.harmonics) +
               ") to 100000");
-  if (!o.output.empty()) ensure_writable(o.output, o.force);
 
   const RobotDescription robot =
       read_robot_description(o.robot, o.base, o.tip, parse_held_joints(o.hold, "--hold"));
@@ -375,8 +374,7 @@ int excite_robot(const ChainExciteOptions& o, const char* app_name) {
     throw InputError(o.robot + ": " + e.what());
   }
   const double random_cond = sid::scaled_condition_number(regressor(random));
-  // The report goes where the coefficients do not.
-  std::ostream& out = o.output == "-" ? std::cerr : std::cout;
+  std::ostringstream out;
   out << "robot " << o.robot << ": " << n << " joints, " << columns.size() << " base parameters of "
       << model.parameters()
       << (angle_offsets.empty()
@@ -392,7 +390,9 @@ int excite_robot(const ChainExciteOptions& o, const char* app_name) {
   if (!separate.empty())
     out << "  1 - R^2 of each --separate column given all the others: "
         << shares_text(random_shares) << "\n";
-  sid::FourierTrajectory result = random;
+  ChainExcitation result;
+  result.trajectory = random;
+  result.random_condition_number = result.condition_number = random_cond;
   std::string comment = "the random excitation from seed " + std::to_string(o.seed) +
                         ", condition number " + number("%.6g", random_cond);
   if (!o.random_only) {
@@ -405,7 +405,8 @@ int excite_robot(const ChainExciteOptions& o, const char* app_name) {
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     const double cond = sid::scaled_condition_number(regressor(design.trajectory));
-    result = design.trajectory;
+    result.trajectory = design.trajectory;
+    result.condition_number = cond;
     out << "designed excitation: condition number " << number("%.4g", cond) << " ("
         << number("%.3g", random_cond / cond) << " times smaller); exp(objective) "
         << number("%.4g", std::exp(design.objective)) << " (random "
@@ -441,19 +442,27 @@ int excite_robot(const ChainExciteOptions& o, const char* app_name) {
   }
   std::string joint_list;
   for (const auto& name : robot.joint_names) joint_list += (joint_list.empty() ? "" : ",") + name;
+  result.comments = {
+      std::string(app_name) + " --robot " + o.robot + ": " + std::to_string(n) + " joints (" +
+          joint_list + ")" +
+          (o.transmission.empty() ? "" : ", the coupled motors of " + o.transmission),
+      "q_j(t) = q0_j + sum_l a_jl / (l w) sin(l w t) - b_jl / (l w) cos(l w t), w = 2 pi f; "
+      "at rest at t = k / f",
+      comment,
+      "limits: |q - q0| <= min(" + shortest_number(o.q_range) + ", 90 % of <limit>), |qd| <= min(" +
+          shortest_number(o.qd_max) + ", 90 % of <limit>), |qdd| <= " + shortest_number(o.qdd_max) +
+          ", |tau| <= " + shortest_number(o.torque_fraction) + " <limit effort>"};
+  result.report = out.str();
+  return result;
+}
+
+int excite_robot(const ChainExciteOptions& o, const char* app_name) {
+  if (!o.output.empty()) ensure_writable(o.output, o.force);
+  const ChainExcitation e = design_robot_excitation(o, app_name);
+  // The report goes where the coefficients do not.
+  (o.output == "-" ? std::cerr : std::cout) << e.report << std::flush;
   if (!o.output.empty()) {
-    write_fourier_trajectory(
-        o.output, result,
-        {std::string(app_name) + " --robot " + o.robot + ": " + std::to_string(n) + " joints (" +
-             joint_list + ")" +
-             (o.transmission.empty() ? "" : ", the coupled motors of " + o.transmission),
-         "q_j(t) = q0_j + sum_l a_jl / (l w) sin(l w t) - b_jl / (l w) cos(l w t), w = 2 pi f; "
-         "at rest at t = k / f",
-         comment,
-         "limits: |q - q0| <= min(" + shortest_number(o.q_range) +
-             ", 90 % of <limit>), |qd| <= min(" + shortest_number(o.qd_max) +
-             ", 90 % of <limit>), |qdd| <= " + shortest_number(o.qdd_max) +
-             ", |tau| <= " + shortest_number(o.torque_fraction) + " <limit effort>"});
+    write_fourier_trajectory(o.output, e.trajectory, e.comments);
     if (o.output != "-") std::cerr << app_name << ": coefficients written to " << o.output << "\n";
   }
   return kExitOk;

@@ -37,6 +37,19 @@ struct ChainExciteOptions {
   bool force = false;
 };
 
+/// @brief An excitation as sid_excite designs it, with its report.
+struct ChainExcitation {
+  sid::FourierTrajectory trajectory;     ///< the designed one (the random one with random_only)
+  double condition_number = 0.0;         ///< of the scaled base regressor along trajectory
+  double random_condition_number = 0.0;  ///< the random start's
+  std::string report;                    ///< the text sid_excite prints
+  std::vector<std::string> comments;     ///< the coefficients file's header lines
+};
+
+/// @brief Designs the excitation of options (output and force are not used).
+/// @throws InputError naming the option or file at fault.
+ChainExcitation design_robot_excitation(const ChainExciteOptions& options, const char* app_name);
+
 /// @brief Designs the excitation, prints the comparison with the random one and writes the
 /// file. @return the exit code; bad input throws InputError.
 int excite_robot(const ChainExciteOptions& options, const char* app_name);

@@ -228,23 +228,21 @@ SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& o, std::mt19937_
   return SimulatedRobot{robot, model, theta, torque_offset, angle_offset, run.truth};
 }
 
-long simulate_robot(const ChainSimulateOptions& o) {
+SimulatedLog simulate_robot_log(const ChainSimulateOptions& o) {
   std::mt19937_64 rng(o.seed);
-  const SimulatedRobot simulated = simulate_robot_truth(o, rng);
+  SimulatedRobot simulated = simulate_robot_truth(o, rng);
   const RobotDescription& robot = simulated.robot;
-  const ChainModel& model = simulated.model;
-  const Eigen::VectorXd& theta = simulated.theta;
-  const int n = model.joints();
-  const Eigen::Index drives = model.rigid_body_parameters();
+  const int n = simulated.model.joints();
+  std::vector<std::string> warnings;
   // The excitation is scaled to the position and rate limits; the torque it takes is known only
   // now. A run beyond a drive's <limit effort> is still written (the user may want it), but said.
   for (int j = 0; j < n && j < static_cast<int>(robot.limits.size()); ++j) {
     const double effort = robot.limits[static_cast<std::size_t>(j)].effort;
     const double peak = simulated.truth.tau.col(j).cwiseAbs().maxCoeff();
     if (std::isfinite(effort) && effort > 0.0 && peak > effort)
-      std::cerr << "sid_simulate: warning: joint '" << robot.joint_names[j] << "' needs up to "
-                << shortest_number(peak) << " N m, above its <limit effort> of "
-                << shortest_number(effort) << "; lower --qd-max or --q-range\n";
+      warnings.push_back("joint '" + robot.joint_names[j] + "' needs up to " +
+                         shortest_number(peak) + " N m, above its <limit effort> of " +
+                         shortest_number(effort) + "; lower --qd-max or --q-range");
   }
   // A given torque takes the arm wherever it goes; a Fourier excitation stays inside.
   for (int j = 0; j < n && j < static_cast<int>(robot.limits.size()); ++j) {
@@ -253,10 +251,10 @@ long simulate_robot(const ChainSimulateOptions& o) {
                  high = simulated.truth.q.col(j).maxCoeff();
     if ((std::isfinite(limit.lower) && low < limit.lower) ||
         (std::isfinite(limit.upper) && high > limit.upper))
-      std::cerr << "sid_simulate: warning: joint '" << robot.joint_names[j] << "' moves over ["
-                << shortest_number(low) << ", " << shortest_number(high)
-                << "], beyond its <limit> of [" << shortest_number(limit.lower) << ", "
-                << shortest_number(limit.upper) << "]\n";
+      warnings.push_back("joint '" + robot.joint_names[j] + "' moves over [" +
+                         shortest_number(low) + ", " + shortest_number(high) +
+                         "], beyond its <limit> of [" + shortest_number(limit.lower) + ", " +
+                         shortest_number(limit.upper) + "]");
   }
   ChainTrajectory<double> sensed{simulated.truth.t, simulated.truth.q, simulated.truth.tau};
   // The sensors' faults: a torque bias b adds to the torque, an encoder offset d is subtracted
@@ -265,8 +263,21 @@ long simulate_robot(const ChainSimulateOptions& o) {
     sensed.tau.col(j).array() += simulated.torque_offset[j];
     sensed.q.col(j).array() -= simulated.angle_offset[j];
   }
-  const ChainTrajectory<double> measured =
+  ChainTrajectory<double> measured =
       add_measurement_noise(sensed, MeasurementNoise<double>{o.sigma_q2, o.sigma_tau2}, rng);
+  return {std::move(simulated), std::move(measured), std::move(warnings)};
+}
+
+long simulate_robot(const ChainSimulateOptions& o) {
+  const SimulatedLog log = simulate_robot_log(o);
+  for (const auto& w : log.warnings) std::cerr << "sid_simulate: warning: " << w << "\n";
+  const SimulatedRobot& simulated = log.simulated;
+  const RobotDescription& robot = simulated.robot;
+  const ChainModel& model = simulated.model;
+  const Eigen::VectorXd& theta = simulated.theta;
+  const int n = model.joints();
+  const Eigen::Index drives = model.rigid_body_parameters();
+  const ChainTrajectory<double>& measured = log.measured;
 
   std::vector<std::string> names{"t"};
   std::vector<Eigen::VectorXd> columns{measured.t};

@@ -72,6 +72,17 @@ struct SimulatedRobot {
 /// @throws InputError naming the problem (a DH table, an unknown effect, a failed simulation).
 SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& options, std::mt19937_64& rng);
 
+/// The simulated experiment and its log: the sensors' faults and noise added to the truth.
+struct SimulatedLog {
+  SimulatedRobot simulated;
+  ChainTrajectory<double> measured;
+  std::vector<std::string> warnings;  ///< torques above <limit effort>, motion beyond <limit>
+};
+
+/// Simulates and adds the sensors' faults and noise (the options' seed drives both).
+/// @throws InputError as simulate_robot_truth.
+SimulatedLog simulate_robot_log(const ChainSimulateOptions& options);
+
 /// Simulates, adds noise and writes the CSV (t, q1..qn, tau1..taun; with truth the true q, qd,
 /// qdd and tau too); returns the number of samples.
 /// @throws InputError naming the problem (a DH table, an unknown effect, a failed simulation).

@@ -74,12 +74,16 @@ void check_base_regressor(
 }
 
 /// K with W[:, dependent] = W[:, independent] K, from a QR of the given (ascending, distinct)
-/// independent columns.
+/// independent columns. `verified`: the caller found each of them farther than the tolerance
+/// from the span of the columns before it. A pivoted QR's last pivot can still fall below the
+/// tolerance (taking the largest residual first leaves the smallest for last; among three unit
+/// columns by up to √2), and such columns are independent all the same: K then comes from the
+/// unpivoted QR, whose diagonal is the caller's distances.
 template <typename Scalar>
 BaseParameters<Scalar> regroup(
     const char* who,
     const Eigen::Ref<const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>>& w,
-    std::vector<Eigen::Index> independent, Scalar relative_tolerance) {
+    std::vector<Eigen::Index> independent, Scalar relative_tolerance, bool verified = false) {
   BaseParameters<Scalar> base;
   for (Eigen::Index j = 0, at = 0; j < w.cols(); ++j) {
     if (at < static_cast<Eigen::Index>(independent.size()) &&
@@ -92,6 +96,11 @@ BaseParameters<Scalar> regroup(
   const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> wi = w(Eigen::all, base.independent);
   Eigen::ColPivHouseholderQR<Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>> qr(wi);
   qr.setThreshold(relative_tolerance);
+  if (qr.rank() < wi.cols() && verified) {
+    base.K = Eigen::HouseholderQR<Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>>(wi).solve(
+        w(Eigen::all, base.dependent));
+    return base;
+  }
   if (qr.rank() < wi.cols())
     throw std::invalid_argument(std::string(who) +
                                 ": the independent columns are themselves "
@@ -239,7 +248,7 @@ BaseParameters<typename Derived::Scalar> base_parameters_in_order(
     return base;
   }
   BaseParameters<Scalar> base =
-      detail::regroup<Scalar>(who, scaled, std::move(kept), relative_tolerance);
+      detail::regroup<Scalar>(who, scaled, std::move(kept), relative_tolerance, true);
   for (Eigen::Index a = 0; a < base.K.rows(); ++a)  // back from unit-norm columns
     for (Eigen::Index b = 0; b < base.K.cols(); ++b)
       base.K(a, b) *= norms[base.dependent[static_cast<std::size_t>(b)]] /

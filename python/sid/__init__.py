@@ -14,21 +14,37 @@ gives their numbers and their messages: bad input raises ValueError.
 
 from __future__ import annotations
 
-from ._core import Fit, Prediction, Robot, Run, Spline, identify, smooth
+from ._core import (
+    Excitation,
+    Fit,
+    Prediction,
+    Robot,
+    Run,
+    Spline,
+    Truth,
+    excite,
+    identify,
+    simulate,
+    smooth,
+)
 from .bag import read_bag
 from .diagnosis import Diagnosis, Term, diagnose
 
 __all__ = [
     "Diagnosis",
+    "Excitation",
     "Fit",
     "Prediction",
     "Robot",
     "Run",
     "Spline",
     "Term",
+    "Truth",
     "diagnose",
+    "excite",
     "identify",
     "read_bag",
+    "simulate",
     "smooth",
 ]
 __version__ = "0.1.0"

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import os
+import tempfile
+import warnings
 from dataclasses import dataclass
 from typing import Any, Iterable, Mapping, Optional, Sequence, Union
 
@@ -376,3 +378,148 @@ class Spline:
 
     def __repr__(self) -> str:
         return f"sid.Spline(knots={len(self.knots)}, lam={self.lam:.6g})"
+
+
+@dataclass(frozen=True)
+class Truth:
+    """What a simulated log hides: the true motion and torque, and the model's parameters."""
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    tau: np.ndarray
+    theta: np.ndarray  #: the simulated model's parameters, named by parameter_names
+    parameter_names: list[str]
+
+
+def simulate(
+    robot: Robot,
+    duration: float = 10.0,
+    sample_time: float = 0.0025,
+    sigma_q2: float = 1e-6,
+    sigma_tau2: float = 1e-2,
+    seed: int = 1,
+    effects: Union[str, Sequence[str]] = (),
+    harmonics: int = 5,
+    base_frequency: float = 0.1,
+    q_range: float = 1.0,
+    qd_max: float = 1.5,
+    trajectory: Union[None, PathLike, "Excitation"] = None,
+    truth: bool = False,
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+) -> Any:
+    """A log of the robot's URDF simulated with CVODE, as ``sid_simulate --robot``: computed
+    torque tracking a random Fourier excitation (or trajectory: a sid.excite result or the
+    file sid_excite writes), the
+    description's links with viscous friction, Coulomb friction and armature, and the effects
+    hidden, e.g. ["coulomb_j2:0.5", "spring_j3:2", "angle_offset_q4:0.05"]; white noise of
+    variance sigma_q2 on the angles and sigma_tau2 on the torques, drawn from seed; CVODE at
+    tolerances rtol and atol.
+
+    Returns the Run; with truth=True, (run, Truth).
+    """
+    if not isinstance(robot, Robot):
+        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    options = _sid._SimulateOptions()
+    options.duration = float(duration)
+    options.sample_time = float(sample_time)
+    options.sigma_q2 = float(sigma_q2)
+    options.sigma_tau2 = float(sigma_tau2)
+    if int(seed) < 0:
+        raise ValueError("seed must be >= 0")
+    options.seed = int(seed)
+    options.effects = [effects] if isinstance(effects, str) else [str(e) for e in effects]
+    options.harmonics = int(harmonics)
+    options.base_frequency = float(base_frequency)
+    options.q_range = float(q_range)
+    options.qd_max = float(qd_max)
+    options.rtol = float(rtol)
+    options.atol = float(atol)
+    with tempfile.TemporaryDirectory() as folder:
+        if isinstance(trajectory, Excitation):
+            path = os.path.join(folder, "excitation.csv")
+            trajectory.write(path)
+            trajectory = path
+        options.trajectory = os.fspath(trajectory) if trajectory is not None else ""
+        d = _sid.simulate(robot._handle, options)
+    for warning in d["warnings"]:
+        warnings.warn(warning, stacklevel=2)
+    run = Run(d["t"], d["q"], d["tau"], name=f"simulated (seed {seed})")
+    if not truth:
+        return run
+    return run, Truth(
+        q=np.asarray(d["q_true"]), qd=np.asarray(d["qd_true"]), qdd=np.asarray(d["qdd_true"]),
+        tau=np.asarray(d["tau_true"]), theta=np.asarray(d["theta"]),
+        parameter_names=list(d["parameter_names"]),
+    )
+
+
+class Excitation:
+    """An excitation as ``sid_excite --robot`` designs it: a Fourier trajectory
+    q_j(t) = q0_j + sum_l a_jl / (l w) sin(l w t) - b_jl / (l w) cos(l w t), w = 2 pi f,
+    at rest at t = k / f."""
+
+    def __init__(self, handle: Any) -> None:
+        self._handle = handle
+        self.condition_number: float = handle.condition_number
+        #: the random start's, from the seed
+        self.random_condition_number: float = handle.random_condition_number
+        self.base_frequency: float = handle.base_frequency
+        self.q0: np.ndarray = np.asarray(handle.q0)
+        self.a: np.ndarray = np.asarray(handle.a)
+        self.b: np.ndarray = np.asarray(handle.b)
+        self.report: str = handle.report
+
+    def write(self, path: PathLike, force: bool = False) -> None:
+        """The coefficients file sid_simulate --trajectory and sid.simulate(trajectory=) read."""
+        path = os.fspath(path)
+        if os.path.exists(path) and not force:
+            raise ValueError(f"{path} exists; pass force=True to overwrite it")
+        self._handle.write(path, True)
+
+    def __repr__(self) -> str:
+        return (
+            f"sid.Excitation(condition number {self.condition_number:.4g}, "
+            f"random {self.random_condition_number:.4g})"
+        )
+
+
+def excite(
+    robot: Robot,
+    harmonics: int = 5,
+    base_frequency: float = 0.1,
+    q_range: float = 1.0,
+    qd_max: float = 1.5,
+    qdd_max: float = 10.0,
+    torque_fraction: float = 0.8,
+    rate: float = 20.0,
+    max_evaluations: int = 300,
+    algorithm: str = "slsqp",
+    separate: Union[None, str, Sequence[str]] = None,
+    seed: int = 1,
+    random_only: bool = False,
+) -> Excitation:
+    """The excitation that makes the robot's base regressor well conditioned within its joint,
+    rate, acceleration and torque limits, as ``sid_excite --robot`` (NLopt from a random start
+    drawn from seed). separate: candidate ids of sid.diagnose (e.g. ["spring_j2", "offset_j2"])
+    whose columns join the conditioned regressor, for a motion on which they are told apart.
+    """
+    if not isinstance(robot, Robot):
+        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    if int(seed) < 0:
+        raise ValueError("seed must be >= 0")
+    options = _sid._ExciteOptions()
+    options.harmonics = int(harmonics)
+    options.base_frequency = float(base_frequency)
+    options.q_range = float(q_range)
+    options.qd_max = float(qd_max)
+    options.qdd_max = float(qdd_max)
+    options.torque_fraction = float(torque_fraction)
+    options.rate = float(rate)
+    options.max_evaluations = int(max_evaluations)
+    options.algorithm = str(algorithm)
+    options.separate = _join(separate)
+    options.seed = int(seed)
+    options.random_only = bool(random_only)
+    return Excitation(_sid.excite(robot._handle, options))

@@ -7,7 +7,9 @@
 
 #include "app.hpp"
 #include "chain_diagnose_app.hpp"
+#include "chain_excite_app.hpp"
 #include "chain_identify_app.hpp"
+#include "chain_simulate_app.hpp"
 #include "csv.hpp"
 #include "robot_description.hpp"
 
@@ -19,6 +21,7 @@
 #include <nanobind/stl/vector.h>
 
 #include <cmath>
+#include <cstdint>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -223,6 +226,109 @@ nb::dict effect_test_dict(const sid::ChainEffectTest& t) {
   return d;
 }
 
+/// The options of simulate(), named as sid_simulate --robot's.
+struct SimulateOptions {
+  double duration = 10.0, sample_time = 0.0025, sigma_q2 = 1e-6, sigma_tau2 = 1e-2;
+  std::uint64_t seed = 1;
+  std::vector<std::string> effects;
+  int harmonics = 5;
+  double base_frequency = 0.1, q_range = 1.0, qd_max = 1.5;
+  double rtol = 1e-10, atol = 1e-10;  // sid_simulate's defaults
+  std::string trajectory;
+};
+
+nb::dict simulate(const Robot& robot, const SimulateOptions& options) {
+  if (robot.motor_side)
+    throw InputError("simulate gives joint-side logs: load the robot without a transmission");
+  using sid::app::require;
+  require(std::isfinite(options.sample_time) && options.sample_time > 0.0,
+          "sample_time must be a finite number > 0 [s]");
+  require(std::isfinite(options.duration) && options.duration > options.sample_time,
+          "duration must be a finite number greater than sample_time [s]");
+  require(options.duration / options.sample_time <= 1e8,
+          "duration / sample_time is too many samples (at most 1e8)");
+  require(std::isfinite(options.sigma_q2) && options.sigma_q2 >= 0.0,
+          "sigma_q2 must be a finite variance >= 0 [rad^2]");
+  require(std::isfinite(options.sigma_tau2) && options.sigma_tau2 >= 0.0,
+          "sigma_tau2 must be a finite variance >= 0 [(N m)^2]");
+  require(std::isfinite(options.rtol) && options.rtol > 0.0 && std::isfinite(options.atol) &&
+              options.atol > 0.0,
+          "rtol and atol must be finite numbers > 0");
+  sid::app::ChainSimulateOptions o;
+  o.robot = robot.source.robot;
+  o.base = robot.source.base;
+  o.tip = robot.source.tip;
+  o.hold = robot.source.hold;
+  o.duration = options.duration;
+  o.sample_time = options.sample_time;
+  o.sigma_q2 = options.sigma_q2;
+  o.sigma_tau2 = options.sigma_tau2;
+  o.seed = options.seed;
+  o.effects = options.effects;
+  o.harmonics = options.harmonics;
+  o.base_frequency = options.base_frequency;
+  o.q_range = options.q_range;
+  o.qd_max = options.qd_max;
+  o.trajectory = options.trajectory;
+  o.rtol = options.rtol;
+  o.atol = options.atol;
+  const sid::app::SimulatedLog log = [&] {
+    nb::gil_scoped_release release;
+    return sid::app::simulate_robot_log(o);
+  }();
+  const sid::ChainKinematics<double>& k = log.simulated.truth;
+  nb::dict d;
+  d["t"] = Eigen::VectorXd(log.measured.t);
+  d["q"] = Eigen::MatrixXd(log.measured.q);
+  d["tau"] = Eigen::MatrixXd(log.measured.tau);
+  d["q_true"] = Eigen::MatrixXd(k.q);
+  d["qd_true"] = Eigen::MatrixXd(k.qd);
+  d["qdd_true"] = Eigen::MatrixXd(k.qdd);
+  d["tau_true"] = Eigen::MatrixXd(k.tau);
+  d["theta"] = Eigen::VectorXd(log.simulated.theta);
+  d["parameter_names"] = log.simulated.model.parameter_names();
+  d["warnings"] = log.warnings;
+  return d;
+}
+
+/// The options of excite(), named as sid_excite's.
+struct ExciteOptions {
+  int harmonics = 5;
+  double base_frequency = 0.1, q_range = 1.0, qd_max = 1.5, qdd_max = 10.0;
+  double torque_fraction = 0.8, rate = 20.0;
+  int max_evaluations = 300;
+  std::string algorithm = "slsqp", separate;
+  std::uint64_t seed = 1;
+  bool random_only = false;
+};
+
+sid::app::ChainExcitation excite(const Robot& robot, const ExciteOptions& options) {
+  sid::app::ChainExciteOptions o;
+  o.robot = robot.source.robot;
+  o.base = robot.source.base;
+  o.tip = robot.source.tip;
+  o.hold = robot.source.hold;
+  o.transmission = robot.source.transmission;
+  o.harmonics = options.harmonics;
+  o.base_frequency = options.base_frequency;
+  o.q_range = options.q_range;
+  o.qd_max = options.qd_max;
+  o.qdd_max = options.qdd_max;
+  o.torque_fraction = options.torque_fraction;
+  o.rate = options.rate;
+  o.max_evaluations = options.max_evaluations;
+  o.algorithm = options.algorithm;
+  o.separate = options.separate;
+  o.seed = options.seed;
+  o.random_only = options.random_only;
+  return sid::app::design_robot_excitation(o, "sid_excite");
+}
+
+void write_excitation(const sid::app::ChainExcitation& e, const std::string& path, bool force) {
+  sid::app::ensure_writable(path, force);
+  sid::app::write_fourier_trajectory(path, e.trajectory, e.comments);
+}
+
 /// A smoothing spline fitted to (x, y), callable as s(x, nu).
 class Spline {
  public:
@@ -398,6 +504,50 @@ NB_MODULE(_sid, m) {
       .def("json", [](const Diagnosis& d) { return d.json.dump(); });
   m.def("diagnose", &diagnose, "robot"_a, "runs"_a, "options"_a,
         nb::call_guard<nb::gil_scoped_release>());
+
+  nb::class_<SimulateOptions>(m, "_SimulateOptions")
+      .def(nb::init<>())
+      .def_rw("duration", &SimulateOptions::duration)
+      .def_rw("sample_time", &SimulateOptions::sample_time)
+      .def_rw("sigma_q2", &SimulateOptions::sigma_q2)
+      .def_rw("sigma_tau2", &SimulateOptions::sigma_tau2)
+      .def_rw("seed", &SimulateOptions::seed)
+      .def_rw("effects", &SimulateOptions::effects)
+      .def_rw("harmonics", &SimulateOptions::harmonics)
+      .def_rw("base_frequency", &SimulateOptions::base_frequency)
+      .def_rw("q_range", &SimulateOptions::q_range)
+      .def_rw("qd_max", &SimulateOptions::qd_max)
+      .def_rw("rtol", &SimulateOptions::rtol)
+      .def_rw("atol", &SimulateOptions::atol)
+      .def_rw("trajectory", &SimulateOptions::trajectory);
+  m.def("simulate", &simulate, "robot"_a, "options"_a);
+
+  nb::class_<ExciteOptions>(m, "_ExciteOptions")
+      .def(nb::init<>())
+      .def_rw("harmonics", &ExciteOptions::harmonics)
+      .def_rw("base_frequency", &ExciteOptions::base_frequency)
+      .def_rw("q_range", &ExciteOptions::q_range)
+      .def_rw("qd_max", &ExciteOptions::qd_max)
+      .def_rw("qdd_max", &ExciteOptions::qdd_max)
+      .def_rw("torque_fraction", &ExciteOptions::torque_fraction)
+      .def_rw("rate", &ExciteOptions::rate)
+      .def_rw("max_evaluations", &ExciteOptions::max_evaluations)
+      .def_rw("algorithm", &ExciteOptions::algorithm)
+      .def_rw("separate", &ExciteOptions::separate)
+      .def_rw("seed", &ExciteOptions::seed)
+      .def_rw("random_only", &ExciteOptions::random_only);
+  using Excitation = sid::app::ChainExcitation;
+  nb::class_<Excitation>(m, "_Excitation")
+      .def_ro("condition_number", &Excitation::condition_number)
+      .def_ro("random_condition_number", &Excitation::random_condition_number)
+      .def_ro("report", &Excitation::report)
+      .def_prop_ro("base_frequency",
+                   [](const Excitation& e) { return e.trajectory.base_frequency; })
+      .def_prop_ro("q0", [](const Excitation& e) { return Eigen::VectorXd(e.trajectory.q0); })
+      .def_prop_ro("a", [](const Excitation& e) { return Eigen::MatrixXd(e.trajectory.a); })
+      .def_prop_ro("b", [](const Excitation& e) { return Eigen::MatrixXd(e.trajectory.b); })
+      .def("write", &write_excitation, "path"_a, "force"_a);
+  m.def("excite", &excite, "robot"_a, "options"_a, nb::call_guard<nb::gil_scoped_release>());
 
   nb::class_<Spline>(m, "Spline")
       .def("__call__", &Spline::operator(), "x"_a, "nu"_a = 0,

@@ -1,0 +1,85 @@
+"""sid.simulate gives sid_simulate --robot's log; a hidden term is named by sid.diagnose."""
+
+import subprocess
+
+import numpy as np
+import pytest
+
+import sid
+
+import tx40
+
+
+# The TX40's last link turns no inertia about its axis: the simulated arm gets a rotor there.
+ROTOR = "armature_j6:0.01"
+
+
+def robot():
+    return sid.Robot.from_urdf(tx40.URDF)
+
+
+def test_gives_the_clis_log(cli, tmp_path):
+    out = tmp_path / "run.csv"
+    subprocess.run(
+        [str(cli.parent / "sid_simulate"), "-q", "--robot", str(tx40.URDF), "--T", "2",
+         "--Ts", "0.002", "--seed", "7", "--effect", "coulomb_j2:1.5", "--effect", "armature_j6:0.01", "-o",
+         str(out)],
+        check=True, capture_output=True,
+    )
+    expected = sid.Run.from_csv(out)
+    run = sid.simulate(robot(), duration=2, sample_time=0.002, seed=7,
+                       effects=["coulomb_j2:1.5", "armature_j6:0.01"])
+    np.testing.assert_allclose(run.t, expected.t, rtol=1e-15)
+    np.testing.assert_allclose(run.q, expected.q, rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(run.tau, expected.tau, rtol=1e-15, atol=1e-15)
+
+
+def test_names_the_spring_hidden_in_a_simulated_log():
+    run, truth = sid.simulate(robot(), duration=10, sample_time=0.002, seed=3,
+                              sigma_tau2=1e-2, effects=[ROTOR, "spring_j3:2"], truth=True)
+    assert run.q.shape == (5001, 6) and truth.qdd.shape == (5001, 6)
+    # The log is the truth plus noise of the variances asked for.
+    assert np.std(run.q - truth.q) == pytest.approx(1e-3, rel=0.05)
+    assert np.std(run.tau - truth.tau) == pytest.approx(0.1, rel=0.05)
+    assert truth.theta[truth.parameter_names.index("k_3")] == 2.0
+    d = sid.diagnose(robot(), run)
+    assert [t.id for t in d.named] == ["spring_j3"]
+    assert d.named[0].value == pytest.approx(2.0, abs=max(0.1, 4 * d.named[0].std))
+
+
+def test_bad_options_raise_value_error():
+    with pytest.raises(ValueError, match="sample_time"):
+        sid.simulate(robot(), sample_time=0.0, effects=ROTOR)
+    with pytest.raises(ValueError, match="duration"):
+        sid.simulate(robot(), duration=0.001, sample_time=0.002)
+    with pytest.raises(ValueError, match="sigma_q2"):
+        sid.simulate(robot(), sigma_q2=-1.0)
+    with pytest.raises(ValueError, match="bogus_j2"):
+        sid.simulate(robot(), effects=["bogus_j2:1"])
+    with pytest.raises(ValueError, match="harmonics"):
+        sid.simulate(robot(), harmonics=0)
+    with pytest.raises(ValueError, match="transmission"):
+        sid.simulate(tx40.robot())
+
+
+def test_excite_designs_a_better_conditioned_motion_the_simulation_follows(tmp_path):
+    e = sid.excite(robot(), max_evaluations=40, seed=2)
+    assert e.condition_number < e.random_condition_number
+    assert e.a.shape == (6, 5) and e.q0.shape == (6,)
+    assert "designed excitation: condition number" in e.report
+    run, truth = sid.simulate(robot(), duration=10, sample_time=0.01, trajectory=e,
+                              effects=ROTOR, truth=True)
+    # The trajectory's angle at its start: q0 minus the cosine terms, at rest at t = 0.
+    harmonics = np.arange(1, 6)
+    w = 2 * np.pi * e.base_frequency
+    start = e.q0 - (e.b / (harmonics * w)).sum(axis=1)
+    np.testing.assert_allclose(truth.q[0], start, atol=1e-6)
+    np.testing.assert_allclose(truth.qd[0], 0.0, atol=1e-6)
+    path = tmp_path / "excitation.csv"
+    e.write(path)
+    with pytest.raises(ValueError, match="exists"):
+        e.write(path)
+    again = sid.simulate(robot(), duration=10, sample_time=0.01, trajectory=path, effects=ROTOR)
+    np.testing.assert_array_equal(again.q, run.q)
+    with pytest.raises(ValueError, match="harmonics"):
+        sid.excite(robot(), harmonics=1)
