@@ -28,6 +28,7 @@
 #include "chain_simulate_app.hpp"
 #include "csv.hpp"
 #include "montecarlo_report.hpp"
+#include "paper_study.hpp"
 #include "plot.hpp"
 
 namespace {
@@ -204,50 +205,9 @@ std::string short_number(double v) {
   return buffer;
 }
 
-std::vector<sid::StudyMethod> parse_methods(const std::string& text) {
-  constexpr const char* kExpected = "raw, filtered, css, css_gcv, css_wls, css_iv, css_tcv, oracle";
-  std::vector<sid::StudyMethod> methods;
-  for (const auto& name :
-       sid::app::parse_name_list(text, "--methods", "method name", "methods", kExpected)) {
-    try {
-      methods.push_back(sid::parse_study_method(name));
-    } catch (const std::invalid_argument&) {
-      throw sid::app::InputError(
-          "--methods: unknown method '" + name +
-          "' (expected raw, filtered, css, css_gcv, css_wls, css_iv, css_tcv or oracle)");
-    }
-  }
-  return methods;
-}
-
 sid::MonteCarloOptions study_options(const Options& o) {
-  using sid::app::require;
-  sid::MonteCarloOptions study;
-  require(o.runs >= 2,
-          "--runs must be >= 2 (a sample variance needs two runs), got " + std::to_string(o.runs));
-  require(o.runs <= 1000000, "--runs must be <= 1000000, got " + std::to_string(o.runs));
-  study.runs = o.runs;
-  study.sigma_q2_levels = sid::app::parse_doubles(o.levels, "--levels");
-  require(study.sigma_q2_levels.size() <= 100, "--levels: at most 100 levels");
-  for (std::size_t k = 0; k < study.sigma_q2_levels.size(); ++k) {
-    const double v = study.sigma_q2_levels[k];
-    require(v > 0.0, "--levels: value " + std::to_string(k + 1) + " (" + short_number(v) +
-                         ") must be > 0: every sigma_q2 is a variance, and CSS needs sigma_q > 0");
-    for (std::size_t j = 0; j < k; ++j)
-      require(sid::app::level_label(study.sigma_q2_levels[j]) != sid::app::level_label(v),
-              "--levels: " + sid::app::level_label(v) + " is given twice");
-  }
-  require(
-      std::isfinite(o.sigma_tau2) && o.sigma_tau2 >= 0.0,
-      "--sigma-tau2 must be a finite variance >= 0 [(N m)^2], got " + short_number(o.sigma_tau2));
-  study.sigma_tau2 = o.sigma_tau2;
-  study.methods = parse_methods(o.methods);
-  study.refine = sid::instrumental_variable_step();
-  study.seed = sid::app::parse_seed(o.seed);
-  require(o.threads >= 0,
-          "--threads must be >= 0 (0 = all cores), got " + std::to_string(o.threads));
-  study.threads = o.threads;
-  return study;
+  return sid::app::paper_study_options(
+      {o.runs, o.levels, o.sigma_tau2, o.methods, o.seed, o.threads});
 }
 
 // A progress bar on standard error, drawn once the study has run for a second.
@@ -296,19 +256,6 @@ void for_option(const std::string& option, const Check& check) {
   } catch (const sid::app::InputError& e) {
     throw sid::app::InputError(option + ": " + e.what());
   }
-}
-
-sid::Kinematics<double> simulate_truth(const sid::TwoLinkParameters<double>& theta) {
-  auto fd = [&theta](const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
-                     const sid::Vector2<double>& tau) {
-    return sid::two_link_forward_dynamics(theta, q, qd, tau, sid::kPaperGravity);
-  };
-  const sid::ExperimentResult run =
-      sid::simulate_arm_experiment(fd, sid::PaperInput(), sid::ArmExperiment());
-  if (!run.ok())
-    throw std::runtime_error("the simulation of the true trajectory failed (" + run.flag_name +
-                             "): " + run.message);
-  return run.truth;
 }
 
 /// Says what the figures came to: how many were written, or once how to draw them.
@@ -443,7 +390,7 @@ int study(const Options& o) {
       sid::app::ensure_output_directory(o.plots, sid::app::montecarlo_plot_files(), o.force);
     });
 
-  const sid::Kinematics<double> truth = simulate_truth(options.theta);
+  const sid::Kinematics<double> truth = sid::app::paper_study_truth(options.theta);
   if (!json_to_stdout)
     std::cout << sid::app::montecarlo_header(options, truth.size()) << std::flush;
 

@@ -24,6 +24,7 @@ from ._core import (
     Truth,
     excite,
     identify,
+    montecarlo,
     simulate,
     smooth,
 )
@@ -43,6 +44,7 @@ __all__ = [
     "diagnose",
     "excite",
     "identify",
+    "montecarlo",
     "read_bag",
     "simulate",
     "smooth",

@@ -11,6 +11,8 @@
 #include "chain_identify_app.hpp"
 #include "chain_simulate_app.hpp"
 #include "csv.hpp"
+#include "montecarlo_report.hpp"
+#include "paper_study.hpp"
 #include "robot_description.hpp"
 
 #include <nanobind/eigen/dense.h>
@@ -329,6 +331,14 @@ void write_excitation(const sid::app::ChainExcitation& e, const std::string& pat
   sid::app::write_fourier_trajectory(path, e.trajectory, e.comments);
 }
 
+/// sid_montecarlo's study of the paper's arm: its JSON summary.
+std::string montecarlo(const sid::app::PaperStudyOptions& options) {
+  const sid::MonteCarloOptions study = sid::app::paper_study_options(options);
+  const sid::Kinematics<double> truth = sid::app::paper_study_truth(study.theta);
+  const sid::MonteCarloResult result = sid::run_monte_carlo(truth, study);
+  return sid::app::montecarlo_json(result, study, truth.size()).dump();
+}
+
 /// A smoothing spline fitted to (x, y), callable as s(x, nu).
 class Spline {
  public:
@@ -548,6 +558,17 @@ NB_MODULE(_sid, m) {
       .def_prop_ro("b", [](const Excitation& e) { return Eigen::MatrixXd(e.trajectory.b); })
       .def("write", &write_excitation, "path"_a, "force"_a);
   m.def("excite", &excite, "robot"_a, "options"_a, nb::call_guard<nb::gil_scoped_release>());
+
+  using PaperStudy = sid::app::PaperStudyOptions;
+  nb::class_<PaperStudy>(m, "_PaperStudyOptions")
+      .def(nb::init<>())
+      .def_rw("runs", &PaperStudy::runs)
+      .def_rw("levels", &PaperStudy::levels)
+      .def_rw("sigma_tau2", &PaperStudy::sigma_tau2)
+      .def_rw("methods", &PaperStudy::methods)
+      .def_rw("seed", &PaperStudy::seed)
+      .def_rw("threads", &PaperStudy::threads);
+  m.def("montecarlo", &montecarlo, "options"_a, nb::call_guard<nb::gil_scoped_release>());
 
   nb::class_<Spline>(m, "Spline")
       .def("__call__", &Spline::operator(), "x"_a, "nu"_a = 0,

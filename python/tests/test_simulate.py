@@ -83,3 +83,26 @@ def test_excite_designs_a_better_conditioned_motion_the_simulation_follows(tmp_p
     np.testing.assert_array_equal(again.q, run.q)
     with pytest.raises(ValueError, match="harmonics"):
         sid.excite(robot(), harmonics=1)
+
+
+def test_montecarlo_gives_the_clis_study(cli, tmp_path):
+    out = tmp_path / "study.json"
+    subprocess.run(
+        [str(cli.parent / "sid_montecarlo"), "--runs", "4", "--levels", "1e-6,1e-4", "--methods",
+         "css,oracle", "--seed", "5", "--json", str(out)],
+        check=True, capture_output=True,
+    )
+    import json
+
+    expected = json.loads(out.read_text())
+    got = sid.montecarlo(runs=4, levels=(1e-6, 1e-4), methods=["css", "oracle"], seed=5,
+                         threads=1)
+    assert set(got) == set(expected)
+    for a, b in zip(got["levels"], expected["levels"]):
+        for method in ("css", "oracle"):
+            np.testing.assert_allclose(a["methods"][method]["mean"], b["methods"][method]["mean"],
+                                       rtol=1e-12)
+    with pytest.raises(ValueError, match="--runs must be >= 2"):
+        sid.montecarlo(runs=1)
+    with pytest.raises(ValueError, match="unknown method 'magic'"):
+        sid.montecarlo(methods="magic")

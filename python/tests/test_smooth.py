@@ -85,3 +85,16 @@ def test_merges_samples_at_one_x_and_smooths_near_duplicate_scattered_points():
     assert np.abs(s(x) - np.sin(6 * x)).max() < 0.03
     with pytest.raises(ValueError, match="must not decrease"):
         sid.smooth([0, 2, 1, 3], [1, 2, 3, 4], lam=1.0)
+
+
+@pytest.mark.parametrize("lam", [1e-4, 1e-2, 1.0])
+def test_equals_csaps_with_p_one_over_one_plus_lam(data, lam):
+    # csaps minimises p sum w (y - f)^2 + (1 - p) integral f''^2: with p = 1 / (1 + lam) that
+    # is sid's criterion times p (tests/data/gen_csaps_reference.py).
+    ref = np.genfromtxt(data / "csaps_reference.csv", delimiter=",", names=True, skip_header=1)
+    ref = ref[ref["lam"] == lam]
+    _, r = reference(data, "nonuniform_n64.csv")
+    s = sid.smooth(r["t"], r["y"], lam=lam, weights=1.0 / r["dy"] ** 2)
+    for nu, column in enumerate(("g", "dg", "d2g")):
+        scale = np.abs(ref[column]).max()
+        np.testing.assert_allclose(s(ref["t"], nu), ref[column], rtol=0, atol=1e-8 * scale)

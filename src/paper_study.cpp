@@ -1,0 +1,85 @@
+#include "paper_study.hpp"
+
+#include <sid/cvode/experiment.hpp>
+#include <sid/cvode/instrumental_variables.hpp>
+#include <sid/model/two_link_arm.hpp>
+
+#include "app.hpp"
+#include "csv.hpp"
+#include "montecarlo_report.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sid::app {
+namespace {
+
+std::string short_number(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.6g", v);
+  return buffer;
+}
+
+}  // namespace
+
+std::vector<sid::StudyMethod> parse_study_methods(const std::string& text) {
+  constexpr const char* kExpected = "raw, filtered, css, css_gcv, css_wls, css_iv, css_tcv, oracle";
+  std::vector<sid::StudyMethod> methods;
+  for (const auto& name : parse_name_list(text, "--methods", "method name", "methods", kExpected)) {
+    try {
+      methods.push_back(sid::parse_study_method(name));
+    } catch (const std::invalid_argument&) {
+      throw InputError(
+          "--methods: unknown method '" + name +
+          "' (expected raw, filtered, css, css_gcv, css_wls, css_iv, css_tcv or oracle)");
+    }
+  }
+  return methods;
+}
+
+sid::MonteCarloOptions paper_study_options(const PaperStudyOptions& o) {
+  sid::MonteCarloOptions study;
+  require(o.runs >= 2,
+          "--runs must be >= 2 (a sample variance needs two runs), got " + std::to_string(o.runs));
+  require(o.runs <= 1000000, "--runs must be <= 1000000, got " + std::to_string(o.runs));
+  study.runs = o.runs;
+  study.sigma_q2_levels = parse_doubles(o.levels, "--levels");
+  require(study.sigma_q2_levels.size() <= 100, "--levels: at most 100 levels");
+  for (std::size_t k = 0; k < study.sigma_q2_levels.size(); ++k) {
+    const double v = study.sigma_q2_levels[k];
+    require(v > 0.0, "--levels: value " + std::to_string(k + 1) + " (" + short_number(v) +
+                         ") must be > 0: every sigma_q2 is a variance, and CSS needs sigma_q > 0");
+    for (std::size_t j = 0; j < k; ++j)
+      require(level_label(study.sigma_q2_levels[j]) != level_label(v),
+              "--levels: " + level_label(v) + " is given twice");
+  }
+  require(
+      std::isfinite(o.sigma_tau2) && o.sigma_tau2 >= 0.0,
+      "--sigma-tau2 must be a finite variance >= 0 [(N m)^2], got " + short_number(o.sigma_tau2));
+  study.sigma_tau2 = o.sigma_tau2;
+  study.methods = parse_study_methods(o.methods);
+  study.refine = sid::instrumental_variable_step();
+  study.seed = parse_seed(o.seed);
+  require(o.threads >= 0,
+          "--threads must be >= 0 (0 = all cores), got " + std::to_string(o.threads));
+  study.threads = o.threads;
+  return study;
+}
+
+sid::Kinematics<double> paper_study_truth(const sid::TwoLinkParameters<double>& theta) {
+  auto fd = [&theta](const sid::Vector2<double>& q, const sid::Vector2<double>& qd,
+                     const sid::Vector2<double>& tau) {
+    return sid::two_link_forward_dynamics(theta, q, qd, tau, sid::kPaperGravity);
+  };
+  const sid::ExperimentResult run =
+      sid::simulate_arm_experiment(fd, sid::PaperInput(), sid::ArmExperiment());
+  if (!run.ok())
+    throw std::runtime_error("the simulation of the true trajectory failed (" + run.flag_name +
+                             "): " + run.message);
+  return run.truth;
+}
+
+}  // namespace sid::app
