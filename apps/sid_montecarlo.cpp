@@ -9,7 +9,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <iostream>
 #include <random>
 #include <sid/cvode/experiment.hpp>
@@ -199,12 +198,6 @@ void define_options(CLI::App& cli, Options& o) {
           ->capture_default_str()};
 }
 
-std::string short_number(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6g", v);
-  return buffer;
-}
-
 sid::MonteCarloOptions study_options(const Options& o) {
   return sid::app::paper_study_options(
       {o.runs, o.levels, o.sigma_tau2, o.methods, o.seed, o.threads});
@@ -277,25 +270,14 @@ void report_plots(const Options& o, const std::vector<sid::app::PlotResult>& plo
   }
 }
 
-// The paper's filters keep their cutoffs in Hz (10, 3 and 2 Hz at 400 Hz) at any rate.
+sid::app::ChainStudyOptions chain_options(const Options& o) {
+  return {o.robot,          o.base,    o.tip,    o.hold,     o.harmonics,
+          o.base_frequency, o.q_range, o.qd_max, o.duration, o.rate};
+}
+
 sid::ChainMonteCarloOptions chain_study_options(const Options& o) {
-  using sid::app::require;
-  sid::MonteCarloOptions shared = study_options(o);
-  sid::ChainMonteCarloOptions chain;
-  static_cast<sid::StudySettings&>(chain) = shared;
-  chain.refine = sid::chain_instrumental_variable_step();
-  require(std::isfinite(o.duration) && o.duration > 1.0 && o.duration <= 3600.0,
-          "--duration must be in (1, 3600] s (every method drops 0.25 s at each end; the "
-          "filtered one 1.75 s at the start), got " +
-              short_number(o.duration));
-  require(std::isfinite(o.rate) && o.rate >= 50.0 && o.rate <= 100000.0,
-          "--rate must be in [50, 100000] Hz, got " + short_number(o.rate));
-  auto& f = chain.kinematics.filters;
-  const double scale = 400.0 / o.rate;
-  f.q_cutoff *= scale;
-  f.qd_cutoff *= scale;
-  f.qdd_cutoff *= scale;
-  return chain;
+  return sid::app::chain_study_options(
+      {o.runs, o.levels, o.sigma_tau2, o.methods, o.seed, o.threads}, chain_options(o));
 }
 
 int chain_study(const Options& o) {
@@ -307,31 +289,9 @@ int chain_study(const Options& o) {
       sid::app::ensure_output_directory(o.csv_dir, sid::app::montecarlo_csv_files(checked),
                                         o.force);
     });
-  sid::app::ChainSimulateOptions c;
-  c.robot = o.robot;
-  c.base = o.base;
-  c.tip = o.tip;
-  c.hold = o.hold;
-  c.duration = o.duration;
-  c.sample_time = 1.0 / o.rate;
-  c.harmonics = o.harmonics;
-  c.base_frequency = o.base_frequency;
-  c.q_range = o.q_range;
-  c.qd_max = o.qd_max;
-  std::mt19937_64 rng(checked.seed);
-  const sid::app::SimulatedRobot sim = sid::app::simulate_robot_truth(c, rng);
-  sid::app::ChainStudySetup setup;
-  setup.robot = o.robot;
-  setup.base = o.base;
-  setup.tip = o.tip;
-  setup.joint_names = sim.robot.joint_names;
-  setup.samples = sim.truth.size();
-  setup.duration = o.duration;
-  setup.sample_time = c.sample_time;
-  setup.harmonics = o.harmonics;
-  setup.base_frequency = o.base_frequency;
-  setup.q_range = o.q_range;
-  setup.qd_max = o.qd_max;
+  const sid::app::ChainStudyTruth truth = sid::app::chain_study_truth(chain_options(o), checked);
+  const sid::app::SimulatedRobot& sim = truth.simulated;
+  const sid::app::ChainStudySetup& setup = truth.setup;
   if (!o.plots.empty())
     for_option("--plots", [&] {
       // The figures' names depend on the chain: one per joint and per base parameter.

@@ -1,10 +1,14 @@
 #pragma once
 /// @file
-/// @brief sid_montecarlo's study of the paper's two-link arm: its options checked as the tool
-/// checks them, and the true trajectory every run adds noise to.
+/// @brief sid_montecarlo's studies: the paper's two-link arm and any chain of a URDF, their
+/// options checked as the tool checks them, and the true trajectory every run adds noise to.
 
+#include <sid/study/chain_montecarlo.hpp>
 #include <sid/study/montecarlo.hpp>
 #include <sid/trajectory.hpp>
+
+#include "chain_montecarlo_report.hpp"
+#include "chain_simulate_app.hpp"
 
 #include <string>
 #include <vector>
@@ -32,5 +36,30 @@ std::vector<sid::StudyMethod> parse_study_methods(const std::string& text);
 /// @brief The arm under the paper's input, simulated with CVODE: the truth of every run.
 /// @throws std::runtime_error if the simulation fails.
 sid::Kinematics<double> paper_study_truth(const sid::TwoLinkParameters<double>& theta);
+
+/// @brief The chain study's own options (--robot and the excitation of its true run).
+struct ChainStudyOptions {
+  std::string robot, base, tip, hold;
+  int harmonics = 5;
+  double base_frequency = 0.1, q_range = 1.0, qd_max = 1.5;
+  double duration = 10.0, rate = 400.0;  ///< [s], [Hz]
+};
+
+/// @brief The library's options of the chain study: the shared ones, the chain's IV step, and
+/// the paper's filters at the same cutoffs in Hz at any rate.
+/// @throws InputError naming the option at fault.
+sid::ChainMonteCarloOptions chain_study_options(const PaperStudyOptions& shared,
+                                                const ChainStudyOptions& chain);
+
+/// @brief The chain's true run (the URDF's arm under a random Fourier excitation drawn from
+/// options.seed) and what the reports say of it.
+struct ChainStudyTruth {
+  SimulatedRobot simulated;
+  ChainStudySetup setup;
+};
+
+/// @throws InputError as simulate_robot_truth.
+ChainStudyTruth chain_study_truth(const ChainStudyOptions& chain,
+                                  const sid::ChainMonteCarloOptions& options);
 
 }  // namespace sid::app

@@ -532,11 +532,21 @@ def montecarlo(
     methods: Union[str, Sequence[str]] = ("raw", "filtered", "css", "oracle"),
     seed: int = 20240601,
     threads: int = 0,
+    robot: Optional[Robot] = None,
+    duration: float = 10.0,
+    rate: float = 400.0,
+    harmonics: int = 5,
+    base_frequency: float = 0.1,
+    q_range: float = 1.0,
+    qd_max: float = 1.5,
 ) -> dict[str, Any]:
-    """The paper's Monte Carlo study of its two-link arm, as ``sid_montecarlo``: runs noisy data
-    sets per angle-noise variance in levels [rad^2], each method's estimates of the seven
-    parameters, their mean, variance, bias and RMS relative error. Returns the tool's JSON
-    summary (``--json``) as a dict; the same for any threads (0: every core).
+    """The Monte Carlo study of ``sid_montecarlo``: runs noisy data sets per angle-noise
+    variance in levels [rad^2], each method's estimates, their mean, variance, bias and RMS
+    relative error. Without robot, the paper's two-link arm (seven parameters); with a robot
+    (a URDF), its arm under a random Fourier excitation of duration [s] at rate [Hz] (the
+    harmonics, base_frequency, q_range and qd_max of sid.simulate), its base parameters.
+    Returns the tool's JSON summary (``--json``) as a dict, the same for any threads (0: every
+    core).
     """
     options = _sid._PaperStudyOptions()
     options.runs = int(runs)
@@ -547,4 +557,15 @@ def montecarlo(
         raise ValueError("seed must be >= 0")
     options.seed = str(int(seed))
     options.threads = int(threads)
-    return json.loads(_sid.montecarlo(options))
+    if robot is None:
+        return json.loads(_sid.montecarlo(options))
+    if not isinstance(robot, Robot):
+        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    chain = _sid._ChainStudyOptions()
+    chain.duration = float(duration)
+    chain.rate = float(rate)
+    chain.harmonics = int(harmonics)
+    chain.base_frequency = float(base_frequency)
+    chain.q_range = float(q_range)
+    chain.qd_max = float(qd_max)
+    return json.loads(_sid.chain_montecarlo(robot._handle, options, chain))

@@ -339,6 +339,22 @@ std::string montecarlo(const sid::app::PaperStudyOptions& options) {
   return sid::app::montecarlo_json(result, study, truth.size()).dump();
 }
 
+/// sid_montecarlo --robot: the same study on a chain of a URDF; its JSON summary.
+std::string chain_montecarlo(const Robot& robot, const sid::app::PaperStudyOptions& shared,
+                             sid::app::ChainStudyOptions chain) {
+  if (robot.motor_side)
+    throw InputError("the study simulates joint-side runs: load the robot without a transmission");
+  chain.robot = robot.source.robot;
+  chain.base = robot.source.base;
+  chain.tip = robot.source.tip;
+  chain.hold = robot.source.hold;
+  const sid::ChainMonteCarloOptions options = sid::app::chain_study_options(shared, chain);
+  const sid::app::ChainStudyTruth truth = sid::app::chain_study_truth(chain, options);
+  const sid::ChainMonteCarloResult result = sid::run_chain_monte_carlo(
+      truth.simulated.model, truth.simulated.theta, truth.simulated.truth, options);
+  return sid::app::chain_montecarlo_json(result, options, truth.setup).dump();
+}
+
 /// A smoothing spline fitted to (x, y), callable as s(x, nu).
 class Spline {
  public:
@@ -569,6 +585,17 @@ NB_MODULE(_sid, m) {
       .def_rw("seed", &PaperStudy::seed)
       .def_rw("threads", &PaperStudy::threads);
   m.def("montecarlo", &montecarlo, "options"_a, nb::call_guard<nb::gil_scoped_release>());
+  using ChainStudy = sid::app::ChainStudyOptions;
+  nb::class_<ChainStudy>(m, "_ChainStudyOptions")
+      .def(nb::init<>())
+      .def_rw("harmonics", &ChainStudy::harmonics)
+      .def_rw("base_frequency", &ChainStudy::base_frequency)
+      .def_rw("q_range", &ChainStudy::q_range)
+      .def_rw("qd_max", &ChainStudy::qd_max)
+      .def_rw("duration", &ChainStudy::duration)
+      .def_rw("rate", &ChainStudy::rate);
+  m.def("chain_montecarlo", &chain_montecarlo, "robot"_a, "options"_a, "chain"_a,
+        nb::call_guard<nb::gil_scoped_release>());
 
   nb::class_<Spline>(m, "Spline")
       .def("__call__", &Spline::operator(), "x"_a, "nu"_a = 0,

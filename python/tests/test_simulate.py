@@ -106,3 +106,25 @@ def test_montecarlo_gives_the_clis_study(cli, tmp_path):
         sid.montecarlo(runs=1)
     with pytest.raises(ValueError, match="unknown method 'magic'"):
         sid.montecarlo(methods="magic")
+
+
+def test_montecarlo_of_a_chain_gives_the_clis_study(data, cli, tmp_path):
+    urdf = data / "urdf" / "arm_hand.urdf"
+    out = tmp_path / "study.json"
+    subprocess.run(
+        [str(cli.parent / "sid_montecarlo"), "--robot", str(urdf), "--tip", "link2", "--runs",
+         "2", "--levels", "1e-6", "--methods", "css_gcv", "--duration", "4", "--rate", "200",
+         "--seed", "3", "--json", str(out)],
+        check=True, capture_output=True,
+    )
+    import json
+
+    expected = json.loads(out.read_text())
+    arm = sid.Robot.from_urdf(urdf, tip="link2")
+    got = sid.montecarlo(robot=arm, runs=2, levels=[1e-6], methods="css_gcv", duration=4,
+                         rate=200, seed=3, threads=1)
+    assert set(got) == set(expected)
+    assert json.dumps(got["levels"], sort_keys=True) == json.dumps(expected["levels"],
+                                                                   sort_keys=True)
+    with pytest.raises(ValueError, match="--rate must be"):
+        sid.montecarlo(robot=arm, rate=10)
