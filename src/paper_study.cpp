@@ -10,7 +10,6 @@
 #include "montecarlo_report.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -19,11 +18,7 @@
 namespace sid::app {
 namespace {
 
-std::string short_number(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.6g", v);
-  return buffer;
-}
+std::string short_number(double v) { return format_number("%.6g", v); }
 
 }  // namespace
 
