@@ -20,22 +20,28 @@
 #include <sstream>
 
 namespace sid::app {
+
+ChainRunFile identification_run(const std::string& name, sid::ChainTrajectory<double> run,
+                                const sid::Transmission& transmission, bool motor_side) {
+  if (run.size() < 4)
+    throw InputError(name + ": identification needs at least 4 data rows, got " +
+                     std::to_string(run.size()));
+  try {
+    if (motor_side) run = transmission.joint_side(run);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(name + ": " + e.what());
+  }
+  return {name, std::move(run)};
+}
+
 namespace {
 
 ChainRunFile load_run(const std::string& path, const sid::Transmission& transmission,
                       bool motor_side, const std::vector<std::string>& columns) {
   const CsvTable table = read_csv(path);
-  sid::ChainTrajectory<double> run =
-      chain_trajectory_from_table(table, transmission.joints(), columns);
-  if (run.size() < 4)
-    throw InputError(table.source + ": identification needs at least 4 data rows, got " +
-                     std::to_string(run.size()));
-  try {
-    if (motor_side) run = transmission.joint_side(run);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(table.source + ": " + e.what());
-  }
-  return {table.source, std::move(run)};
+  return identification_run(table.source,
+                            chain_trajectory_from_table(table, transmission.joints(), columns),
+                            transmission, motor_side);
 }
 
 sid::ChainIdentifyOptions make_options(const ChainIdentifyAppOptions& o, int joints) {
@@ -491,15 +497,18 @@ std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& wha
   return urdf_with_link_parameters(robot.urdf, robot.base, robot.tip, robot.link_names, phi);
 }
 
+LoadedChain load_identify_chain(const ChainIdentifyAppOptions& o) {
+  // load_chain takes --effects as the exact list (sid_diagnose's --drives); here it adds.
+  ChainIdentifyAppOptions exact = o;
+  exact.effects.clear();
+  return load_chain(exact, identify_drive_term_kinds(o.effects, o.no_default_effects));
+}
+
 int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
   require(!o.inputs.empty(), "no run given");
   if (!o.json.empty()) ensure_writable(o.json, o.force);
   if (!o.write_urdf.empty()) ensure_writable(o.write_urdf, o.force);
-  // load_chain takes --effects as the exact list (sid_diagnose's --drives); here it adds.
-  ChainIdentifyAppOptions exact = o;
-  exact.effects.clear();
-  LoadedChain loaded =
-      load_chain(exact, identify_drive_term_kinds(o.effects, o.no_default_effects));
+  LoadedChain loaded = load_identify_chain(o);
   require(o.write_urdf.empty() || !loaded.robot.urdf.empty(),
           "--write-urdf needs a URDF as --robot, not a DH table");
   std::vector<ChainRunFile> held_out;

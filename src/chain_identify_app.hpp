@@ -62,6 +62,17 @@ struct LoadedChain {
 LoadedChain load_chain(const ChainIdentifyAppOptions& options,
                        const std::vector<sid::DriveTermKind>& default_kinds);
 
+/// @brief A log's samples as the identification takes them: at least 4, at the joints (a
+/// motor-side log through the transmission).
+/// @throws InputError prefixed with name.
+ChainRunFile identification_run(const std::string& name, sid::ChainTrajectory<double> run,
+                                const sid::Transmission& transmission, bool motor_side);
+
+/// @brief The chain and model sid_identify --robot fits: options.effects added to the default
+/// drive terms (identify_drive_term_kinds), and the runs of options.inputs.
+/// @throws InputError as load_chain.
+LoadedChain load_identify_chain(const ChainIdentifyAppOptions& options);
+
 /// @brief The drive term kinds sid_identify --robot fits on every joint: viscous friction and
 /// armature (the terms every geared drive has), plus those --effects adds (coulomb and offset
 /// when it is not given), in sid::DriveTermKind's order. "none" alone gives rigid bodies only;

@@ -81,15 +81,8 @@ sid::app::ChainRunFile chain_run(const RunData& r, const sid::app::LoadedChain& 
   } catch (const std::invalid_argument& e) {
     throw InputError(e.what());
   }
-  if (run.size() < 4)
-    throw InputError(r.name + ": identification needs at least 4 samples, got " +
-                     std::to_string(run.size()));
-  try {
-    if (loaded.motor_side) run = loaded.transmission.joint_side(run);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(r.name + ": " + e.what());
-  }
-  return {r.name, std::move(run)};
+  return sid::app::identification_run(r.name, std::move(run), loaded.transmission,
+                                      loaded.motor_side);
 }
 
 /// A motor-side run at the joints (the robot's transmission applied); a joint-side robot's run
@@ -182,10 +175,7 @@ Fit identify(const Robot& robot, const std::vector<RunData>& runs,
   o.effects = options.effects;
   o.no_default_effects = options.no_default_effects;
   sid::app::require(!runs.empty(), "no run given");
-  sid::app::ChainIdentifyAppOptions exact = o;
-  exact.effects.clear();
-  sid::app::LoadedChain loaded = sid::app::load_chain(
-      exact, sid::app::identify_drive_term_kinds(o.effects, o.no_default_effects));
+  sid::app::LoadedChain loaded = sid::app::load_identify_chain(o);
   for (const auto& r : runs) loaded.runs.push_back(chain_run(r, loaded));
   std::vector<sid::app::ChainRunFile> held_out;
   for (const auto& r : validate) held_out.push_back(chain_run(r, loaded));
