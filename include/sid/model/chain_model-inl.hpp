@@ -68,12 +68,12 @@ SID_INLINE ChainModel::Vector ChainModel::forward_dynamics(
       if (rotor)
         armature[t.index] += value;
       else
-        applied[t.index] -= value * term_value(t, epsilon_, q[t.index], qd[t.index], 0.0);
+        applied[t.index] -= value * drive_term_value(t, epsilon_, q[t.index], qd[t.index], 0.0);
     } else if (!rotor) {
       const double angle = directions_.row(t.index).dot(q);
       const double rate = directions_.row(t.index).dot(qd);
       applied -= directions_.row(t.index).transpose() *
-                 (value * term_value(t, epsilon_, angle, rate, 0.0));
+                 (value * drive_term_value(t, epsilon_, angle, rate, 0.0));
     } else if (value != 0.0) {
       const Eigen::Index m = motors.cols();
       motors.conservativeResize(n, m + 1);
@@ -116,7 +116,7 @@ SID_INLINE ChainModel::ModelTerm ChainModel::drive_term(const DriveTerm& t) cons
             [t, epsilon = epsilon_](const Vector& q, const Vector& qd, const Vector& qdd,
                                     RegressorView<double, Eigen::Dynamic> out) {
               out.setZero();
-              out(t.index, 0) = term_value(t, epsilon, q[t.index], qd[t.index], qdd[t.index]);
+              out(t.index, 0) = drive_term_value(t, epsilon, q[t.index], qd[t.index], qdd[t.index]);
             }};
   // The motor turns with direction . qd; its torque reaches every joint it turns.
   const Eigen::VectorXd direction = directions_.row(t.index).transpose();
@@ -124,8 +124,8 @@ SID_INLINE ChainModel::ModelTerm ChainModel::drive_term(const DriveTerm& t) cons
           {name},
           [t, epsilon = epsilon_, direction](const Vector& q, const Vector& qd, const Vector& qdd,
                                              RegressorView<double, Eigen::Dynamic> out) {
-            out.col(0) = direction * term_value(t, epsilon, direction.dot(q), direction.dot(qd),
-                                                direction.dot(qdd));
+            out.col(0) = direction * drive_term_value(t, epsilon, direction.dot(q),
+                                                      direction.dot(qd), direction.dot(qdd));
           }};
 }
 

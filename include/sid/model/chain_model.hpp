@@ -124,6 +124,35 @@ inline std::vector<DriveTermKind> default_drive_term_kinds() {
           DriveTermKind::Armature};
 }
 
+/// @brief The value of a drive term's regressor column (the torque per unit of its parameter)
+/// at angle x, rate v and acceleration a of what it acts on; epsilon: the Coulomb terms' tanh
+/// velocity (0: sign).
+inline double drive_term_value(const DriveTerm& t, double epsilon, double x, double v,
+                               double a) noexcept {
+  const auto coulomb = [&] {
+    return epsilon > 0.0 ? std::tanh(v / epsilon) : double((v > 0.0) - (v < 0.0));
+  };
+  switch (t.kind) {
+    case DriveTermKind::Viscous:
+      return v;
+    case DriveTermKind::Coulomb:
+      return coulomb();
+    case DriveTermKind::CoulombAsymmetry:
+      return std::abs(coulomb());
+    case DriveTermKind::Offset:
+      return 1.0;
+    case DriveTermKind::Armature:
+      return a;
+    case DriveTermKind::Spring:
+      return x;
+    case DriveTermKind::Stribeck: {
+      const double r = v / t.velocity;
+      return std::exp(-r * r) * coulomb();
+    }
+  }
+  return 0.0;
+}
+
 /// @brief A chain, its drives and the names of its joints, as one sid::Model: a rigid-body term
 /// (the links' ten parameters each, by the chain's Newton-Euler regressor) and one term per
 /// drive term. Immutable; holds no parameter values.
@@ -185,32 +214,6 @@ class ChainModel {
 
   SID_INLINE ModelTerm rigid_body_term() const;
   SID_INLINE ModelTerm drive_term(const DriveTerm& t) const;
-
-  /// The value of term t's column at angle x, rate v and acceleration a.
-  static double term_value(const DriveTerm& t, double epsilon, double x, double v, double a) {
-    const auto coulomb = [&] {
-      return epsilon > 0.0 ? std::tanh(v / epsilon) : double((v > 0.0) - (v < 0.0));
-    };
-    switch (t.kind) {
-      case DriveTermKind::Viscous:
-        return v;
-      case DriveTermKind::Coulomb:
-        return coulomb();
-      case DriveTermKind::CoulombAsymmetry:
-        return std::abs(coulomb());
-      case DriveTermKind::Offset:
-        return 1.0;
-      case DriveTermKind::Armature:
-        return a;
-      case DriveTermKind::Spring:
-        return x;
-      case DriveTermKind::Stribeck: {
-        const double r = v / t.velocity;
-        return std::exp(-r * r) * coulomb();
-      }
-    }
-    return 0.0;
-  }
 
   static std::string term_place(const DriveTerm& t) {
     return (t.on_motor ? "motor " : "joint ") + std::to_string(t.index + 1);
