@@ -122,6 +122,9 @@ struct Options {
   double qd_max = 1.5;
   std::string trajectory;
   std::string torque, q0;
+  std::vector<std::string> pushes;
+  double push_ramp = 0.02;
+  std::string push_point;
 };
 
 // The effect list of --help, written from the library so that it cannot fall out of step.
@@ -220,6 +223,17 @@ void define_options(CLI::App& cli, Options& o) {
                  "--robot --torque: the angles to start from at rest, comma-separated "
                  "(default: the middle of each joint's <limit>)");
   torque->excludes("--trajectory");
+  cli.add_option("--push", o.pushes,
+                 "--robot: START,END,FX,FY,FZ [s, N]: the outside pushes at the tool with this "
+                 "force (base frame) from START to END; repeat for several pushes. The log's "
+                 "torque is the drives' only (sid_external finds the push); --truth adds "
+                 "tau1_ext..")
+      ->excludes("--torque");
+  cli.add_option("--push-ramp", o.push_ramp,
+                 "--robot --push: the time a push takes to come and go [s] (default 0.02)");
+  cli.add_option("--push-point", o.push_point,
+                 "--robot --push: X,Y,Z [m]: where on the tip link the push acts, in its frame "
+                 "(default its origin)");
 }
 
 std::string short_number(double v) {
@@ -350,6 +364,9 @@ int simulate_robot(const Options& o) {
   c.trajectory = o.trajectory;
   c.torque = o.torque;
   c.q0 = o.q0;
+  c.pushes = o.pushes;
+  c.push_ramp = o.push_ramp;
+  c.push_point = o.push_point;
   c.coulomb_epsilon = o.coulomb_epsilon;
   c.rtol = o.rtol;
   c.atol = o.atol;

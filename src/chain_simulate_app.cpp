@@ -3,6 +3,7 @@
 #include <sid/cvode/chain_experiment.hpp>
 #include <sid/fourier_trajectory.hpp>
 #include <sid/measurement_noise.hpp>
+#include <sid/model/chain_jacobian.hpp>
 #include <sid/model/chain_model.hpp>
 
 #include "app.hpp"
@@ -13,6 +14,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <random>
 #include <string>
@@ -21,6 +23,46 @@
 namespace sid::app {
 
 namespace {
+
+/// One push of --push: a force at the tool, ramped in and out.
+struct Push {
+  double start = 0.0, end = 0.0;
+  Eigen::Vector3d force;
+};
+
+/// The outside's joint torques of o.pushes (empty function without any).
+std::function<ChainModel::Vector(double, const ChainModel::Vector&)> pushes_torque(
+    const ChainSimulateOptions& o, const SerialChain<double>& chain) {
+  if (o.pushes.empty()) return {};
+  require(o.torque.empty(), "--push applies to the tracked excitation, not to --torque");
+  require(o.push_ramp > 0.0 && std::isfinite(o.push_ramp), "--push-ramp must be > 0 s");
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  if (!o.push_point.empty()) {
+    const std::vector<double> p = parse_doubles(o.push_point, "--push-point");
+    require(p.size() == 3, "--push-point takes X,Y,Z [m] in the tip link's frame");
+    point << p[0], p[1], p[2];
+  }
+  std::vector<Push> pushes;
+  for (const std::string& text : o.pushes) {
+    const std::vector<double> v = parse_doubles(text, "--push");
+    require(v.size() == 5, "--push takes START,END,FX,FY,FZ [s, N], not '" + text + "'");
+    require(v[1] - v[0] >= 2.0 * o.push_ramp,
+            "--push '" + text + "': END - START must be at least twice the ramp (" +
+                shortest_number(o.push_ramp) + " s)");
+    pushes.push_back({v[0], v[1], Eigen::Vector3d(v[2], v[3], v[4])});
+  }
+  const double ramp = o.push_ramp;
+  return [pushes, point, ramp, chain](double t, const ChainModel::Vector& q) {
+    Eigen::Vector3d force = Eigen::Vector3d::Zero();
+    for (const Push& p : pushes) {
+      const double rise = std::clamp((t - p.start) / ramp, 0.0, 1.0),
+                   fall = std::clamp((p.end - t) / ramp, 0.0, 1.0);
+      force += std::min(rise, fall) * p.force;
+    }
+    if (force.isZero()) return ChainModel::Vector(ChainModel::Vector::Zero(q.size()));
+    return ChainModel::Vector(sid::chain_point_force_torque<double>(chain, q, point, force));
+  };
+}
 
 std::string joined(const Eigen::RowVectorXd& values) {
   std::string text;
@@ -117,7 +159,7 @@ SimulatedRobot driven_by_torque(const ChainSimulateOptions& o, const RobotDescri
                                                                : table.column("t")[0]) +
                         " s (" + run.message +
                         "); the torque does not hold the arm (gravity?) or spins it away");
-  return SimulatedRobot{robot, model, theta, torque_offset, angle_offset, run.truth};
+  return SimulatedRobot{robot, model, theta, torque_offset, angle_offset, run.truth, {}};
 }
 
 }  // namespace
@@ -211,6 +253,7 @@ SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& o, std::mt19937_
     desired = read_fourier_trajectory(o.trajectory, n);
   }
   ChainExperiment experiment;
+  experiment.external_torque = pushes_torque(o, robot.chain);
   experiment.duration = o.duration;
   experiment.sample_time = o.sample_time;
   experiment.simulator.rtol = o.rtol;
@@ -225,7 +268,7 @@ SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& o, std::mt19937_
                         "): " + run.message +
                         "; check the description's inertias or the tolerances --rtol/--atol");
 
-  return SimulatedRobot{robot, model, theta, torque_offset, angle_offset, run.truth};
+  return SimulatedRobot{robot, model, theta, torque_offset, angle_offset, run.truth, run.external};
 }
 
 SimulatedLog simulate_robot_log(const ChainSimulateOptions& o) {
@@ -289,9 +332,13 @@ long simulate_robot(const ChainSimulateOptions& o) {
   if (o.truth) {
     const ChainKinematics<double>& k = simulated.truth;
     const std::pair<const char*, const Eigen::MatrixXd*> truth[] = {
-        {"q_true", &k.q}, {"qd", &k.qd}, {"qdd", &k.qdd}, {"tau_true", &k.tau}};
+        {"q_true", &k.q},
+        {"qd", &k.qd},
+        {"qdd", &k.qdd},
+        {"tau_true", &k.tau},
+        {"tau_ext", simulated.external.size() ? &simulated.external : nullptr}};
     for (const auto& [stem, m] : truth)
-      for (int j = 0; j < n; ++j) {
+      for (int j = 0; j < n && m; ++j) {
         const std::string s = stem;
         const auto under = s.find('_');
         names.push_back(under == std::string::npos

@@ -40,6 +40,11 @@ struct ChainSimulateOptions {
   /// the arm starts at rest at q0 (empty: the middle of each joint's <limit>).
   std::string torque;
   std::string q0;
+  /// "START,END,FX,FY,FZ": the outside pushes at push_point of the tip link with force
+  /// (FX, FY, FZ) [N, base frame] from START to END [s], ramping in and out over push_ramp [s].
+  std::vector<std::string> pushes;
+  double push_ramp = 0.02;
+  std::string push_point;  ///< "X,Y,Z" [m] in the tip link's frame; empty: its origin
 };
 
 /// @brief Where an excitation of the robot may go: q0 about the middle of each joint's <limit>,
@@ -64,6 +69,7 @@ struct SimulatedRobot {
   Eigen::VectorXd torque_offset;
   Eigen::VectorXd angle_offset;
   ChainKinematics<double> truth;
+  Eigen::MatrixXd external;  ///< the pushes' joint torques per sample; empty without pushes
 };
 
 /// Reads the description and simulates it under the random Fourier excitation drawn from rng

@@ -14,6 +14,7 @@
 #include <Eigen/Core>
 
 #include <cmath>
+#include <functional>
 #include <stdexcept>
 #include <string>
 
@@ -28,11 +29,17 @@ struct ChainExperiment {
   double tracking_frequency = 10.0;
   double tracking_damping = 1.0;
   SimulatorOptions simulator = SimulatorOptions{1e-9, 1e-9};
+  /// The torque the outside applies at the joints at time t and angles q (e.g. a push at the
+  /// tool, chain_point_force_torque), which the drives do not give and the log's torque does not
+  /// hold; empty: none.
+  std::function<ChainModel::Vector(double t, const ChainModel::Vector& q)> external_torque;
 };
 
 /// @brief The true trajectory of a chain experiment and how the simulation went.
 struct [[nodiscard]] ChainExperimentResult {
   ChainKinematics<double> truth;  ///< the samples reached; tau is the applied torque
+  /// The outside's torque at each sample (ChainExperiment::external_torque); empty without it.
+  Eigen::MatrixXd external;
   SimulationStatus status = SimulationStatus::Success;
   std::string flag_name;
   std::string message;
@@ -117,17 +124,31 @@ inline ChainExperimentResult simulate_chain_experiment(const ChainModel& model,
     tau += kp.cwiseProduct(qr - q) + kd.cwiseProduct(qdr - qd);
     return tau;
   };
+  const auto& external = experiment.external_torque;
   auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
                  Eigen::Map<Eigen::VectorXd>& xdot) {
     const Vector q = x.head(n), qd = x.tail(n);
     xdot.head(n) = qd;
-    xdot.tail(n) = model.forward_dynamics(theta, q, qd, applied(time, q, qd));
+    Vector tau = applied(time, q, qd);
+    if (external) tau += external(time, q);
+    xdot.tail(n) = model.forward_dynamics(theta, q, qd, tau);
   };
   const SimulationResult sim = simulate(rhs, x0, t, experiment.simulator);
 
-  return detail::chain_experiment_result(
+  ChainExperimentResult result = detail::chain_experiment_result(
       model, theta, t, sim,
       [&](Eigen::Index k, const Vector& q, const Vector& qd) { return applied(t[k], q, qd); });
+  if (!external) return result;
+  ChainKinematics<double>& truth = result.truth;
+  result.external.resize(truth.size(), n);
+  for (Eigen::Index k = 0; k < truth.size(); ++k) {
+    const Vector q = truth.q.row(k).transpose(), qd = truth.qd.row(k).transpose();
+    const Vector outside = external(t[k], q);
+    result.external.row(k) = outside.transpose();
+    const Vector tau = truth.tau.row(k).transpose() + outside;
+    truth.qdd.row(k) = model.forward_dynamics(theta, q, qd, tau).transpose();
+  }
+  return result;
 }
 
 /// @brief Simulates model at parameters theta open loop from the state x0 = (q, qd), driven by

@@ -1,0 +1,163 @@
+// Runs sid_simulate --push, sid_identify and sid_external as a user would: a UR5 identified on a
+// log without contact, then a log where the outside pushes at the tool twice. Both pushes must
+// be found where they were and nothing else, and the external torque must match the pushes'
+// J^T f, which sid_simulate --truth writes.
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "app_test_support.hpp"
+#include "csv.hpp"
+
+namespace {
+
+const std::string kRobot = "--robot '" SID_TEST_DATA_DIR "/urdf/real/ur5_robot.urdf' --tip tool0 ";
+
+// Angles with 1e-6 rad of noise (a motor encoder seen through its gear), torques with 0.1 N m
+// (about 1 % of the arm's torque), at 1 kHz.
+const std::string kNoise = "--T 10 --Ts 0.001 --sigma-q2 1e-12 --sigma-tau2 0.01 ";
+
+// Two pushes at the tool: 36 N for 0.3 s and 27 N for 0.4 s, each with 20 ms ramps.
+constexpr double kPushes[2][2] = {{3.0, 3.3}, {6.5, 6.9}};
+const std::string kPushOptions = "--push 3,3.3,0,30,-20 --push 6.5,6.9,25,0,10 ";
+
+class SidExternal : public sid_test::AppTest {
+ protected:
+  // The arm's fit and the pushed log, made once for the suite.
+  static void SetUpTestSuite() {
+    shared_ =
+        std::filesystem::temp_directory_path() / ("SidExternal_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(shared_);
+    const std::string in = "cd '" + shared_.string() + "' && ";
+    const std::string sim = in + app("sid_simulate") + " " + kRobot + kNoise;
+    ASSERT_EQ(std::system((sim + "--seed 1 -o fit.csv 2>/dev/null").c_str()), 0);
+    ASSERT_EQ(std::system((in + app("sid_identify") + " " + kRobot +
+                           "--json arm.json fit.csv >/dev/null 2>&1")
+                              .c_str()),
+              0);
+    ASSERT_EQ(
+        std::system((sim + "--seed 2 " + kPushOptions + "--truth -o push.csv 2>/dev/null").c_str()),
+        0);
+  }
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    std::filesystem::remove_all(shared_, ec);
+  }
+  static std::string shared(const std::string& name) {
+    return "'" + (shared_ / name).string() + "'";
+  }
+
+  sid_test::AppRun external(const std::string& options) const {
+    return shell(app("sid_external") + " " + kRobot + "--model " + shared("arm.json") + " " +
+                 options + " " + shared("push.csv"));
+  }
+
+  // Checks the contacts and the external torque an EXT.csv and its JSON give.
+  void expect_both_pushes(const std::string& csv, const std::string& json_file, double tolerance,
+                          double end_tolerance = 0.050) const {
+    const nlohmann::json j = nlohmann::json::parse(read(file(json_file)));
+    ASSERT_EQ(j["contacts"].size(), 2u) << j["contacts"].dump();
+    for (int c = 0; c < 2; ++c) {
+      EXPECT_NEAR(j["contacts"][c]["start"].get<double>(), kPushes[c][0], 0.030) << "contact " << c;
+      EXPECT_NEAR(j["contacts"][c]["end"].get<double>(), kPushes[c][1], end_tolerance)
+          << "contact " << c;
+    }
+    const sid::app::CsvTable truth = sid::app::read_csv((shared_ / "push.csv").string());
+    const sid::app::CsvTable ext = sid::app::read_csv(file(csv));
+    ASSERT_EQ(ext.rows(), truth.rows());
+    const Eigen::VectorXd& t = truth.column("t");
+    for (int joint = 1; joint <= 6; ++joint) {
+      const Eigen::VectorXd& expected = truth.column("tau" + std::to_string(joint) + "_ext");
+      const Eigen::VectorXd& found = ext.column("tau_ext" + std::to_string(joint));
+      const double peak = expected.cwiseAbs().maxCoeff();
+      const double threshold = j["thresholds"][joint - 1].get<double>();
+      if (peak < threshold) continue;  // a push this joint barely feels is no contact on it
+      double worst = 0.0;
+      for (Eigen::Index i = 0; i < t.size(); ++i)
+        for (const auto& push : kPushes)
+          if (t[i] >= push[0] && t[i] <= push[1])
+            worst = std::max(worst, std::abs(found[i] - expected[i]));
+      EXPECT_LT(worst, tolerance * peak) << "joint " << joint << ", peak " << peak;
+    }
+    // Nothing else: outside the pushes the contact column stays 0.
+    const Eigen::VectorXd& contact = ext.column("contact");
+    for (Eigen::Index i = 0; i < t.size(); ++i) {
+      const bool pushed = (t[i] > kPushes[0][0] - 0.03 && t[i] < kPushes[0][1] + end_tolerance) ||
+                          (t[i] > kPushes[1][0] - 0.03 && t[i] < kPushes[1][1] + end_tolerance);
+      if (!pushed) {
+        ASSERT_EQ(contact[i], 0.0) << "t = " << t[i];
+      }
+    }
+  }
+
+  static std::filesystem::path shared_;
+};
+
+std::filesystem::path SidExternal::shared_;
+
+TEST_F(SidExternal, TheObserverFindsBothPushesAndNothingElse) {
+  const sid_test::AppRun r = external("-o ext.csv --json ext.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("2 contacts"), std::string::npos) << r.out;
+  expect_both_pushes("ext.csv", "ext.json", 0.15);
+  const nlohmann::json j = nlohmann::json::parse(read(file("ext.json")));
+  EXPECT_EQ(j["method"], "observer");
+  EXPECT_EQ(j["gain"].get<double>(), 300.0);
+}
+
+TEST_F(SidExternal, TheResidualFindsThemToo) {
+  // The inverse-dynamics residual takes accelerations smoothed at the fit's cutoffs, which
+  // blur the jolt a push gives the arm: it finds both, with a looser end and match.
+  const sid_test::AppRun r = external("--method residual -o ext.csv --json ext.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  expect_both_pushes("ext.csv", "ext.json", 0.6, 0.080);
+}
+
+TEST_F(SidExternal, ALogWithoutContactHasNone) {
+  // The fit's own log: the model's residual sets the thresholds, so it must stay under them.
+  const sid_test::AppRun r = shell(app("sid_external") + " " + kRobot + "--model " +
+                                   shared("arm.json") + " --json ext.json " + shared("fit.csv"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(read(file("ext.json")))["contacts"].size(), 0u) << r.out;
+}
+
+TEST_F(SidExternal, RefusesWhatItCannotUse) {
+  // Another model: the fit's parameters are not this chain's.
+  nlohmann::json arm = nlohmann::json::parse(read((shared_ / "arm.json").string()));
+  arm["drive_terms"] = {"viscous"};
+  write("other.json", arm.dump());
+  sid_test::AppRun r =
+      shell(app("sid_external") + " " + kRobot + "--model other.json " + shared("push.csv"));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("another model"), std::string::npos) << r.err;
+
+  write("bad.json", "{\"drive_terms\": [");
+  r = shell(app("sid_external") + " " + kRobot + "--model bad.json " + shared("push.csv"));
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("not JSON"), std::string::npos) << r.err;
+
+  r = external("--gain 2000");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("too fast"), std::string::npos) << r.err;
+
+  r = external("--method kalman");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--method"), std::string::npos) << r.err;
+
+  write("ext.csv", "keep");
+  r = external("-o ext.csv");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--force"), std::string::npos) << r.err;
+  EXPECT_EQ(read(file("ext.csv")), "keep");
+}
+
+}  // namespace
