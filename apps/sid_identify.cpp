@@ -22,6 +22,8 @@
 #include "app.hpp"
 #include "chain_identify_app.hpp"
 #include "csv.hpp"
+#include "drive_gains_app.hpp"
+#include "payload_app.hpp"
 #include "runs_report.hpp"
 
 namespace {
@@ -192,7 +194,20 @@ iv_residual_ratio, iv_message, least_squares_theta, iv_fit (per run; the top-lev
 are then the first run's), drive_terms, drive_term_parameters and physically_consistent {theta,
 beta, relative_residual, converged, iterations, prior_weight, correlation_inflation}.
 
+Drive gains (--robot --currents): the logs' tau columns are motor currents [A], not torques.
+--payload-run LOADED.csv is a log with a load of known inertia (--known-payload m,cx,cy,cz or
+m,cx,cy,cz,ixx,iyy,izz,ixy,ixz,iyz: mass [kg], centre of mass [m] and inertia about it [kg m^2]
+in the frame of the chain's last moving link) fixed to the tip; the RUN files are logs without
+it. The arm's base parameters and each motor's gain K [N m/A] are fitted together (Gautier and
+Briot): K i = Y theta without the load and K i = Y theta + Y_tip phi with it. Without the known
+load the gains' scale is not identifiable; a motor the load's torque does not reach (a point
+mass on its axis) keeps its gain free, and the tool says which. Then every run is converted to
+torques (K i, minus the load's torque on LOADED.csv) and identified as above; the report and
+the JSON add the gains with their HAC std (drive_gains [{joint, gain, std}], drive_gain_fit).
+
 Examples:
+  sid_identify --robot ur5.urdf --currents --known-payload 3,0.03,-0.02,0.06 \
+      --payload-run loaded.csv --json fit.json unloaded.csv
   sid_identify log.csv
   sid_identify --columns t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2 \
       --effects coulomb_j1,coulomb_j2 --validate run3.csv run1.csv run2.csv
@@ -212,6 +227,7 @@ const char* const kUnits[7] = {"kg m^2", "kg m^2",    "kg m^2",   "kg m",
 
 struct Options {
   sid::app::ChainIdentifyAppOptions chain;
+  sid::app::DriveGainAppOptions gains;  ///< --currents, --known-payload, --payload-run
   std::vector<std::string> inputs;
   std::string columns;
   std::vector<std::string> validate;
@@ -229,6 +245,7 @@ struct Options {
   std::string truth;
   std::string json;
   bool force = false;
+  std::string payload_of;  ///< --payload-of: the arm held while the load is identified
 };
 
 void define_options(CLI::App& cli, Options& o) {
@@ -253,11 +270,31 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--rest-fraction", o.chain.rest_fraction,
                  "--robot: leave out joint j's equations where |qd_j| < F RMS(qd_j) "
                  "(default 0.1)");
+  cli.add_option("--payload-of", o.payload_of,
+                 "--robot: ARM.json (this tool's --json on logs without the load): hold that arm "
+                 "and identify the ten inertial parameters of a load fixed to the chain's tip "
+                 "link from the runs, which carry it (mass, centre of mass and inertia in the "
+                 "tip link's frame, with HAC std, a real body); --json writes them under "
+                 "'payload', --write-urdf a copy of the URDF with the load as link 'payload' "
+                 "fixed to the tip")
+      ->check(CLI::ExistingFile);
   cli.add_option("--write-urdf", o.chain.write_urdf,
                  "--robot URDF: write a copy of it with the physically consistent link "
                  "parameters (refuses to overwrite without --force)");
   cli.add_option("--coulomb-epsilon", o.chain.coulomb_epsilon,
                  "--robot: Coulomb friction as tanh(qd / EPS) [rad/s] (default 0.01; 0: sign)");
+  cli.add_flag("--currents", o.gains.currents,
+               "--robot: the logs' tau columns are motor currents [A]; the drive gains [N m/A] "
+               "are found from a known payload (--known-payload, --payload-run), then the arm "
+               "is identified in N m; see the chain section below");
+  cli.add_option("--known-payload", o.gains.known_payload,
+                 "--currents: the load on the tip link in --payload-run, m,cx,cy,cz or "
+                 "m,cx,cy,cz,ixx,iyy,izz,ixy,ixz,iyz: mass [kg], centre of mass [m] and inertia "
+                 "about it [kg m^2] in the tip link's frame (default inertia 0: a point mass)");
+  cli.add_option("--payload-run", o.gains.payload_run,
+                 "--currents: LOADED.csv, the log with the known payload (the RUN files are "
+                 "logs without it)")
+      ->check(CLI::ExistingFile);
   cli.add_option("RUN", o.inputs,
                  "input CSV file(s), one per measured run ('-' reads standard input); several runs "
                  "are fitted together")
@@ -758,6 +795,12 @@ int identify(Options o) {
     o.chain.estimator = o.estimator;
     o.chain.json = o.json;
     o.chain.force = o.force;
+    require(!o.gains.any() || o.payload_of.empty(),
+            "--currents and --payload-of are two uses: the gains from a known load, or an "
+            "unknown load on a fitted arm; give one");
+    if (o.gains.any()) return sid::app::identify_robot_currents(o.chain, o.gains, kName);
+    if (!o.payload_of.empty())
+      return sid::app::identify_payload_robot(o.chain, o.payload_of, kName);
     return sid::app::identify_robot(o.chain, kName);
   }
   require(o.chain.base.empty() && o.chain.tip.empty() && o.chain.hold.empty() &&
@@ -766,6 +809,8 @@ int identify(Options o) {
               !o.chain.no_default_effects,
           "--base, --tip, --hold, --transmission, --validate-fraction, --rest-fraction, "
           "--coulomb-epsilon, --write-urdf and --no-default-effects need --robot");
+  require(o.payload_of.empty(), "--payload-of needs --robot (the description of the arm)");
+  require(!o.gains.any(), "--currents, --known-payload and --payload-run need --robot");
   if (uses_torque_cv(o)) return identify_from_runs(o);
   require(o.inputs.size() == 1,
           "several runs are fitted together only with --smoothing torque-cv "

@@ -516,22 +516,25 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
     held_out.push_back(
         load_run(f, loaded.transmission, loaded.motor_side,
                  chain_columns(o.columns, loaded.robot.chain.joints(), "--columns")));
-  const ChainIdentifyResult r = identify_loaded(o, std::move(loaded), std::move(held_out));
+  write_identify_outputs(o, identify_loaded(o, std::move(loaded), std::move(held_out)), app_name);
+  return kExitOk;
+}
+
+void write_identify_outputs(const ChainIdentifyAppOptions& o, const ChainIdentifyResult& r,
+                            const char* app_name) {
   (o.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
   for (const auto& w : r.warnings) std::cerr << app_name << ": warning: " << w << "\n";
   if (!o.json.empty()) write_json(o.json, r.json);
-  if (!o.write_urdf.empty()) {
-    std::string written;
-    try {
-      written = consistent_urdf(r, "--write-urdf");
-    } catch (const InputError& e) {
-      throw InputError(std::string(e.what()) + "; " + o.write_urdf + " is not written");
-    }
-    std::ofstream file(o.write_urdf, std::ios::binary);
-    file << written;
-    if (!file) throw std::runtime_error("cannot write '" + o.write_urdf + "'");
+  if (o.write_urdf.empty()) return;
+  std::string written;
+  try {
+    written = consistent_urdf(r, "--write-urdf");
+  } catch (const InputError& e) {
+    throw InputError(std::string(e.what()) + "; " + o.write_urdf + " is not written");
   }
-  return kExitOk;
+  std::ofstream file(o.write_urdf, std::ios::binary);
+  file << written;
+  if (!file) throw std::runtime_error("cannot write '" + o.write_urdf + "'");
 }
 
 }  // namespace sid::app

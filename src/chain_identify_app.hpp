@@ -105,6 +105,10 @@ ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChai
 /// @throws InputError (prefixed with what) for a DH table, an unconverged fit or bodies that do
 /// not reproduce the estimate: links that are no result are never written.
 std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& what);
+/// @brief Prints r's report and warnings (app_name: warning: ...), writes --json and
+/// --write-urdf (which refuses links that are no result).
+void write_identify_outputs(const ChainIdentifyAppOptions& options, const ChainIdentifyResult& r,
+                            const char* app_name);
 /// @brief Runs the identification and prints the report (the JSON too with --json).
 /// @return the exit code; bad input throws InputError.
 int identify_robot(const ChainIdentifyAppOptions& options, const char* app_name);

@@ -61,7 +61,11 @@ IdentifiedArm read_identified_arm(const std::string& path, const RobotDescriptio
   } catch (const nlohmann::json::exception& e) {
     throw InputError(path + " is not JSON (" + e.what() + ")");
   }
-  const std::string& where = path;
+  return identified_arm(j, path, robot, transmission);
+}
+
+IdentifiedArm identified_arm(const nlohmann::json& j, const std::string& where,
+                             const RobotDescription& robot, const sid::Transmission& transmission) {
   const std::vector<std::string> kinds = strings(j, "drive_terms", where);
   const nlohmann::json& epsilon = member(j, "coulomb_epsilon", where);
   if (!epsilon.is_number() || !(epsilon.get<double>() >= 0.0))
@@ -90,7 +94,7 @@ IdentifiedArm read_identified_arm(const std::string& path, const RobotDescriptio
                      std::to_string(model.parameters()) +
                      " (give the --robot, --base, --tip and --transmission of the fit)");
   const nlohmann::json& consistent = member(j, "physically_consistent", where);
-  IdentifiedArm arm{path,
+  IdentifiedArm arm{where,
                     std::move(model),
                     numbers(consistent, "theta", where + ": physically_consistent"),
                     numbers(j, "cutoff_hz", where),

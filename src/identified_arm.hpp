@@ -11,6 +11,7 @@
 #include "robot_description.hpp"
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 
 #include <string>
 #include <vector>
@@ -37,5 +38,10 @@ struct IdentifiedArm {
 /// not converge.
 IdentifiedArm read_identified_arm(const std::string& path, const RobotDescription& robot,
                                   const sid::Transmission& transmission);
+
+/// @brief The same from the JSON itself (the library's result as sid_identify writes it);
+/// where names it in messages.
+IdentifiedArm identified_arm(const nlohmann::json& json, const std::string& where,
+                             const RobotDescription& robot, const sid::Transmission& transmission);
 
 }  // namespace sid::app
