@@ -30,11 +30,16 @@ from ._core import (
 )
 from .bag import read_bag
 from .diagnosis import Diagnosis, Term, diagnose
+from .external import Contact, External, external_torque
+from .payload import Payload
 
 __all__ = [
+    "Contact",
     "Diagnosis",
+    "External",
     "Excitation",
     "Fit",
+    "Payload",
     "Prediction",
     "Robot",
     "Run",
@@ -43,6 +48,7 @@ __all__ = [
     "Truth",
     "diagnose",
     "excite",
+    "external_torque",
     "identify",
     "montecarlo",
     "read_bag",

@@ -7,11 +7,14 @@ import os
 import tempfile
 import warnings
 from dataclasses import dataclass
-from typing import Any, Iterable, Mapping, Optional, Sequence, Union
+from typing import TYPE_CHECKING, Any, Iterable, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
 from . import _sid
+
+if TYPE_CHECKING:
+    from .payload import Payload
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -246,6 +249,14 @@ class Fit:
         text = self._handle.consistent_urdf()
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
+
+    def identify_payload(self, runs: Union["Run", Sequence["Run"]]) -> "Payload":
+        """The load fixed to the tip link in runs that carry it, this fit's arm held (as
+        ``sid_identify --payload-of``): a sid.Payload. Refuses (ValueError) a motion that does
+        not show every parameter of the load, naming them."""
+        from .payload import identify_payload
+
+        return identify_payload(self, runs)
 
     def plot(self, run: int = 0) -> Any:
         """Measured and predicted torque per joint over fitted run `run`, and the residuals

@@ -11,6 +11,9 @@
 #include "chain_identify_app.hpp"
 #include "chain_simulate_app.hpp"
 #include "csv.hpp"
+#include "external_app.hpp"
+#include "identified_arm.hpp"
+#include "payload_app.hpp"
 #include "montecarlo_report.hpp"
 #include "paper_study.hpp"
 #include "robot_description.hpp"
@@ -180,6 +183,89 @@ Fit identify(const Robot& robot, const std::vector<RunData>& runs,
   std::vector<sid::app::ChainRunFile> held_out;
   for (const auto& r : validate) held_out.push_back(chain_run(r, loaded));
   return Fit(sid::app::identify_loaded(o, std::move(loaded), std::move(held_out)));
+}
+
+/// The arm a fit holds (sid_identify --json's text), on the robot's chain and transmission.
+sid::app::IdentifiedArm arm_of(const sid::app::LoadedChain& loaded, const std::string& json,
+                               const std::string& source) {
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(json);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(source + " is not JSON (" + e.what() + ")");
+  }
+  return sid::app::identified_arm(j, source, loaded.robot, loaded.transmission);
+}
+
+/// The options of external_torque(), named as sid_external's.
+struct ExternalOptions {
+  std::string method = "observer", cutoff;
+  std::optional<double> gain;
+  double threshold = 5.0, min_duration = 0.01, merge_gap = 0.05, skip = 0.1;
+};
+
+nb::dict external_torque(const Robot& robot, const std::string& model_json,
+                         const std::string& source, const RunData& data,
+                         const ExternalOptions& options) {
+  sid::app::ExternalResult r;
+  {
+    nb::gil_scoped_release release;
+    const sid::app::LoadedChain loaded = sid::app::load_chain(robot.source, {});
+    const sid::app::IdentifiedArm arm = arm_of(loaded, model_json, source);
+    sid::app::ExternalOptions o;
+    o.method = options.method;
+    o.cutoff = options.cutoff;
+    o.gain = options.gain;
+    o.threshold_factor = options.threshold;
+    o.min_duration = options.min_duration;
+    o.merge_gap = options.merge_gap;
+    o.skip = options.skip;
+    r = sid::app::external_torque(arm, chain_run(data, loaded), o);
+  }
+  nb::dict d;
+  d["t"] = r.t;
+  d["tau_ext"] = r.external;
+  d["contact"] = Eigen::VectorXi(r.contact);
+  d["thresholds"] = r.thresholds;
+  d["method"] = r.method;
+  d["gain"] = r.gain;
+  d["report"] = r.text;
+  d["json"] = r.json.dump();
+  d["warnings"] = r.warnings;
+  return d;
+}
+
+/// The load on the tip link from runs that carry it, the fit's arm held (sid_identify
+/// --payload-of).
+nb::dict identify_payload(const Robot& robot, const std::string& model_json,
+                          const std::string& source, const std::vector<RunData>& runs) {
+  sid::app::PayloadResult r;
+  {
+    nb::gil_scoped_release release;
+    sid::app::require(!runs.empty(), "no run given");
+    const sid::app::LoadedChain loaded = sid::app::load_chain(robot.source, {});
+    const sid::app::IdentifiedArm arm = arm_of(loaded, model_json, source);
+    std::vector<sid::app::ChainRunFile> files;
+    for (const auto& run : runs) files.push_back(chain_run(run, loaded));
+    sid::app::PayloadReportOptions options;
+    options.robot = robot.source.robot;
+    if (!loaded.robot.link_names.empty()) options.frame = loaded.robot.link_names.back();
+    options.payload.rows = loaded.options;
+    r = sid::app::identify_payload(arm, files, options);
+  }
+  nb::dict d;
+  d["standard_parameters"] = Eigen::VectorXd(r.id.phi);
+  d["report"] = r.text;
+  d["json"] = r.json.dump();
+  d["warnings"] = r.warnings;
+  return d;
+}
+
+/// The robot's URDF with a load of ten standard parameters fixed to its tip.
+std::string payload_urdf(const Robot& robot, const Eigen::VectorXd& phi) {
+  sid::app::require(phi.size() == 10, "a load has ten standard parameters");
+  const sid::app::LoadedChain loaded = sid::app::load_chain(robot.source, {});
+  return sid::app::urdf_with_payload(loaded.robot, sid::LinkParameters<double>(phi));
 }
 
 /// The options of diagnose(), named as sid_diagnose --robot's.
@@ -482,6 +568,21 @@ NB_MODULE(_sid, m) {
            [](const Fit& f) { return sid::app::consistent_urdf(f.result(), "write_urdf"); });
   m.def("identify", &identify, "robot"_a, "runs"_a, "validate"_a, "options"_a,
         nb::call_guard<nb::gil_scoped_release>());
+
+  m.def("identify_payload", &identify_payload, "robot"_a, "model_json"_a, "source"_a, "runs"_a);
+  m.def("payload_urdf", &payload_urdf, "robot"_a, "phi"_a,
+        nb::call_guard<nb::gil_scoped_release>());
+  nb::class_<ExternalOptions>(m, "_ExternalOptions")
+      .def(nb::init<>())
+      .def_rw("method", &ExternalOptions::method)
+      .def_rw("cutoff", &ExternalOptions::cutoff)
+      .def_rw("gain", &ExternalOptions::gain)
+      .def_rw("threshold", &ExternalOptions::threshold)
+      .def_rw("min_duration", &ExternalOptions::min_duration)
+      .def_rw("merge_gap", &ExternalOptions::merge_gap)
+      .def_rw("skip", &ExternalOptions::skip);
+  m.def("external_torque", &external_torque, "robot"_a, "model_json"_a, "source"_a, "run"_a,
+        "options"_a);
 
   nb::class_<DiagnoseOptions>(m, "_DiagnoseOptions")
       .def(nb::init<>())
