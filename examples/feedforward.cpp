@@ -2,7 +2,10 @@
 // computed torque, both tracking the same smooth trajectory on a simulated arm that is not quite
 // the model (as a real one never is).
 //
-//   feedforward [robot.urdf [base_link tip_link]]     (default: the UR5 of tests/data)
+//   feedforward [robot.urdf [base_link tip_link [ARM.json]]]   (default: the UR5 of tests/data)
+//
+// ARM.json: `sid_identify --robot robot.urdf --base .. --tip .. --json ARM.json` on the arm's
+// logs (default drive terms); without it, the URDF's links and made-up drives.
 //
 // Computed torque: tau = M(q) (qdd_ref + Kp e + Kd de) + c(q, qd) + g(q) + f(q, qd), e = q_ref - q.
 // With a perfect model the closed loop is e'' + Kd e' + Kp e = 0 on every joint, whatever the
@@ -15,6 +18,7 @@
 #include <sid/model/urdf.hpp>
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <array>
@@ -25,6 +29,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -43,6 +48,19 @@ std::string read_text(const std::string& path) {
   std::stringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+/// The identified parameters of sid_identify --json: physically_consistent.theta, every link a
+/// real body (ArmDynamics refuses the links an unconstrained fit can give), in the order of
+/// model_parameters, which must be this model's.
+Eigen::VectorXd fitted_parameters(const std::string& path, const sid::ChainModel& model) {
+  const nlohmann::json fit = nlohmann::json::parse(read_text(path));
+  if (fit.at("model_parameters").get<std::vector<std::string>>() != model.parameter_names())
+    throw std::runtime_error(path + " is the fit of another model (its model_parameters differ)");
+  if (!fit.at("physically_consistent").at("converged").get<bool>())
+    throw std::runtime_error(path + ": its physically consistent fit did not converge");
+  const auto theta = fit.at("physically_consistent").at("theta").get<std::vector<double>>();
+  return Eigen::Map<const Eigen::VectorXd>(theta.data(), static_cast<Eigen::Index>(theta.size()));
 }
 
 /// The reference: each joint swings from the start pose and back, (1 - cos) so that it starts
@@ -110,10 +128,7 @@ int main(int argc, char** argv) try {
   const sid::ChainModel model(urdf.chain, urdf.joint_names,
                               sid::drive_terms(sid::default_drive_term_kinds(), direct), direct);
 
-  // The identified parameters. A real program reads them from the fit, e.g. the
-  // physically_consistent.theta of `sid_identify --json` (in model.parameter_names() order):
-  // ArmDynamics refuses links that are not real bodies, which an unconstrained fit can give.
-  // Here: the URDF's own links and made-up drives.
+  // The identified parameters: the fit's, or the URDF's own links and made-up drives.
   Eigen::VectorXd theta(model.parameters());
   const Eigen::Index links = model.rigid_body_parameters();
   theta.head(links) = urdf.theta.head(links);
@@ -124,6 +139,7 @@ int main(int argc, char** argv) try {
     const double value[] = {2.0, 3.0, 0.0, 0.5, 0.2, 0.0, 0.0};
     theta[links + i] = size * value[static_cast<int>(term.kind)];
   }
+  if (argc > 4) theta = fitted_parameters(argv[4], model);
   const sid::ArmDynamics controller(model, theta);  // built once: the loop only reads it
 
   // The "real" arm: each link 4 % heavier or lighter (all ten parameters scaled, so still a
