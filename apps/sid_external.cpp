@@ -36,7 +36,8 @@ much of the motion as the angle noise lets through; --cutoff HZ or --cutoff fit 
 the torque is taken as logged.
 
 Contacts: a joint is in contact where |tau_ext| exceeds --threshold times the fit's residual RMS
-on its own logs (as recorded): the model's own error sets what counts as a contact. Excursions
+on its own logs (as recorded): the model's own error sets what counts as a contact; where this
+estimate's robust spread (1.4826 MAD) is larger, as with coarse encoders, it does. Excursions
 shorter than --min-duration are left out; contacts closer than --merge-gap are one; none is
 looked for within --skip of the log's ends.
 

@@ -54,6 +54,7 @@ struct ExternalResult {
   Eigen::MatrixXd external;    ///< samples x joints [N m or N]
   Eigen::VectorXi contact;     ///< per sample, 1 inside a contact
   Eigen::VectorXd thresholds;  ///< per joint
+  Eigen::VectorXd noise;       ///< per joint, the estimate's robust spread (1.4826 MAD)
   std::vector<Contact> contacts;
   std::string method;
   double gain = 0.0;  ///< the observer's K [1/s] (0 for the residual)
