@@ -2,6 +2,7 @@
 
 #include <sid/arm_dynamics.hpp>
 #include <sid/identify_chain.hpp>
+#include <sid/identify_runs.hpp>
 #include <sid/momentum_observer.hpp>
 #include <sid/smoothing_spline.hpp>
 
@@ -79,7 +80,7 @@ Eigen::VectorXd gcv_rate_cutoff(const sid::ChainTrajectory<double>& run) {
   Eigen::VectorXd cutoff(n);
   for (Eigen::Index j = 0; j < n; ++j) {
     const double lambda = spline.fit_cross_validated(run.q.col(j)).lambda;
-    cutoff[j] = std::min(std::pow(1.0 / (h * lambda), 0.25) / (2.0 * M_PI), 0.25 / h);
+    cutoff[j] = std::min(sid::smoothing_cutoff_for_lambda(lambda, h), 0.25 / h);
   }
   return cutoff;
 }

@@ -79,6 +79,20 @@ Eigen::VectorXd random_vector(std::mt19937_64& rng, double range) {
   return v;
 }
 
+// Every joint swings: q_j = amplitude sin(w_j t + phase j), w_j = rate + rate_step j.
+struct Swing {
+  double amplitude, rate, rate_step, phase;
+  void at(double t, Eigen::VectorXd& q, Eigen::VectorXd& qd, Eigen::VectorXd& qdd) const {
+    q.resize(6), qd.resize(6), qdd.resize(6);
+    for (int j = 0; j < 6; ++j) {
+      const double w = rate + rate_step * j, angle = w * t + phase * j;
+      q[j] = amplitude * std::sin(angle);
+      qd[j] = amplitude * w * std::cos(angle);
+      qdd[j] = -amplitude * w * w * std::sin(angle);
+    }
+  }
+};
+
 TEST(ArmDynamics, InverseDynamicsIsPinocchiosRneaWithFriction) {
   const sid::Transmission direct(6);
   const sid::ChainModel model(
@@ -150,23 +164,15 @@ TEST(ArmDynamics, MomentumBalanceMatchesAFiniteDifferenceAlongAMotion) {
   const DrivenArm a;
   const sid::ArmDynamics arm(a.model, a.theta);
   Eigen::VectorXd p_plus(6), p_minus(6), beta(6), p(6), tau(6);
-  const auto state = [](double t, Eigen::VectorXd& q, Eigen::VectorXd& qd, Eigen::VectorXd& qdd) {
-    q.resize(6), qd.resize(6), qdd.resize(6);
-    for (int j = 0; j < 6; ++j) {
-      const double w = 1.3 + 0.4 * j, phase = 0.5 * j;
-      q[j] = 0.9 * std::sin(w * t + phase);
-      qd[j] = 0.9 * w * std::cos(w * t + phase);
-      qdd[j] = -0.9 * w * w * std::sin(w * t + phase);
-    }
-  };
+  const Swing motion{0.9, 1.3, 0.4, 0.5};
   const double h = 1e-5;
   for (double t : {0.1, 0.7, 1.9, 3.3}) {
     Eigen::VectorXd q, qd, qdd;
-    state(t + h, q, qd, qdd);
+    motion.at(t + h, q, qd, qdd);
     arm.momentum(q, qd, p_plus, beta);
-    state(t - h, q, qd, qdd);
+    motion.at(t - h, q, qd, qdd);
     arm.momentum(q, qd, p_minus, beta);
-    state(t, q, qd, qdd);
+    motion.at(t, q, qd, qdd);
     arm.momentum(q, qd, p, beta);
     arm.inverse_dynamics(q, qd, qdd, tau);
     const Eigen::VectorXd rate = (p_plus - p_minus) / (2.0 * h);
@@ -220,18 +226,14 @@ TEST(MomentumObserver, FollowsAnExternalTorqueWithItsFirstOrderLag) {
   const sid::ArmDynamics arm(a.model, a.theta);
   const double gain = 100.0, dt = 1e-3;
   sid::MomentumObserver observer(arm, Eigen::VectorXd::Constant(6, gain));
+  const Swing motion{0.7, 1.1, 0.3, 1.0};
   Eigen::VectorXd external(6);
   external << 5.0, -8.0, 3.0, 1.0, -0.5, 0.3;
   Eigen::VectorXd q(6), qd(6), qdd(6), tau(6);
   double worst_after_rise = 0.0, worst_rest = 0.0;
   for (int step = 0; step <= 3000; ++step) {
     const double t = step * dt;
-    for (int j = 0; j < 6; ++j) {
-      const double w = 1.1 + 0.3 * j;
-      q[j] = 0.7 * std::sin(w * t + j);
-      qd[j] = 0.7 * w * std::cos(w * t + j);
-      qdd[j] = -0.7 * w * w * std::sin(w * t + j);
-    }
+    motion.at(t, q, qd, qdd);
     arm.inverse_dynamics(q, qd, qdd, tau);
     const bool pushed = t >= 1.0 && t < 2.0;
     if (pushed) tau -= external;
@@ -255,12 +257,7 @@ TEST(MomentumObserver, FollowsAnExternalTorqueWithItsFirstOrderLag) {
   observer.reset();
   for (int step = 0; step <= 100; ++step) {
     const double t = step * 0.03;
-    for (int j = 0; j < 6; ++j) {
-      const double w = 1.1 + 0.3 * j;
-      q[j] = 0.7 * std::sin(w * t + j);
-      qd[j] = 0.7 * w * std::cos(w * t + j);
-      qdd[j] = -0.7 * w * w * std::sin(w * t + j);
-    }
+    motion.at(t, q, qd, qdd);
     arm.inverse_dynamics(q, qd, qdd, tau);
     const Eigen::VectorXd estimate = observer.update(q, qd, tau - external, 0.03);
     // The trapezoid's error over 30 ms steps of a moving arm stays within 5 % of the push.

@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <array>
 #include <stdexcept>
 #include <string>
@@ -129,12 +130,10 @@ class ArmDynamics {
   /// @pre m is joints() x joints().
   void mass_matrix(const In& q, Eigen::Ref<Eigen::MatrixXd> m) const noexcept {
     eigen_assert(q.size() == n_ && m.rows() == n_ && m.cols() == n_);
-    std::array<Pose, kMaxChainJoints> pose;
+    Poses pose;
+    poses(q, pose);
     std::array<Body, kMaxChainJoints> composite;
-    for (int i = 0; i < n_; ++i) {
-      pose[k(i)] = chain_.link_pose(i, q[i]);
-      composite[k(i)] = links_[k(i)];
-    }
+    std::copy_n(links_.begin(), n_, composite.begin());
     for (int i = n_ - 1; i >= 0; --i) {
       if (i > 0) composite[k(i - 1)] += composite[k(i)].seen_from_parent(pose[k(i)]);
       Force f = composite[k(i)].times(axes_[k(i)]);
@@ -154,12 +153,12 @@ class ArmDynamics {
   void momentum(const In& q, const In& qd, Out p, Out beta) const noexcept {
     check(q, qd, qd, p);
     eigen_assert(beta.size() == n_);
-    std::array<Pose, kMaxChainJoints> pose;
+    Poses pose;
+    poses(q, pose);
     std::array<Motion, kMaxChainJoints> v;
     std::array<Force, kMaxChainJoints> h;
     Motion parent;
     for (int i = 0; i < n_; ++i) {
-      pose[k(i)] = chain_.link_pose(i, q[i]);
       v[k(i)] = parent.to_child(pose[k(i)]) + axes_[k(i)] * qd[i];
       h[k(i)] = links_[k(i)].times(v[k(i)]);
       parent = v[k(i)];
@@ -174,7 +173,7 @@ class ArmDynamics {
     }
     for (const Drive& r : motor_rotors_) p += r.value * r.direction * r.direction.dot(qd);
     Vector g(n_);
-    newton_euler(q, nullptr, nullptr, true, g);
+    newton_euler(pose, nullptr, nullptr, true, g);  // the same poses: computed once
     beta += g;
     add_drives(q, qd, Drives::All, beta);
   }
@@ -263,16 +262,28 @@ class ArmDynamics {
     (void)a, (void)b, (void)c, (void)out;
   }
 
+  using Poses = std::array<Pose, kMaxChainJoints>;
+
+  /// Each link frame's pose in its parent's at q.
+  void poses(const In& q, Poses& pose) const noexcept {
+    for (int i = 0; i < n_; ++i) pose[k(i)] = chain_.link_pose(i, q[i]);
+  }
+
   /// The links' torques: M_links qdd + c (qd, qdd null: zero), plus g with gravity.
   void newton_euler(const In& q, const In* qd, const In* qdd, bool with_gravity,
                     Out tau) const noexcept {
-    std::array<Pose, kMaxChainJoints> pose;
+    Poses pose;
+    poses(q, pose);
+    newton_euler(pose, qd, qdd, with_gravity, tau);
+  }
+
+  void newton_euler(const Poses& pose, const In* qd, const In* qdd, bool with_gravity,
+                    Out tau) const noexcept {
     std::array<Force, kMaxChainJoints> f;
     Motion v, a;
     if (with_gravity) a.linear = -chain_.gravity();  // the base accelerates up
     for (int i = 0; i < n_; ++i) {
       const Axis& s = axes_[k(i)];
-      pose[k(i)] = chain_.link_pose(i, q[i]);
       a = a.to_child(pose[k(i)]);
       if (qd) {
         const Motion joint_motion = s * (*qd)[i];

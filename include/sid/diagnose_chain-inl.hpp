@@ -554,8 +554,7 @@ inline std::vector<double> gcv_cutoffs(const ChainModel& model,
       lambda[static_cast<std::size_t>(j)] = spline.fit_cross_validated(run.q.col(j)).lambda;
     });
     for (int j = 0; j < n; ++j) {
-      const double cutoff = std::pow(1.0 / (h * lambda[static_cast<std::size_t>(j)]), 0.25) /
-                            (2.0 * 3.14159265358979323846);
+      const double cutoff = smoothing_cutoff_for_lambda(lambda[static_cast<std::size_t>(j)], h);
       log_sum[static_cast<std::size_t>(j)] +=
           std::log(std::clamp(cutoff, o.min_cutoff_hz, o.max_cutoff_hz));
     }

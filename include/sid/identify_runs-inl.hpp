@@ -16,6 +16,15 @@ SID_INLINE double smoothing_lambda_for_cutoff(double cutoff_hz, double mean_peri
   return 1.0 / (mean_period * omega * omega * omega * omega);
 }
 
+SID_INLINE double smoothing_cutoff_for_lambda(double lambda, double mean_period) {
+  if (!(lambda > 0.0) || !std::isfinite(lambda))
+    throw std::invalid_argument("sid::smoothing_cutoff_for_lambda: lambda must be finite and > 0");
+  if (!(mean_period > 0.0) || !std::isfinite(mean_period))
+    throw std::invalid_argument(
+        "sid::smoothing_cutoff_for_lambda: mean period must be finite and > 0 s");
+  return std::pow(1.0 / (mean_period * lambda), 0.25) / (2.0 * 3.14159265358979323846);
+}
+
 SID_INLINE Kinematics<double> kinematics_at_cutoff(const Trajectory<double>& run, double cutoff_hz,
                                                    double* lambda_out) {
   run.validate("sid::kinematics_at_cutoff");

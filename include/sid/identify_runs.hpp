@@ -97,6 +97,11 @@ struct RunsIdentification {
 /// @throws std::invalid_argument unless cutoff_hz > 0 and mean_period > 0, both finite.
 SID_INLINE double smoothing_lambda_for_cutoff(double cutoff_hz, double mean_period);
 
+/// @brief The inverse of smoothing_lambda_for_cutoff: the cutoff [Hz] at which the smoother of
+/// penalty λ halves a sinusoid on a grid of mean spacing h [s], (1 / (h λ))^(1/4) / (2π).
+/// @throws std::invalid_argument unless lambda > 0 and mean_period > 0, both finite.
+SID_INLINE double smoothing_cutoff_for_lambda(double lambda, double mean_period);
+
 /// @brief q, q̇, q̈ of every sample of a run from the penalty-form spline at cutoff_hz (unit
 /// weights: all samples alike), derivatives analytic; τ as measured.
 /// @throws std::invalid_argument on an invalid run or fewer than 3 samples.

@@ -65,10 +65,10 @@ class MomentumObserver {
       if (dt != step_) {  // a loop's fixed tick computes the decay once
         step_ = dt;
         decay_ = (-gains_ * dt).array().exp();
+        follow_ = Vector::Ones(arm_.joints()) - decay_;
       }
       const Vector shown = (p_ - previous_p_) / dt - 0.5 * (balance + previous_balance_);
-      external_ = decay_.cwiseProduct(external_) +
-                  (Vector::Ones(arm_.joints()) - decay_).cwiseProduct(shown);
+      external_ = decay_.cwiseProduct(external_) + follow_.cwiseProduct(shown);
     }
     started_ = true;
     previous_p_ = p_;
@@ -81,7 +81,7 @@ class MomentumObserver {
 
  private:
   const ArmDynamics& arm_;
-  Vector gains_, p_, beta_, external_, previous_p_, previous_balance_, decay_;
+  Vector gains_, p_, beta_, external_, previous_p_, previous_balance_, decay_, follow_;
   double step_ = 0.0;
   bool started_ = false;
 };

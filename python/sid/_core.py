@@ -272,6 +272,12 @@ class Fit:
         )
 
 
+def _as_robot(robot: Any) -> Robot:
+    if not isinstance(robot, Robot):
+        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    return robot
+
+
 def _as_run(run: Any, what: str) -> Run:
     if not isinstance(run, Run):
         raise ValueError(f"{what} must be a sid.Run, not {type(run).__name__}")
@@ -307,8 +313,7 @@ def identify(
     one or one per joint (default: chosen by held-out prediction). The other options are the
     tool's --skip, --rest-fraction, --coulomb-epsilon and --validate-fraction.
     """
-    if not isinstance(robot, Robot):
-        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    _as_robot(robot)
     runs = [runs] if isinstance(runs, Run) else list(runs)
     validate = [validate] if isinstance(validate, Run) else list(validate)
     options = _sid._IdentifyOptions()
@@ -430,8 +435,7 @@ def simulate(
 
     Returns the Run; with truth=True, (run, Truth).
     """
-    if not isinstance(robot, Robot):
-        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    _as_robot(robot)
     options = _sid._SimulateOptions()
     options.duration = float(duration)
     options.sample_time = float(sample_time)
@@ -516,8 +520,7 @@ def excite(
     drawn from seed). separate: candidate ids of sid.diagnose (e.g. ["spring_j2", "offset_j2"])
     whose columns join the conditioned regressor, for a motion on which they are told apart.
     """
-    if not isinstance(robot, Robot):
-        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    _as_robot(robot)
     if int(seed) < 0:
         raise ValueError("seed must be >= 0")
     options = _sid._ExciteOptions()
@@ -570,8 +573,7 @@ def montecarlo(
     options.threads = int(threads)
     if robot is None:
         return json.loads(_sid.montecarlo(options))
-    if not isinstance(robot, Robot):
-        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    _as_robot(robot)
     chain = _sid._ChainStudyOptions()
     chain.duration = float(duration)
     chain.rate = float(rate)

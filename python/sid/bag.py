@@ -12,7 +12,7 @@ from typing import Any, Optional, Union
 
 import numpy as np
 
-from ._core import Robot, Run
+from ._core import Robot, Run, _as_robot
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -46,8 +46,7 @@ def read_bag(
     topic, joint or message at fault.
     """
     AnyReader, Stores, get_typestore = _rosbags()
-    if not isinstance(robot, Robot):
-        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    _as_robot(robot)
     bag = Path(os.fspath(path))
     if not bag.exists():
         raise ValueError(f"{bag}: no such bag")

@@ -10,7 +10,7 @@ from typing import Any, Optional, Sequence, Union
 import numpy as np
 
 from . import _sid
-from ._core import Robot, Run, _as_run, _join
+from ._core import Robot, Run, _as_robot, _as_run, _join
 
 
 @dataclass(frozen=True)
@@ -82,8 +82,7 @@ def diagnose(
     candidates: the kinds tried (default coulomb, offset, armature, spring, viscous, stribeck and
     angle_offset). Several runs are judged by the runs each fit has not seen.
     """
-    if not isinstance(robot, Robot):
-        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    _as_robot(robot)
     runs = [runs] if isinstance(runs, Run) else list(runs)
     options = _sid._DiagnoseOptions()
     options.drives = _join(drives)

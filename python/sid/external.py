@@ -10,7 +10,7 @@ from typing import Any, Optional, Sequence, Union
 import numpy as np
 
 from . import _sid
-from ._core import Fit, PathLike, Robot, Run, _as_run, _join
+from ._core import Fit, PathLike, Robot, Run, _as_robot, _as_run, _join
 
 
 @dataclass
@@ -71,8 +71,7 @@ def external_torque(
     observer, default) or "residual". The other options are the tool's --gain [1/s], --cutoff
     [Hz] (or "fit"), --threshold, --min-duration, --merge-gap and --skip [s].
     """
-    if not isinstance(robot, Robot):
-        raise ValueError(f"robot must be a sid.Robot, not {type(robot).__name__}")
+    _as_robot(robot)
     if isinstance(fit, Fit):
         text, source = json.dumps(fit.to_dict()), "the fit"
     else:

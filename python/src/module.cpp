@@ -197,30 +197,15 @@ sid::app::IdentifiedArm arm_of(const sid::app::LoadedChain& loaded, const std::s
   return sid::app::identified_arm(j, source, loaded.robot, loaded.transmission);
 }
 
-/// The options of external_torque(), named as sid_external's.
-struct ExternalOptions {
-  std::string method = "observer", cutoff;
-  std::optional<double> gain;
-  double threshold = 5.0, min_duration = 0.01, merge_gap = 0.05, skip = 0.1;
-};
-
 nb::dict external_torque(const Robot& robot, const std::string& model_json,
                          const std::string& source, const RunData& data,
-                         const ExternalOptions& options) {
+                         const sid::app::ExternalOptions& options) {
   sid::app::ExternalResult r;
   {
     nb::gil_scoped_release release;
     const sid::app::LoadedChain loaded = sid::app::load_chain(robot.source, {});
     const sid::app::IdentifiedArm arm = arm_of(loaded, model_json, source);
-    sid::app::ExternalOptions o;
-    o.method = options.method;
-    o.cutoff = options.cutoff;
-    o.gain = options.gain;
-    o.threshold_factor = options.threshold;
-    o.min_duration = options.min_duration;
-    o.merge_gap = options.merge_gap;
-    o.skip = options.skip;
-    r = sid::app::external_torque(arm, chain_run(data, loaded), o);
+    r = sid::app::external_torque(arm, chain_run(data, loaded), options);
   }
   nb::dict d;
   d["t"] = r.t;
@@ -572,12 +557,14 @@ NB_MODULE(_sid, m) {
   m.def("identify_payload", &identify_payload, "robot"_a, "model_json"_a, "source"_a, "runs"_a);
   m.def("payload_urdf", &payload_urdf, "robot"_a, "phi"_a,
         nb::call_guard<nb::gil_scoped_release>());
+  // sid_external's own options; the log and the outputs come from Python instead.
+  using ExternalOptions = sid::app::ExternalOptions;
   nb::class_<ExternalOptions>(m, "_ExternalOptions")
       .def(nb::init<>())
       .def_rw("method", &ExternalOptions::method)
       .def_rw("cutoff", &ExternalOptions::cutoff)
       .def_rw("gain", &ExternalOptions::gain)
-      .def_rw("threshold", &ExternalOptions::threshold)
+      .def_rw("threshold", &ExternalOptions::threshold_factor)
       .def_rw("min_duration", &ExternalOptions::min_duration)
       .def_rw("merge_gap", &ExternalOptions::merge_gap)
       .def_rw("skip", &ExternalOptions::skip);
