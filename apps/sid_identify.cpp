@@ -197,17 +197,25 @@ beta, relative_residual, converged, iterations, prior_weight, correlation_inflat
 Drive gains (--robot --currents): the logs' tau columns are motor currents [A], not torques.
 --payload-run LOADED.csv is a log with a load of known inertia (--known-payload m,cx,cy,cz or
 m,cx,cy,cz,ixx,iyy,izz,ixy,ixz,iyz: mass [kg], centre of mass [m] and inertia about it [kg m^2]
-in the frame of the chain's last moving link) fixed to the tip; the RUN files are logs without
-it. The arm's base parameters and each motor's gain K [N m/A] are fitted together (Gautier and
-Briot): K i = Y theta without the load and K i = Y theta + Y_tip phi with it. Without the known
-load the gains' scale is not identifiable; a motor the load's torque does not reach (a point
-mass on its axis) keeps its gain free, and the tool says which. Then every run is converted to
-torques (K i, minus the load's torque on LOADED.csv) and identified as above; the report and
-the JSON add the gains with their HAC std (drive_gains [{joint, gain, std}], drive_gain_fit).
+in the frame of the --tip link, e.g. tool0, whatever fixed joints lie between it and the last
+moving link; --payload-frame LINK names another link fixed to that one; a DH table: its last
+link's frame) fixed to the tip; the RUN files are logs without it. The arm's base parameters
+and each motor's gain K [N m/A] are fitted together (Gautier and Briot): K i = Y theta without
+the load and K i = Y theta + Y_tip phi with it. Without the known load the gains' scale is not
+identifiable; a motor the load's torque does not reach (a point mass on its axis) keeps its
+gain free, and the tool says which. Then every run is converted to torques (K i, minus the
+load's torque on LOADED.csv) and identified as above; the report and the JSON add the gains with
+their HAC std (drive_gains [{joint, gain, std}], drive_gain_fit with the load and its frame).
+
+Payload (--robot --payload-of ARM.json): the RUN files carry an unknown load; with the arm of
+ARM.json held, its mass, centre of mass and inertia are identified and reported in the frame of
+the --tip link (or --payload-frame's; a DH table: its last link's), the std of the centre of
+mass turned into that frame with it.
 
 Examples:
-  sid_identify --robot ur5.urdf --currents --known-payload 3,0.03,-0.02,0.06 \
+  sid_identify --robot ur5.urdf --tip tool0 --currents --known-payload 3,0.03,-0.02,0.06 \
       --payload-run loaded.csv --json fit.json unloaded.csv
+  sid_identify --robot ur5.urdf --tip tool0 --payload-of fit.json --json load.json loaded.csv
   sid_identify log.csv
   sid_identify --columns t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2 \
       --effects coulomb_j1,coulomb_j2 --validate run3.csv run1.csv run2.csv
@@ -245,7 +253,8 @@ struct Options {
   std::string truth;
   std::string json;
   bool force = false;
-  std::string payload_of;  ///< --payload-of: the arm held while the load is identified
+  std::string payload_of;     ///< --payload-of: the arm held while the load is identified
+  std::string payload_frame;  ///< --payload-frame: the link the load's frame is (default --tip)
 };
 
 void define_options(CLI::App& cli, Options& o) {
@@ -274,9 +283,10 @@ void define_options(CLI::App& cli, Options& o) {
                  "--robot: ARM.json (this tool's --json on logs without the load): hold that arm "
                  "and identify the ten inertial parameters of a load fixed to the chain's tip "
                  "link from the runs, which carry it (mass, centre of mass and inertia in the "
-                 "tip link's frame, with HAC std, a real body); --json writes them under "
-                 "'payload', --write-urdf a copy of the URDF with the load as link 'payload' "
-                 "fixed to the tip")
+                 "--tip link's frame, e.g. tool0, or --payload-frame's, with HAC std, a real "
+                 "body); --json writes them under 'payload' (its 'frame' names the link), "
+                 "--write-urdf a copy of the URDF with the load as link 'payload' fixed to the "
+                 "tip")
       ->check(CLI::ExistingFile);
   cli.add_option("--write-urdf", o.chain.write_urdf,
                  "--robot URDF: write a copy of it with the physically consistent link "
@@ -290,7 +300,13 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--known-payload", o.gains.known_payload,
                  "--currents: the load on the tip link in --payload-run, m,cx,cy,cz or "
                  "m,cx,cy,cz,ixx,iyy,izz,ixy,ixz,iyz: mass [kg], centre of mass [m] and inertia "
-                 "about it [kg m^2] in the tip link's frame (default inertia 0: a point mass)");
+                 "about it [kg m^2] in the --tip link's frame, e.g. tool0, or --payload-frame's "
+                 "(default inertia 0: a point mass)");
+  cli.add_option("--payload-frame", o.payload_frame,
+                 "--payload-of, --known-payload: LINK, the URDF link whose frame the load is "
+                 "reported or given in (default: the --tip link); any link fixed to the "
+                 "chain's last moving link, that link included. A DH table has only its last "
+                 "link's frame");
   cli.add_option("--payload-run", o.gains.payload_run,
                  "--currents: LOADED.csv, the log with the known payload (the RUN files are "
                  "logs without it)")
@@ -798,9 +814,12 @@ int identify(Options o) {
     require(!o.gains.any() || o.payload_of.empty(),
             "--currents and --payload-of are two uses: the gains from a known load, or an "
             "unknown load on a fitted arm; give one");
+    require(o.payload_frame.empty() || !o.payload_of.empty() || !o.gains.known_payload.empty(),
+            "--payload-frame goes with --known-payload or --payload-of (the frame of the load)");
+    o.gains.payload_frame = o.payload_frame;
     if (o.gains.any()) return sid::app::identify_robot_currents(o.chain, o.gains, kName);
     if (!o.payload_of.empty())
-      return sid::app::identify_payload_robot(o.chain, o.payload_of, kName);
+      return sid::app::identify_payload_robot(o.chain, o.payload_of, o.payload_frame, kName);
     return sid::app::identify_robot(o.chain, kName);
   }
   require(o.chain.base.empty() && o.chain.tip.empty() && o.chain.hold.empty() &&
@@ -810,6 +829,7 @@ int identify(Options o) {
           "--base, --tip, --hold, --transmission, --validate-fraction, --rest-fraction, "
           "--coulomb-epsilon, --write-urdf and --no-default-effects need --robot");
   require(o.payload_of.empty(), "--payload-of needs --robot (the description of the arm)");
+  require(o.payload_frame.empty(), "--payload-frame needs --robot (a URDF naming the link)");
   require(!o.gains.any(), "--currents, --known-payload and --payload-run need --robot");
   if (uses_torque_cv(o)) return identify_from_runs(o);
   require(o.inputs.size() == 1,

@@ -74,15 +74,15 @@ std::vector<ChainRunFile> converted_runs(const sid::ChainModel& model,
 std::string number(const char* format, double v) { return format_number(format, v); }
 
 std::string gain_text(const sid::ChainModel& model, const sid::DriveGainIdentification& g,
-                      const sid::LinkInertia<double>& payload, const std::string& tip_link,
+                      const sid::LinkInertia<double>& payload, const std::string& frame_text,
                       const std::string& loaded_file, std::size_t unloaded, bool motor_side,
                       double first_cutoff) {
   std::ostringstream out;
   out << "drive gains (current to torque) from the known payload on " << loaded_file << ": "
       << number("%.4g", payload.mass) << " kg, centre of mass (" << number("%.4g", payload.com[0])
       << ", " << number("%.4g", payload.com[1]) << ", " << number("%.4g", payload.com[2])
-      << ") m in " << (tip_link.empty() ? std::string("the tip link") : tip_link) << "'s frame; "
-      << unloaded << " run" << (unloaded == 1 ? "" : "s") << " without it\n";
+      << ") m in " << frame_text << "; " << unloaded << " run" << (unloaded == 1 ? "" : "s")
+      << " without it\n";
   out << "  fitted with " << g.arm_parameters << " base parameters of the arm on " << g.equations
       << " equations (condition number " << number("%.4g", g.fit.condition_number)
       << "), smoothing cutoff per joint [Hz]:";
@@ -125,11 +125,12 @@ nlohmann::json gain_json(const sid::ChainModel& model, const sid::DriveGainIdent
 }
 
 nlohmann::json gain_fit_json(const sid::DriveGainIdentification& g,
-                             const sid::LinkInertia<double>& payload,
+                             const sid::LinkInertia<double>& payload, const std::string& frame,
                              const std::string& loaded_file) {
   nlohmann::json j;
   j["loaded_run"] = loaded_file;
-  j["payload"] = {{"mass", payload.mass},
+  j["payload"] = {{"frame", frame},
+                  {"mass", payload.mass},
                   {"com", to_json_array(payload.com)},
                   {"inertia_com", to_json_rows(payload.inertia_com)}};
   j["cutoff_hz"] = to_json_array(g.cutoff_hz);
@@ -161,8 +162,8 @@ sid::LinkInertia<double> parse_known_payload(const std::string& text) {
   const std::vector<double> v = parse_doubles(text, "--known-payload");
   require(v.size() == 4 || v.size() == 10,
           "--known-payload takes 4 numbers (m,cx,cy,cz) or 10 (m,cx,cy,cz,ixx,iyy,izz,ixy,ixz,iyz: "
-          "mass [kg], centre of mass [m] and inertia about it [kg m^2] in the tip link's frame), "
-          "got " +
+          "mass [kg], centre of mass [m] and inertia about it [kg m^2] in the --tip link's frame "
+          "or --payload-frame's), got " +
               std::to_string(v.size()));
   sid::LinkInertia<double> payload;
   payload.mass = v[0];
@@ -176,6 +177,8 @@ sid::LinkInertia<double> parse_known_payload(const std::string& text) {
 void check_drive_gain_options(const ChainIdentifyAppOptions& chain, const DriveGainAppOptions& o) {
   require(o.currents || (o.known_payload.empty() && o.payload_run.empty()),
           "--known-payload and --payload-run go with --currents (logs of motor currents)");
+  require(o.payload_frame.empty() || !o.known_payload.empty(),
+          "--payload-frame goes with --known-payload or --payload-of (the frame of the load)");
   if (!o.currents) return;
   require(!chain.robot.empty(), "--currents needs --robot");
   require(!o.known_payload.empty(),
@@ -194,13 +197,22 @@ void check_drive_gain_options(const ChainIdentifyAppOptions& chain, const DriveG
 DriveGainResult identify_with_drive_gains(const ChainIdentifyAppOptions& chain,
                                           const DriveGainAppOptions& o) {
   check_drive_gain_options(chain, o);
-  const sid::LinkInertia<double> payload = parse_known_payload(o.known_payload);
+  const sid::LinkInertia<double> given = parse_known_payload(o.known_payload);
   ChainIdentifyAppOptions without_runs = chain;
   without_runs.inputs.clear();
   without_runs.validate.clear();
   const LoadedChain loaded = load_identify_chain(without_runs);
   const sid::ChainModel& model = loaded.model;
   const int n = model.joints();
+  // The model carries a load in its last moving link's frame; the user gives it in a flange's.
+  const std::string frame = payload_frame_name(loaded.robot, o.payload_frame, "--payload-frame");
+  const sid::LinkInertia<double> payload =
+      frame.empty() ? given
+                    : sid::expressed_in_parent(
+                          given, fixed_link_pose(loaded.robot, frame, "--payload-frame"));
+  const std::string frame_name = frame.empty() ? "link " + std::to_string(n) : frame;
+  const std::string frame_text =
+      "the frame of " + frame_name + (frame.empty() ? " (a DH table: its last link's)" : "");
   const std::vector<std::string> columns = chain_columns(chain.columns, n, "--columns");
 
   std::vector<CurrentRun> runs = {read_current_run(o.payload_run, loaded, columns)};
@@ -253,13 +265,11 @@ DriveGainResult identify_with_drive_gains(const ChainIdentifyAppOptions& chain,
           " is poorly determined (std " +
           number("%.3g", 100.0 * gains.std_dev[j] / std::abs(gains.gain[j])) +
           " %): the payload's torque there is small, or the loaded run moves it little");
-  const std::string tip_link =
-      loaded.robot.link_names.empty() ? std::string() : loaded.robot.link_names.back();
-  identified.text = gain_text(model, gains, payload, tip_link, runs.front().file, runs.size() - 1,
+  identified.text = gain_text(model, gains, given, frame_text, runs.front().file, runs.size() - 1,
                               loaded.motor_side, choose ? first_cutoff : std::nan("")) +
                     identified.text;
   identified.json["drive_gains"] = gain_json(model, gains);
-  identified.json["drive_gain_fit"] = gain_fit_json(gains, payload, runs.front().file);
+  identified.json["drive_gain_fit"] = gain_fit_json(gains, given, frame_name, runs.front().file);
   return {std::move(gains), std::move(identified)};
 }
 

@@ -21,12 +21,15 @@ struct DriveGainAppOptions {
   bool currents = false;      ///< --currents: the tau columns are motor currents [A]
   std::string known_payload;  ///< --known-payload m,cx,cy,cz[,ixx,iyy,izz,ixy,ixz,iyz]
   std::string payload_run;    ///< --payload-run: the log with the payload on the tip link
+  /// --payload-frame: the link whose frame --known-payload is given in, fixed to the chain's
+  /// last moving link (empty: the --tip link; a DH table: its last link's frame).
+  std::string payload_frame;
   bool any() const { return currents || !known_payload.empty() || !payload_run.empty(); }
 };
 
 /// @brief The load of --known-payload: mass [kg], centre of mass [m] and, optionally, inertia
-/// about it [kg m^2] (ixx, iyy, izz, ixy, ixz, iyz; default 0, a point mass) in the tip link's
-/// frame.
+/// about it [kg m^2] (ixx, iyy, izz, ixy, ixz, iyz; default 0, a point mass), in the frame it is
+/// given in (DriveGainAppOptions::payload_frame).
 /// @throws InputError naming --known-payload: a count other than 4 or 10, a value that is not
 ///         a number, or a load that is no real body.
 sid::LinkInertia<double> parse_known_payload(const std::string& text);

@@ -31,12 +31,14 @@ constexpr double kProjectionMisfitLimit = 10.0 + 3.0 * 4.47213595499958;
 const char* const kInertiaNames[6] = {"ixx", "iyy", "izz", "ixy", "ixz", "iyz"};
 
 std::string report_text(const PayloadResult& r, const IdentifiedArm& arm,
-                        const std::vector<ChainRunFile>& runs) {
+                        const std::vector<ChainRunFile>& runs, bool dh_table) {
   const sid::PayloadIdentification& p = r.id;
   std::ostringstream out;
   out << "payload on " << r.frame << " (the arm held at " << arm.source << "): " << runs.size()
       << (runs.size() == 1 ? " run, " : " runs, ") << p.equations << " equations, condition number "
       << number("%.4g", p.condition_number) << "\n";
+  if (dh_table)
+    out << "  (a DH table: the frame is its last link's; --payload-frame needs a URDF)\n";
   out << "  mass " << number("%.6g", p.body.mass) << " kg (std " << number("%.2g", p.mass_std)
       << ")\n";
   out << "  centre of mass (" << number("%.5g", p.body.com[0]) << ", "
@@ -124,13 +126,21 @@ PayloadResult identify_payload(const IdentifiedArm& arm, const std::vector<Chain
   std::vector<sid::ChainTrajectory<double>> data;
   for (const auto& r : runs) data.push_back(r.data);
   PayloadResult r;
-  r.frame = options.frame.empty() ? "link " + std::to_string(n) : options.frame;
+  const bool dh_table = options.frame.empty();
+  r.frame = dh_table ? "link " + std::to_string(n) : options.frame;
   r.warnings = arm.warnings;
   try {
     r.id = sid::identify_payload(arm.model, arm.theta, data, arm.cutoff_hz, options.payload);
   } catch (const sid::PayloadNotIdentifiable& e) {
     const std::string robot = options.robot.empty() ? "FILE" : options.robot;
-    throw InputError(std::string(e.what()) + ". sid_excite --robot " + robot +
+    const sid::FramePose<double>& frame = options.payload.frame;
+    const bool moved = frame.rotation != Eigen::Matrix3d::Identity() ||
+                       frame.translation != Eigen::Vector3d::Zero();
+    throw InputError(std::string(e.what()) +
+                     (moved ? " (the parameters named in the frame of the chain's last moving "
+                              "link, where the motion is judged)"
+                            : "") +
+                     ". sid_excite --robot " + robot +
                      " [--base --tip] -o excitation.csv designs a motion that shows them; "
                      "record the loaded arm following it");
   } catch (const std::invalid_argument& e) {
@@ -145,13 +155,24 @@ PayloadResult identify_payload(const IdentifiedArm& arm, const std::vector<Chain
         number("%.3g", r.id.projection_misfit) + " where noise gives at most about " +
         number("%.3g", kProjectionMisfitLimit) +
         "): the arm held may not match this arm, or the load is not fixed rigidly");
-  r.text = report_text(r, arm, runs);
+  r.text = report_text(r, arm, runs, dh_table);
   r.json = report_json(r, arm, runs);
   return r;
 }
 
-std::string urdf_with_payload(const RobotDescription& robot,
-                              const sid::LinkParameters<double>& phi) {
+PayloadReportOptions payload_report_options(const LoadedChain& loaded, const std::string& robot,
+                                            const std::string& frame, const std::string& option) {
+  PayloadReportOptions options;
+  options.robot = robot;
+  options.frame = payload_frame_name(loaded.robot, frame, option);
+  if (!options.frame.empty())
+    options.payload.frame = fixed_link_pose(loaded.robot, options.frame, option);
+  options.payload.rows = loaded.options;
+  return options;
+}
+
+std::string urdf_with_payload(const RobotDescription& robot, const sid::LinkParameters<double>& phi,
+                              const std::string& frame) {
   require(!robot.urdf.empty(), "--write-urdf needs a URDF as --robot, not a DH table");
   const std::string inconsistency = sid::link_inconsistency(phi);
   if (!inconsistency.empty())
@@ -159,17 +180,16 @@ std::string urdf_with_payload(const RobotDescription& robot,
   const sid::detail::XmlElement document =
       sid::detail::XmlParser(robot.urdf, "urdf").parse_document();
   const sid::detail::UrdfTree tree(document);
-  const std::string& moving = robot.link_names.back();
   // The tip link (robot.tip) may be fixed below the last moving link (a flange): the load is
   // hung from it, its inertial written in its frame.
-  sid::FramePose<double> tip_in_moving;
-  for (const sid::detail::XmlElement* joint : tree.path(moving, robot.tip))
-    tip_in_moving = sid::detail::compose(
-        tip_in_moving, sid::detail::urdf_origin(joint->child("origin"), "joint origin"));
-  const sid::LinkInertia<double> body = sid::link_inertia(phi);
-  const Eigen::Matrix3d rt = tip_in_moving.rotation.transpose();
-  const Eigen::Vector3d c = rt * (body.com - tip_in_moving.translation);
-  const Eigen::Matrix3d i = rt * body.inertia_com * tip_in_moving.rotation;
+  const sid::FramePose<double> frame_in_moving =
+      fixed_link_pose(robot, frame.empty() ? robot.tip : frame, "--payload-frame");
+  const sid::FramePose<double> frame_in_tip = sid::detail::compose(
+      sid::inverse_pose(fixed_link_pose(robot, robot.tip, "--tip")), frame_in_moving);
+  const sid::LinkInertia<double> body =
+      sid::expressed_in_parent(sid::link_inertia(phi), frame_in_tip);
+  const Eigen::Vector3d& c = body.com;
+  const Eigen::Matrix3d& i = body.inertia_com;
   std::string link = "payload", joint = "payload_joint";
   for (int k = 2; tree.links.count(link) || tree.joints.count(joint); ++k) {
     link = "payload_" + std::to_string(k);
@@ -195,14 +215,15 @@ std::string urdf_with_payload(const RobotDescription& robot,
   const Eigen::Index tip = 10 * static_cast<Eigen::Index>(before.chain.joints() - 1);
   const sid::LinkParameters<double> added =
       after.theta.segment<10>(tip) - before.theta.segment<10>(tip);
-  if ((added - phi).cwiseAbs().maxCoeff() > 1e-9 * (1.0 + phi.cwiseAbs().maxCoeff()) ||
+  const sid::LinkParameters<double> expected = sid::expressed_in_parent(phi, frame_in_moving);
+  if ((added - expected).cwiseAbs().maxCoeff() > 1e-9 * (1.0 + expected.cwiseAbs().maxCoeff()) ||
       (after.theta.head(tip) - before.theta.head(tip)).cwiseAbs().maxCoeff() > 0.0)
     throw std::runtime_error("--write-urdf: the payload does not read back as identified");
   return out;
 }
 
 int identify_payload_robot(const ChainIdentifyAppOptions& o, const std::string& payload_of,
-                           const char* app_name) {
+                           const std::string& payload_frame, const char* app_name) {
   require(!o.inputs.empty(), "no run given");
   require(o.effects.empty() && !o.no_default_effects && !o.coulomb_epsilon && o.cutoff.empty(),
           "--payload-of: the drive terms and the smoothing are the arm's (" + payload_of +
@@ -214,15 +235,13 @@ int identify_payload_robot(const ChainIdentifyAppOptions& o, const std::string& 
   LoadedChain loaded = load_chain(o, {});
   require(o.write_urdf.empty() || !loaded.robot.urdf.empty(),
           "--write-urdf needs a URDF as --robot, not a DH table");
+  const PayloadReportOptions options =
+      payload_report_options(loaded, o.robot, payload_frame, "--payload-frame");
   const IdentifiedArm arm = read_identified_arm(payload_of, loaded.robot, loaded.transmission);
-  PayloadReportOptions options;
-  options.robot = o.robot;
-  if (!loaded.robot.link_names.empty()) options.frame = loaded.robot.link_names.back();
-  options.payload.rows = loaded.options;
   const PayloadResult r = identify_payload(arm, loaded.runs, options);
   // Refuse before anything is written: a load that cannot go into the URDF writes nothing.
   std::string urdf;
-  if (!o.write_urdf.empty()) urdf = urdf_with_payload(loaded.robot, r.id.phi);
+  if (!o.write_urdf.empty()) urdf = urdf_with_payload(loaded.robot, r.id.phi, r.frame);
   (o.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
   for (const auto& w : r.warnings) std::cerr << app_name << ": warning: " << w << "\n";
   if (!o.json.empty()) write_json(o.json, r.json);

@@ -152,6 +152,54 @@ RobotDescription read_dh(const std::string& path, const std::string& text) {
 
 }  // namespace
 
+sid::FramePose<double> fixed_link_pose(const RobotDescription& robot, const std::string& link,
+                                       const std::string& option) {
+  if (robot.urdf.empty() || robot.link_names.empty())
+    throw InputError(option +
+                     " needs a URDF as --robot: a DH table names no frames but its "
+                     "links', and a load on it is in its last link's frame");
+  const sid::detail::XmlElement document =
+      sid::detail::XmlParser(robot.urdf, "urdf").parse_document();
+  const sid::detail::UrdfTree tree(document);
+  const std::string& moving = robot.link_names.back();
+  const std::string attached =
+      "; the frame must be fixed to " + moving + ", the chain's last moving link (e.g. " +
+      (robot.tip == moving ? std::string() : robot.tip + " or ") + moving + " itself)";
+  if (!tree.links.count(link))
+    throw InputError(option + ": the URDF has no link '" + link + "'" + attached);
+  std::vector<const sid::detail::XmlElement*> path;
+  try {
+    path = tree.path(moving, link);
+  } catch (const std::invalid_argument&) {
+    throw InputError(option + ": link '" + link + "' is not below " + moving + attached);
+  }
+  sid::FramePose<double> pose;
+  try {
+    for (const sid::detail::XmlElement* joint : path) {
+      const std::string name = sid::detail::UrdfTree::joint_name(*joint);
+      const std::string type = sid::detail::urdf_type(*joint);
+      if (type != "fixed")
+        throw InputError(option + ": link '" + link + "' is not rigidly attached to " + moving +
+                         ": joint '" + name + "' between them is " + type + attached);
+      pose = sid::detail::compose(
+          pose, sid::detail::urdf_origin(joint->child("origin"), "joint '" + name + "'"));
+    }
+  } catch (const std::invalid_argument& e) {
+    throw InputError(option + ": " + e.what());
+  }
+  return pose;
+}
+
+std::string payload_frame_name(const RobotDescription& robot, const std::string& frame,
+                               const std::string& option) {
+  if (!robot.urdf.empty()) return frame.empty() ? robot.tip : frame;
+  if (!frame.empty())
+    throw InputError(option +
+                     " needs a URDF as --robot: with a DH table the load is in its last link's "
+                     "frame, the only one it names");
+  return {};
+}
+
 std::map<std::string, double> parse_held_joints(const std::string& text,
                                                 const std::string& option) {
   std::map<std::string, double> held;

@@ -41,6 +41,23 @@ RobotDescription read_robot_description(const std::string& path, const std::stri
                                         const std::string& tip,
                                         const std::map<std::string, double>& held = {});
 
+/// @brief The pose of `link` in the frame of the chain's last moving link (link_names.back()):
+/// the fixed joints from that link out to it composed, the identity for the link itself. A load
+/// fixed to the arm's end is identified in that link's frame and given, or reported, in a
+/// flange's (tool0), which a vendor's data sheet uses.
+/// @param option names the option in the messages (e.g. "--payload-frame").
+/// @throws InputError for a DH table (its frames are the links'), a link the URDF does not have,
+///         one that is not below the last moving link, or one with a moving joint between them.
+sid::FramePose<double> fixed_link_pose(const RobotDescription& robot, const std::string& link,
+                                       const std::string& option);
+
+/// @brief The link whose frame a load fixed to the arm's end is given or reported in: `frame` if
+/// given, else the URDF's tip link (robot.tip, a flange where vendors give a load's centre of
+/// mass); "" for a DH table, whose load is in its last link's frame.
+/// @throws InputError (naming `option`) for a frame given with a DH table.
+std::string payload_frame_name(const RobotDescription& robot, const std::string& frame,
+                               const std::string& option);
+
 /// @brief Parses "joint=value,joint=value" (the held joints of --hold).
 /// @throws InputError on a missing '=', an empty name, a value that is not a finite number or a
 ///         joint given twice; option names the option in the message.

@@ -1,6 +1,7 @@
 // Tests of sid_identify --robot --currents as a user runs it: a UR5 whose logs hold motor
-// currents, one run with a known payload on the tip link and one without, gives its drive
-// gains and an arm in N m; bad options are refused with a message naming them.
+// currents, one run with a known payload on the tip link (given in tool0's frame, or in another
+// link's with --payload-frame) and one without, gives its drive gains and an arm in N m; bad
+// options are refused with a message naming them.
 
 #include <sid/drive_gains.hpp>
 
@@ -9,6 +10,7 @@
 #include "app_test_support.hpp"
 #include "chain_identify_app.hpp"
 #include "csv.hpp"
+#include "ur5_tool0.hpp"
 
 #include <gtest/gtest.h>
 
@@ -27,6 +29,8 @@ constexpr double kRate = 250.0;                // [Hz]
 constexpr double kDuration = 14.0;             // [s]
 constexpr double kAngleNoise = 5e-5;           // [rad]
 constexpr double kCurrentNoise = 0.01;         // of each joint's current RMS
+/// Relative: the gains from one load given in two frames (the same torques either way).
+constexpr double kSameGainTolerance = 1e-6;
 
 const double kTrueGain[6] = {9.2, 10.5, 7.4, 3.6, 4.1, 5.3};  // [N m/A]
 
@@ -119,6 +123,7 @@ const Ur5& ur5() {
   return arm;
 }
 
+/// 3 kg off the axes, given in tool0's frame (the --tip link's) as a vendor gives it.
 sid::LinkInertia<double> payload() {
   sid::LinkInertia<double> p;
   p.mass = 3.0;
@@ -163,17 +168,48 @@ class IdentifyCurrents : public sid_test::AppTest {
   static std::string payload_option() {
     return " --known-payload 3,0.04,0.07,-0.03,0.012,0.010,0.008,0.001,0,0";
   }
+  /// A load as --known-payload m,cx,cy,cz,ixx,iyy,izz,ixy,ixz,iyz takes it, at full precision.
+  static std::string known_payload(const sid::LinkInertia<double>& p) {
+    const double v[10] = {p.mass,
+                          p.com[0],
+                          p.com[1],
+                          p.com[2],
+                          p.inertia_com(0, 0),
+                          p.inertia_com(1, 1),
+                          p.inertia_com(2, 2),
+                          p.inertia_com(0, 1),
+                          p.inertia_com(0, 2),
+                          p.inertia_com(1, 2)};
+    std::string out = " --known-payload ";
+    for (int k = 0; k < 10; ++k) {
+      char number[32];
+      std::snprintf(number, sizeof number, "%s%.17g", k ? "," : "", v[k]);
+      out += number;
+    }
+    return out;
+  }
+  /// The gains of sid_identify --json's drive_gains.
+  static Eigen::VectorXd gains_of(const nlohmann::json& fit) {
+    Eigen::VectorXd k(6);
+    for (int j = 0; j < 6; ++j)
+      k[j] = fit["drive_gains"][static_cast<std::size_t>(j)]["gain"].get<double>();
+    return k;
+  }
 };
 
 TEST_F(IdentifyCurrents, FindsTheDriveGainsWithinTwoPercentAndTheArmInNewtonMetres) {
-  write_log("loaded.csv", 1, 11, sid::standard_parameters(payload()));
+  // The load rides on wrist_3_link, the last moving link; the user gives it in tool0's frame,
+  // turned and moved from that link's by a fixed joint.
+  write_log("loaded.csv", 1, 11, sid::standard_parameters(sid_test::in_wrist_3(payload())));
   write_log("unloaded.csv", 1, 12, sid::LinkParameters<double>::Zero());
   const sid_test::AppRun r =
       shell(tool() + payload_option() + " --payload-run loaded.csv --json fit.json unloaded.csv");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("drive gains (current to torque)"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("gain [N m/A]"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("m in the frame of tool0"), std::string::npos) << r.out;
   const nlohmann::json fit = nlohmann::json::parse(read(file("fit.json")));
+  EXPECT_EQ(fit["drive_gain_fit"]["payload"]["frame"], "tool0");
   const auto& gains = fit["drive_gains"];
   ASSERT_EQ(gains.size(), 6u);
   for (int j = 0; j < 6; ++j) {
@@ -219,15 +255,54 @@ TEST_F(IdentifyCurrents, FindsTheDriveGainsWithinTwoPercentAndTheArmInNewtonMetr
   std::printf("relative error of the identified arm's torque: %.4f %%\n", 100.0 * relative);
 }
 
+TEST_F(IdentifyCurrents, TheKnownPayloadMayBeGivenInAnyLinkFixedToTheLastMovingLink) {
+  write_log("loaded.csv", 1, 11, sid::standard_parameters(sid_test::in_wrist_3(payload())));
+  write_log("unloaded.csv", 1, 12, sid::LinkParameters<double>::Zero());
+  const std::string runs = " --payload-run loaded.csv --cutoff 8 unloaded.csv";
+  const sid_test::AppRun in_tool0 = shell(tool() + payload_option() + " --json tool0.json" + runs);
+  ASSERT_EQ(in_tool0.exit_code, 0) << in_tool0.err;
+  // The same body in wrist_3_link's frame, moved there by hand.
+  const sid_test::AppRun in_link = shell(tool() + known_payload(sid_test::in_wrist_3(payload())) +
+                                         " --payload-frame wrist_3_link --json link.json" + runs);
+  ASSERT_EQ(in_link.exit_code, 0) << in_link.err;
+  EXPECT_NE(in_link.out.find("m in the frame of wrist_3_link"), std::string::npos) << in_link.out;
+  const nlohmann::json link = nlohmann::json::parse(read(file("link.json")));
+  EXPECT_EQ(link["drive_gain_fit"]["payload"]["frame"], "wrist_3_link");
+  const Eigen::VectorXd tool0_gains = gains_of(nlohmann::json::parse(read(file("tool0.json"))));
+  const Eigen::VectorXd link_gains = gains_of(link);
+  EXPECT_TRUE(link_gains.isApprox(tool0_gains, kSameGainTolerance))
+      << link_gains.transpose() << "\n"
+      << tool0_gains.transpose();
+  for (int j = 0; j < 6; ++j) {
+    EXPECT_NEAR(link_gains[j], kTrueGain[j], kGainTolerance * kTrueGain[j]) << j;
+    std::printf("gain %d in wrist_3_link's frame: %.5f (error %+.3f %%; tool0's %+.3f %%)\n", j + 1,
+                link_gains[j], 100.0 * (link_gains[j] / kTrueGain[j] - 1.0),
+                100.0 * (tool0_gains[j] / kTrueGain[j] - 1.0));
+  }
+  // The tool0 figures read in wrist_3_link's frame are another load: the gains follow it.
+  const sid_test::AppRun misread =
+      shell(tool() + payload_option() + " --payload-frame wrist_3_link --json misread.json" + runs);
+  ASSERT_EQ(misread.exit_code, 0) << misread.err;
+  const Eigen::VectorXd wrong = gains_of(nlohmann::json::parse(read(file("misread.json"))));
+  double worst = 0.0;
+  for (int j = 0; j < 6; ++j) {
+    worst = std::max(worst, std::abs(wrong[j] / kTrueGain[j] - 1.0));
+    std::printf("gain %d from tool0's load read in wrist_3_link's frame: %.4g (true %.2f)\n", j + 1,
+                wrong[j], kTrueGain[j]);
+  }
+  EXPECT_GT(worst, 10.0 * kGainTolerance);
+}
+
 TEST_F(IdentifyCurrents, NamesTheGainThePayloadCannotReach) {
-  // A point mass on wrist_3_joint's axis (y in its link's frame) puts no torque on it.
+  // A point mass on tool0's z axis, which is wrist_3_joint's (y in wrist_3_link's frame), puts
+  // no torque on it.
   sid::LinkInertia<double> on_axis;
   on_axis.mass = 2.0;
-  on_axis.com = Eigen::Vector3d(0.0, 0.1, 0.0);
-  write_log("loaded.csv", 1, 11, sid::standard_parameters(on_axis));
+  on_axis.com = Eigen::Vector3d(0.0, 0.0, 0.1);
+  write_log("loaded.csv", 1, 11, sid::standard_parameters(sid_test::in_wrist_3(on_axis)));
   write_log("unloaded.csv", 1, 12, sid::LinkParameters<double>::Zero());
   const sid_test::AppRun r = shell(tool() +
-                                   " --known-payload 2,0,0.1,0 --payload-run loaded.csv "
+                                   " --known-payload 2,0,0,0.1 --payload-run loaded.csv "
                                    "--cutoff 8 unloaded.csv");
   EXPECT_EQ(r.exit_code, 2) << r.out;
   EXPECT_NE(r.err.find("does not reach wrist_3_joint"), std::string::npos) << r.err;
@@ -259,6 +334,16 @@ TEST_F(IdentifyCurrents, RefusesOptionsThatCannotFixTheGainsScale) {
               " --currents --known-payload 3,0,0,0.1 --payload-run loaded.csv "
               "run.csv",
           "need --robot");
+  refused(tool() + " --payload-frame tool0 --payload-run loaded.csv run.csv",
+          "--payload-frame goes with --known-payload or --payload-of");
+  refused(tool() +
+              " --known-payload 3,0,0,0.1 --payload-frame upper_arm_link --payload-run "
+              "loaded.csv run.csv",
+          "--payload-frame: link 'upper_arm_link' is not below wrist_3_link");
+  refused(tool() +
+              " --known-payload 3,0,0,0.1 --payload-frame tool1 --payload-run "
+              "loaded.csv run.csv",
+          "--payload-frame: the URDF has no link 'tool1'");
 }
 
 TEST(DriveGains, APointMassIsARealPayloadAndAFlatDiscBeyondTheTriangleIsNot) {

@@ -1,7 +1,8 @@
 // Tests of payload identification (sid/payload.hpp and sid_identify --payload-of): the load's
-// parameters from a log that carries it with the arm held at its own identification, the
-// refusal of a motion that cannot show it and of the fit of another robot, and the URDF with
-// the load read back.
+// parameters from a log that carries it with the arm held at its own identification, in the
+// frame of the --tip link (tool0) or of --payload-frame, the refusal of a motion that cannot show
+// it, of the fit of another robot and of a frame not fixed to the last moving link, and the URDF
+// with the load read back.
 
 #include <sid/payload.hpp>
 
@@ -13,6 +14,7 @@
 #include "app_test_support.hpp"
 #include "csv.hpp"
 #include "robot_description.hpp"
+#include "ur5_tool0.hpp"
 
 #include <gtest/gtest.h>
 
@@ -35,6 +37,9 @@ constexpr double kExactTolerance = 1e-6;  // relative, noise-free data with the 
 constexpr double kTorqueNoise = 0.01;     // of each joint's RMS
 constexpr double kAngleNoise = 1e-5;      // [rad]
 constexpr double kRate = 500.0;           // [Hz]
+/// Relative: one body identified in two frames (the columns differ by a change of frame only).
+constexpr double kSameBodyTolerance = 1e-6;
+constexpr double kUrdfTolerance = 1e-9;  // relative, a URDF written at 17 digits read back
 
 std::string ur5_path() { return SID_TEST_DATA_DIR "/urdf/real/ur5_robot.urdf"; }
 
@@ -83,8 +88,11 @@ struct Ur5 {
   }
 };
 
-/// 2.5 kg off every axis: its centre of mass at (0.03, -0.02, 0.08) m of the tip link and its
-/// principal axes turned away from the link's.
+using sid_test::in_wrist_3;
+using sid_test::tool0_in_wrist_3;
+
+/// 2.5 kg off every axis, given in tool0's frame as a vendor gives it: its centre of mass at
+/// (0.03, -0.02, 0.08) m of tool0 and its principal axes turned away from tool0's.
 sid::LinkInertia<double> the_load() {
   sid::LinkInertia<double> load;
   load.mass = 2.5;
@@ -175,10 +183,34 @@ void write_log(const std::string& path, const sid::ChainTrajectory<double>& run)
   sid::app::write_csv(path, names, columns);
 }
 
+/// The arm's parameters with `load` (in tool0's frame) on wrist_3_link, the last moving link.
 Eigen::VectorXd with_load(const Ur5& arm, const sid::LinkInertia<double>& load) {
   Eigen::VectorXd theta = arm.theta;
-  theta.segment<10>(50) += sid::standard_parameters(load);
+  theta.segment<10>(50) += sid::standard_parameters(in_wrist_3(load));
   return theta;
+}
+
+/// A payload's ten parameters, mass, centre of mass and their std from sid_identify's JSON.
+struct ReportedLoad {
+  std::string frame;
+  sid::LinkParameters<double> phi;
+  double mass = 0.0, mass_std = 0.0;
+  Eigen::Vector3d com, com_std;
+};
+
+ReportedLoad reported_load(const nlohmann::json& j) {
+  const nlohmann::json& p = j["payload"];
+  ReportedLoad r;
+  r.frame = p["frame"].get<std::string>();
+  for (int k = 0; k < 10; ++k)
+    r.phi[k] = p["standard_parameters"][static_cast<std::size_t>(k)].get<double>();
+  r.mass = p["mass"].get<double>();
+  r.mass_std = p["mass_std"].get<double>();
+  for (int a = 0; a < 3; ++a) {
+    r.com[a] = p["com"][static_cast<std::size_t>(a)].get<double>();
+    r.com_std[a] = p["com_std"][static_cast<std::size_t>(a)].get<double>();
+  }
+  return r;
 }
 
 const std::vector<bool> kAllMove(6, true);
@@ -244,7 +276,7 @@ TEST(PayloadLibrary, NoiseFreeLogWithTheTrueArmGivesTheLoadExactly) {
   sid::PayloadOptions options;
   const sid::PayloadIdentification id = sid::identify_payload(
       arm.model, arm.theta, {run}, Eigen::VectorXd::Constant(6, 40.0), options);
-  const sid::LinkParameters<double> truth = sid::standard_parameters(the_load());
+  const sid::LinkParameters<double> truth = sid::standard_parameters(in_wrist_3(the_load()));
   EXPECT_LT((id.phi - truth).cwiseAbs().maxCoeff(), kExactTolerance * 10.0 + 1e-5)
       << id.phi.transpose() << "\n"
       << truth.transpose();
@@ -253,6 +285,45 @@ TEST(PayloadLibrary, NoiseFreeLogWithTheTrueArmGivesTheLoadExactly) {
   EXPECT_GT(id.relative_residual_before, 0.01);
   EXPECT_THROW((void)sid::identify_payload(arm.model, arm.theta.head(10), {run},
                                            Eigen::VectorXd::Constant(6, 40.0)),
+               std::invalid_argument);
+}
+
+TEST(PayloadLibrary, AFrameFixedToTheTipLinkGivesTheSameBodyExpressedInIt) {
+  const Ur5 arm;
+  const sid::ChainTrajectory<double> run =
+      inverse_dynamics_log(arm.model, with_load(arm, the_load()), 8.0, 9, kAllMove);
+  const Eigen::VectorXd cutoff = Eigen::VectorXd::Constant(6, 8.0);
+  const sid::PayloadIdentification link =
+      sid::identify_payload(arm.model, arm.theta, {run}, cutoff);
+  sid::PayloadOptions options;
+  options.frame = tool0_in_wrist_3();
+  const sid::PayloadIdentification tool =
+      sid::identify_payload(arm.model, arm.theta, {run}, cutoff, options);
+  ASSERT_FALSE(link.projected);
+  ASSERT_FALSE(tool.projected);
+  const sid::LinkInertia<double> moved = in_wrist_3(tool.body);
+  std::printf(
+      "[ frames ] mass %.9g and %.9g kg, com in wrist_3_link (%.6f, %.6f, %.6f) and "
+      "(%.6f, %.6f, %.6f) m; error against the truth %.2f mm\n",
+      link.body.mass, tool.body.mass, link.body.com[0], link.body.com[1], link.body.com[2],
+      moved.com[0], moved.com[1], moved.com[2], 1e3 * (tool.body.com - the_load().com).norm());
+  EXPECT_TRUE(sid::standard_parameters(moved).isApprox(link.phi, kSameBodyTolerance))
+      << sid::standard_parameters(moved).transpose() << "\n"
+      << link.phi.transpose();
+  // The std of the centre of mass turns with it (tool0's axes are wrist_3_link's signed and
+  // permuted), the mass's and the fit's figures stay.
+  const Eigen::Matrix3d turn = tool0_in_wrist_3().rotation.cwiseAbs();
+  EXPECT_TRUE((turn * tool.com_std).isApprox(link.com_std, kSameBodyTolerance))
+      << (turn * tool.com_std).transpose() << "\n"
+      << link.com_std.transpose();
+  EXPECT_NEAR(tool.mass_std, link.mass_std, kSameBodyTolerance * link.mass_std);
+  EXPECT_EQ(tool.equations, link.equations);
+  EXPECT_NEAR(tool.relative_residual_after, link.relative_residual_after, kSameBodyTolerance);
+  EXPECT_NEAR(tool.body.mass, the_load().mass, kMassTolerance * the_load().mass);
+  EXPECT_LT((tool.body.com - the_load().com).norm(), kComTolerance);
+
+  options.frame.rotation(0, 1) = 0.5;
+  EXPECT_THROW((void)sid::identify_payload(arm.model, arm.theta, {run}, cutoff, options),
                std::invalid_argument);
 }
 
@@ -308,10 +379,13 @@ TEST_F(Payload, RecoversAnOffAxisLoadWithTheArmOfItsOwnIdentification) {
   std::printf("[ timing ] unloaded arm identification %.2f s, payload identification %.2f s\n",
               arm_seconds_, seconds);
   std::printf("%s", r.out.c_str());
-  EXPECT_NE(r.out.find("payload on wrist_3_link"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("centre of mass"), std::string::npos) << r.out;
+  // In the --tip link's frame (tool0, turned and moved from wrist_3_link by a fixed joint), where
+  // the load was given.
+  EXPECT_NE(r.out.find("payload on tool0"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("in the frame of tool0"), std::string::npos) << r.out;
   const nlohmann::json j = nlohmann::json::parse(read(file("payload.json")));
   const nlohmann::json& p = j["payload"];
+  EXPECT_EQ(p["frame"], "tool0");
   const sid::LinkInertia<double> truth = the_load();
   const double mass = p["mass"].get<double>();
   const Eigen::Vector3d com(p["com"][0].get<double>(), p["com"][1].get<double>(),
@@ -336,18 +410,93 @@ TEST_F(Payload, RecoversAnOffAxisLoadWithTheArmOfItsOwnIdentification) {
     phi[k] = p["standard_parameters"][static_cast<std::size_t>(k)].get<double>();
   EXPECT_EQ(sid::link_inconsistency(phi), "");
 
-  // The URDF read back: the tip link carries what it did plus the load.
+  // The URDF read back: the last moving link carries what it did plus the load.
   const std::string written = read(file("loaded.urdf"));
   EXPECT_NE(written.find("<joint name=\"payload_joint\" type=\"fixed\">"), std::string::npos);
   const sid::UrdfChain before = sid::chain_from_urdf(read(ur5_path()), "base_link", "tool0");
   const sid::UrdfChain after = sid::chain_from_urdf(written, "base_link", "tool0");
-  EXPECT_TRUE((after.theta.segment<10>(50) - before.theta.segment<10>(50)).isApprox(phi, 1e-9));
+  EXPECT_TRUE(
+      (after.theta.segment<10>(50) - before.theta.segment<10>(50))
+          .isApprox(sid::standard_parameters(in_wrist_3(sid::link_inertia(phi))), kUrdfTolerance));
   EXPECT_EQ(after.theta.head(50), before.theta.head(50));
   // And it is not overwritten without --force.
   const sid_test::AppRun again = shell(ur5() + " --payload-of '" + shared("arm.json") +
                                        "' --write-urdf loaded.urdf '" + shared("loaded.csv") + "'");
   EXPECT_EQ(again.exit_code, 2);
   EXPECT_NE(again.err.find("refusing to overwrite"), std::string::npos) << again.err;
+}
+
+TEST_F(Payload, ReportsTheSameBodyInTheFrameOfAnyLinkFixedToTheLastMovingLink) {
+  const std::string run =
+      " --payload-of '" + shared("arm.json") + "' '" + shared("loaded.csv") + "'";
+  const sid_test::AppRun tool = shell(ur5() + " --json tool0.json --write-urdf tool0.urdf" + run);
+  ASSERT_EQ(tool.exit_code, 0) << tool.err;
+  const sid_test::AppRun link = shell(ur5() +
+                                      " --payload-frame wrist_3_link --json wrist_3.json "
+                                      "--write-urdf wrist_3.urdf" +
+                                      run);
+  ASSERT_EQ(link.exit_code, 0) << link.err;
+  EXPECT_NE(link.out.find("payload on wrist_3_link"), std::string::npos) << link.out;
+  const ReportedLoad in_tool0 = reported_load(nlohmann::json::parse(read(file("tool0.json"))));
+  const ReportedLoad in_link = reported_load(nlohmann::json::parse(read(file("wrist_3.json"))));
+  EXPECT_EQ(in_tool0.frame, "tool0");
+  EXPECT_EQ(in_link.frame, "wrist_3_link");
+  const sid::LinkInertia<double> truth = in_wrist_3(the_load());
+  std::printf("[ errors ] in wrist_3_link: mass %+.3f %%, com %.2f mm\n",
+              100.0 * (in_link.mass - truth.mass) / truth.mass,
+              1e3 * (in_link.com - truth.com).norm());
+  EXPECT_NEAR(in_link.mass, truth.mass, kMassTolerance * truth.mass);
+  EXPECT_LT((in_link.com - truth.com).norm(), kComTolerance) << in_link.com.transpose();
+  // The same body: tool0's figures moved by hand into wrist_3_link, the std of the centre of
+  // mass turned with it.
+  const sid::LinkParameters<double> moved =
+      sid::standard_parameters(in_wrist_3(sid::link_inertia(in_tool0.phi)));
+  EXPECT_TRUE(moved.isApprox(in_link.phi, kSameBodyTolerance)) << moved.transpose() << "\n"
+                                                               << in_link.phi.transpose();
+  EXPECT_TRUE((tool0_in_wrist_3().rotation.cwiseAbs() * in_tool0.com_std)
+                  .isApprox(in_link.com_std, kSameBodyTolerance))
+      << in_tool0.com_std.transpose() << "\n"
+      << in_link.com_std.transpose();
+  EXPECT_NEAR(in_link.mass_std, in_tool0.mass_std, kSameBodyTolerance * in_tool0.mass_std);
+  // And the same URDF, the load hung from tool0 either way.
+  const sid::UrdfChain from_tool0 =
+      sid::chain_from_urdf(read(file("tool0.urdf")), "base_link", "tool0");
+  const sid::UrdfChain from_link =
+      sid::chain_from_urdf(read(file("wrist_3.urdf")), "base_link", "tool0");
+  EXPECT_TRUE(from_link.theta.isApprox(from_tool0.theta, kSameBodyTolerance));
+  // ee_link, fixed to wrist_3_link beside tool0, is a frame as well.
+  const sid_test::AppRun ee = shell(ur5() + " --payload-frame ee_link" + run);
+  EXPECT_EQ(ee.exit_code, 0) << ee.err;
+  EXPECT_NE(ee.out.find("payload on ee_link"), std::string::npos) << ee.out;
+}
+
+TEST_F(Payload, RefusesAPayloadFrameThatIsNotFixedToTheLastMovingLink) {
+  const auto refused = [&](const std::string& args, const std::string& says) {
+    const sid_test::AppRun r = shell(app("sid_identify") + " " + args + " --json out.json");
+    EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
+    EXPECT_NE(r.err.find(says), std::string::npos) << args << "\n" << r.err;
+    EXPECT_FALSE(std::filesystem::exists(file("out.json"))) << args;
+  };
+  const std::string robot = "--robot '" + ur5_path() + "'";
+  const std::string run =
+      " --payload-of '" + shared("arm.json") + "' '" + shared("loaded.csv") + "'";
+  refused(robot + " --tip tool0 --payload-frame flange" + run,
+          "--payload-frame: the URDF has no link 'flange'; the frame must be fixed to "
+          "wrist_3_link, the chain's last moving link (e.g. tool0 or wrist_3_link itself)");
+  refused(robot + " --tip tool0 --payload-frame forearm_link" + run,
+          "--payload-frame: link 'forearm_link' is not below wrist_3_link");
+  // With the chain ending at wrist_2_link, tool0 is past the moving wrist_3_joint.
+  refused(robot + " --tip wrist_2_link --payload-frame tool0" + run,
+          "link 'tool0' is not rigidly attached to wrist_2_link: joint 'wrist_3_joint' between "
+          "them is revolute");
+  write("arm.dh",
+        "convention standard\nj1 0 1.5708 0.1 0\nj2 0.4 0 0 0\nj3 0.4 0 0 0\n"
+        "j4 0 1.5708 0.1 0\nj5 0 -1.5708 0.1 0\nj6 0 0 0.08 0\n");
+  refused("--robot arm.dh --payload-frame tool0" + run, "--payload-frame needs a URDF as --robot");
+  refused(robot + " --tip tool0 --payload-frame tool0 '" + shared("unloaded.csv") + "'",
+          "--payload-frame goes with --known-payload or --payload-of");
+  refused("--payload-frame tool0 '" + shared("unloaded.csv") + "'",
+          "--payload-frame needs --robot");
 }
 
 TEST_F(Payload, RefusesAMotionThatDoesNotShowTheLoadNamingWhatItLacks) {
@@ -362,6 +511,10 @@ TEST_F(Payload, RefusesAMotionThatDoesNotShowTheLoadNamingWhatItLacks) {
   EXPECT_EQ(r.exit_code, 2) << r.out;
   EXPECT_NE(r.err.find("does not determine the load's"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("Izz"), std::string::npos) << r.err;
+  // The load is reported in tool0's frame, the motion judged in wrist_3_link's.
+  EXPECT_NE(r.err.find("(the parameters named in the frame of the chain's last moving link"),
+            std::string::npos)
+      << r.err;
   EXPECT_NE(r.err.find("sid_excite --robot"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(file("out.json")));
 }

@@ -27,6 +27,13 @@
 /// pseudo-inertia's positive definite cone (Wensing, Kim & Slotine 2018), found by an interior
 /// point (Newton on t ‖X (φ − φ̂)‖² − log det J(φ), t growing tenfold), which starts strictly
 /// inside from the log-Cholesky projection of sid/chain_consistency.hpp.
+///
+/// The load is identified in the tip link's frame and reported in PayloadOptions::frame (a tool
+/// flange fixed to the tip link) by the exact change of frame, linear in φ
+/// (sid::expressed_in_parent): φ_frame = A φ_tip, covariances A C Aᵀ. Identifying in the flange's
+/// frame instead (columns Y_tip A⁻¹) gives the same φ but not the same std: the HAC estimate
+/// (prewhitening, bandwidth) is not equivariant under a change of the columns, and moved them by
+/// up to 2 % on the UR5's tool0, so one body would have two uncertainties.
 
 #include <sid/base_parameters.hpp>
 #include <sid/chain_consistency.hpp>
@@ -89,10 +96,16 @@ struct PayloadOptions {
   /// optimum over real bodies.
   double tolerance = 1e-7;
   int max_iterations = 500;  ///< Newton steps of the interior point in all
+  /// The frame the load is reported in, as its pose in the frame of the model's last link: a tool
+  /// flange fixed to that link (a URDF's tool0), where vendors give a load's centre of mass.
+  /// Identity: the last link's own frame. Every figure of PayloadIdentification is in this frame;
+  /// the parameters PayloadNotIdentifiable names are the last link's (where the motion is judged).
+  FramePose<double> frame;
 };
 
-/// @brief What identify_payload found. Inertias are about the centre of mass in the tip link's
-/// axes, ordered ixx, iyy, izz, ixy, ixz, iyz.
+/// @brief What identify_payload found, in the frame of PayloadOptions::frame (the tip link's by
+/// default). Inertias are about the centre of mass in that frame's axes, ordered ixx, iyy, izz,
+/// ixy, ixz, iyz.
 struct PayloadIdentification {
   LinkParameters<double> phi;            ///< the reported estimate: a real body
   LinkParameters<double> least_squares;  ///< the least-squares estimate
@@ -286,6 +299,15 @@ inline PayloadIdentification identify_payload(const ChainModel& model,
                                 "invalid options (skips >= 0, rate > 0, rest_fraction in [0, 1), "
                                 "data_tolerance in (0, 1), tolerance, max_relative_std and "
                                 "length_scale > 0, max_iterations >= 1)");
+  constexpr double kRotationTolerance = 1e-9;
+  const Matrix3<double>& frame_rotation = options.frame.rotation;
+  if (!frame_rotation.allFinite() || !options.frame.translation.allFinite() ||
+      !(frame_rotation.transpose() * frame_rotation)
+           .isApprox(Matrix3<double>::Identity(), kRotationTolerance) ||
+      !(frame_rotation.determinant() > 0.0))
+    throw std::invalid_argument(who +
+                                "options.frame is not a rigid pose (a finite translation "
+                                "and a rotation matrix)");
 
   // Per run: the rows' positions (sample index, joint) and their regression.
   struct RunRows {
@@ -462,6 +484,16 @@ inline PayloadIdentification identify_payload(const ChainModel& model,
     out.projection_misfit = d.dot(c.solve(d));
   }
   out.relative_residual_after = std::sqrt((y - x * out.phi).squaredNorm() / yy);
+  // The report's frame: A is linear, so its columns are the unit loads moved there.
+  const FramePose<double> tip_in_frame = inverse_pose(options.frame);
+  Eigen::Matrix<double, 10, 10> to_frame;
+  for (int c = 0; c < 10; ++c)
+    to_frame.col(c) =
+        expressed_in_parent(LinkParameters<double>(LinkParameters<double>::Unit(c)), tip_in_frame);
+  out.phi = to_frame * out.phi;
+  out.least_squares = to_frame * out.least_squares;
+  out.covariance = to_frame * out.covariance * to_frame.transpose();
+  out.covariance_uncorrelated = to_frame * out.covariance_uncorrelated * to_frame.transpose();
   out.body = link_inertia(out.phi);
   const Eigen::Matrix<double, 10, 10> g = detail::body_jacobian(out.phi);
   const Eigen::Matrix<double, 10, 1> variance =

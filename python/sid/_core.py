@@ -250,13 +250,17 @@ class Fit:
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
 
-    def identify_payload(self, runs: Union["Run", Sequence["Run"]]) -> "Payload":
+    def identify_payload(
+        self, runs: Union["Run", Sequence["Run"]], payload_frame: Optional[str] = None
+    ) -> "Payload":
         """The load fixed to the tip link in runs that carry it, this fit's arm held (as
-        ``sid_identify --payload-of``): a sid.Payload. Refuses (ValueError) a motion that does
-        not show every parameter of the load, naming them."""
+        ``sid_identify --payload-of``): a sid.Payload in the frame of link ``payload_frame``
+        (``--payload-frame``; default the robot's tip link, e.g. tool0), any link fixed to the
+        chain's last moving link. Refuses (ValueError) a motion that does not show every
+        parameter of the load, naming them, and a frame that is not such a link."""
         from .payload import identify_payload
 
-        return identify_payload(self, runs)
+        return identify_payload(self, runs, payload_frame)
 
     def plot(self, run: int = 0) -> Any:
         """Measured and predicted torque per joint over fitted run `run`, and the residuals

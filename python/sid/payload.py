@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import TYPE_CHECKING, Any, Sequence, Union
+from typing import TYPE_CHECKING, Any, Optional, Sequence, Union
 
 import numpy as np
 
@@ -16,8 +16,9 @@ if TYPE_CHECKING:
 
 class Payload:
     """A load fixed to the tip link: mass [kg], centre of mass [m] and inertia about it
-    [kg m^2] (ixx, iyy, izz, ixy, ixz, iyz) in the frame of the chain's last moving link, each
-    with its standard deviation (HAC), always a real body."""
+    [kg m^2] (ixx, iyy, izz, ixy, ixz, iyz) in the frame of link ``frame`` (the robot's tip link,
+    e.g. tool0, unless ``payload_frame`` named another; a DH table: its last link's), each with
+    its standard deviation (HAC), always a real body."""
 
     def __init__(self, d: Any, robot: "Robot") -> None:
         self._robot = robot
@@ -44,7 +45,7 @@ class Payload:
         path = os.fspath(path)
         if os.path.exists(path) and not force:
             raise ValueError(f"{path} exists; pass force=True to overwrite it")
-        text = _sid.payload_urdf(self._robot._handle, self.standard_parameters)
+        text = _sid.payload_urdf(self._robot._handle, self.standard_parameters, self.frame)
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
 
@@ -55,10 +56,14 @@ class Payload:
         )
 
 
-def identify_payload(fit: "Fit", runs: Union["Run", Sequence["Run"]]) -> Payload:
+def identify_payload(
+    fit: "Fit", runs: Union["Run", Sequence["Run"]], payload_frame: Optional[str] = None
+) -> Payload:
     from ._core import Run, _as_run
 
     runs = [runs] if isinstance(runs, Run) else list(runs)
     data = [_as_run(r, "runs")._data() for r in runs]
-    d = _sid.identify_payload(fit.robot._handle, json.dumps(fit.to_dict()), "the fit", data)
+    d = _sid.identify_payload(
+        fit.robot._handle, json.dumps(fit.to_dict()), "the fit", data, payload_frame or ""
+    )
     return Payload(d, fit.robot)

@@ -220,22 +220,21 @@ nb::dict external_torque(const Robot& robot, const std::string& model_json,
   return d;
 }
 
-/// The load on the tip link from runs that carry it, the fit's arm held (sid_identify
-/// --payload-of).
+/// The load on the tip link from runs that carry it, the fit's arm held, in the frame of link
+/// payload_frame (empty: the tip link) (sid_identify --payload-of --payload-frame).
 nb::dict identify_payload(const Robot& robot, const std::string& model_json,
-                          const std::string& source, const std::vector<RunData>& runs) {
+                          const std::string& source, const std::vector<RunData>& runs,
+                          const std::string& payload_frame) {
   sid::app::PayloadResult r;
   {
     nb::gil_scoped_release release;
     sid::app::require(!runs.empty(), "no run given");
     const sid::app::LoadedChain loaded = sid::app::load_chain(robot.source, {});
+    const sid::app::PayloadReportOptions options = sid::app::payload_report_options(
+        loaded, robot.source.robot, payload_frame, "payload_frame");
     const sid::app::IdentifiedArm arm = arm_of(loaded, model_json, source);
     std::vector<sid::app::ChainRunFile> files;
     for (const auto& run : runs) files.push_back(chain_run(run, loaded));
-    sid::app::PayloadReportOptions options;
-    options.robot = robot.source.robot;
-    if (!loaded.robot.link_names.empty()) options.frame = loaded.robot.link_names.back();
-    options.payload.rows = loaded.options;
     r = sid::app::identify_payload(arm, files, options);
   }
   nb::dict d;
@@ -246,11 +245,12 @@ nb::dict identify_payload(const Robot& robot, const std::string& model_json,
   return d;
 }
 
-/// The robot's URDF with a load of ten standard parameters fixed to its tip.
-std::string payload_urdf(const Robot& robot, const Eigen::VectorXd& phi) {
+/// The robot's URDF with a load of ten standard parameters, in link frame's frame, fixed to its
+/// tip.
+std::string payload_urdf(const Robot& robot, const Eigen::VectorXd& phi, const std::string& frame) {
   sid::app::require(phi.size() == 10, "a load has ten standard parameters");
   const sid::app::LoadedChain loaded = sid::app::load_chain(robot.source, {});
-  return sid::app::urdf_with_payload(loaded.robot, sid::LinkParameters<double>(phi));
+  return sid::app::urdf_with_payload(loaded.robot, sid::LinkParameters<double>(phi), frame);
 }
 
 /// The options of diagnose(), named as sid_diagnose --robot's.
@@ -554,8 +554,9 @@ NB_MODULE(_sid, m) {
   m.def("identify", &identify, "robot"_a, "runs"_a, "validate"_a, "options"_a,
         nb::call_guard<nb::gil_scoped_release>());
 
-  m.def("identify_payload", &identify_payload, "robot"_a, "model_json"_a, "source"_a, "runs"_a);
-  m.def("payload_urdf", &payload_urdf, "robot"_a, "phi"_a,
+  m.def("identify_payload", &identify_payload, "robot"_a, "model_json"_a, "source"_a, "runs"_a,
+        "payload_frame"_a = "");
+  m.def("payload_urdf", &payload_urdf, "robot"_a, "phi"_a, "frame"_a = "",
         nb::call_guard<nb::gil_scoped_release>());
   // sid_external's own options; the log and the outputs come from Python instead.
   using ExternalOptions = sid::app::ExternalOptions;

@@ -89,17 +89,26 @@ def test_payload_is_the_clis(cli, tmp_path):
     subprocess.run([simulate, "--robot", str(loaded_urdf), "--tip", "tool0", *SIM[4:], "--seed",
                     "2", "-o", str(loaded)], check=True, capture_output=True)
     fit = sid.identify(robot, sid.Run.from_csv(free))
-    load = fit.identify_payload(sid.Run.from_csv(loaded))
+    load = fit.identify_payload(sid.Run.from_csv(loaded), payload_frame="wrist_3_link")
     assert load.frame == "wrist_3_link"
     assert load.mass == pytest.approx(2.0, rel=0.03)
     np.testing.assert_allclose(load.com, [0.03, -0.02, 0.08], atol=0.005)
+    # By default in the tip link's frame: tool0 is 0.0823 m out along wrist_3_link's y, turned
+    # by -90 degrees about x, so (x, y, z) there is (x, -z, y - 0.0823) in tool0.
+    at_tool = fit.identify_payload(sid.Run.from_csv(loaded))
+    assert at_tool.frame == "tool0"
+    assert at_tool.mass == pytest.approx(load.mass, rel=1e-6)
+    np.testing.assert_allclose(at_tool.com, [load.com[0], -load.com[2], load.com[1] - 0.0823],
+                               atol=1e-6)
+    with pytest.raises(ValueError, match="is not below wrist_3_link"):
+        fit.identify_payload(sid.Run.from_csv(loaded), payload_frame="base_link")
 
     arm = tmp_path / "arm.json"
     subprocess.run([str(cli), "--robot", str(UR5), "--tip", "tool0", "--json", str(arm),
                     str(free)], check=True, capture_output=True)
     subprocess.run([str(cli), "--robot", str(UR5), "--tip", "tool0", "--payload-of", str(arm),
-                    "--json", str(tmp_path / "load.json"), str(loaded)], check=True,
-                   capture_output=True)
+                    "--payload-frame", "wrist_3_link", "--json", str(tmp_path / "load.json"),
+                    str(loaded)], check=True, capture_output=True)
     tool = json.loads((tmp_path / "load.json").read_text())["payload"]
     assert load.mass == pytest.approx(tool["mass"], rel=1e-9)
     np.testing.assert_allclose(load.com, tool["com"], rtol=1e-9, atol=1e-12)

@@ -62,6 +62,50 @@ LinkInertia<Scalar> link_inertia(const LinkParameters<Scalar>& phi) {
   return link;
 }
 
+/// @brief The pose of a frame's parent in the frame itself: x_child = Rᵀ x_parent − Rᵀ p for
+/// pose (R, p), x_parent = R x_child + p.
+template <typename Scalar>
+FramePose<Scalar> inverse_pose(const FramePose<Scalar>& pose) {
+  FramePose<Scalar> inverse;
+  inverse.rotation = pose.rotation.transpose();
+  inverse.translation = -(inverse.rotation * pose.translation);
+  return inverse;
+}
+
+/// @brief A body given in a child frame, expressed in its parent, where the child frame has pose
+/// (R, p) (x_parent = R x_child + p): the centre of mass R c + p, the inertia about it R I_c Rᵀ.
+template <typename Scalar>
+LinkInertia<Scalar> expressed_in_parent(const LinkInertia<Scalar>& body,
+                                        const FramePose<Scalar>& child_in_parent) {
+  LinkInertia<Scalar> moved;
+  moved.mass = body.mass;
+  moved.com = child_in_parent.rotation * body.com + child_in_parent.translation;
+  moved.inertia_com =
+      child_in_parent.rotation * body.inertia_com * child_in_parent.rotation.transpose();
+  return moved;
+}
+
+/// @brief The ten standard parameters under the same change of frame, linear in phi, so that it
+/// holds for any phi, a massless or an impossible one too (an estimate, a covariance's columns):
+/// h' = R h + m p and, about the parent's origin, with h_r = R h,
+/// I' = R I Rᵀ + 2 (h_r·p) 1 − p h_rᵀ − h_r pᵀ + m (|p|² 1 − p pᵀ)
+/// (I' = ∫ −[R x + p]ₓ² dm expanded, [·]ₓ the cross-product matrix).
+template <typename Scalar>
+LinkParameters<Scalar> expressed_in_parent(const LinkParameters<Scalar>& phi,
+                                           const FramePose<Scalar>& child_in_parent) {
+  const Matrix3<Scalar>& r = child_in_parent.rotation;
+  const Vector3<Scalar>& p = child_in_parent.translation;
+  const Scalar m = phi[0];
+  const Vector3<Scalar> h = r * phi.template segment<3>(1);
+  const Matrix3<Scalar> one = Matrix3<Scalar>::Identity();
+  const Matrix3<Scalar> i = r * inertia_about_origin(phi) * r.transpose() +
+                            Scalar(2) * h.dot(p) * one - p * h.transpose() - h * p.transpose() +
+                            m * (p.squaredNorm() * one - p * p.transpose());
+  LinkParameters<Scalar> out;
+  out << m, h + m * p, i(0, 0), i(0, 1), i(1, 1), i(0, 2), i(1, 2), i(2, 2);
+  return out;
+}
+
 /// @brief The pseudo-inertia [[tr(I)/2 · 1 − I, m c], [m cᵀ, m]] (I about the frame's origin),
 /// linear in the ten parameters; they are a real body exactly when it is positive semidefinite
 /// (Wensing, Kim & Slotine 2018).

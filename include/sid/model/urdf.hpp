@@ -166,11 +166,7 @@ inline LinkInertia<double> urdf_inertia(const XmlElement& link) {
 /// A body's parameters seen from a frame in which the body's own frame has the given pose.
 inline LinkParameters<double> moved_parameters(const LinkInertia<double>& body,
                                                const FramePose<double>& pose) {
-  LinkInertia<double> moved;
-  moved.mass = body.mass;
-  moved.com = pose.rotation * body.com + pose.translation;
-  moved.inertia_com = pose.rotation * body.inertia_com * pose.rotation.transpose();
-  return standard_parameters(moved);
+  return standard_parameters(expressed_in_parent(body, pose));
 }
 
 /// The links and joints of a <robot>, indexed; every joint names its parent and child link and
