@@ -55,8 +55,11 @@ Measured runs (two files or more, or --measured): the runs are diagnosed togethe
 
 Any serial chain (--robot FILE, a URDF or DH table, as sid_identify --robot takes it): the
   logs (t, q1..qn, tau1..taun; motor-side with --transmission) are smoothed per joint at the
-  cutoff of a GCV spline of its angles, and the nominal model (rigid bodies and --drives) is
-  fitted. Then every drive term kind of --candidates (default coulomb, offset, armature,
+  cutoff of a GCV spline of its angles (white angle noise, as simulated logs have) or, for
+  measured logs (--measured, two files or more, or angles GCV leaves unsmoothed: quantised
+  encoder angles), at the cutoffs sid_identify --robot chooses, by held-out torque prediction
+  of the nominal model with Coulomb friction and torque offsets; then the nominal model (rigid
+  bodies and --drives) is fitted. Then every drive term kind of --candidates (default coulomb, offset, armature,
   spring, viscous, stribeck: a Stribeck curve at widths 0.03, 0.1 and 0.3 rad/s, the best
   fitting one tested and, once named, its width fitted) on every joint and coupled motor where the model lacks it, and an
   offset of every joint's measured angle (angle_offset, true q = measured q + delta, through
@@ -213,7 +216,8 @@ void define_options(CLI::App& cli, Options& o) {
                  "viscous,armature; none for rigid bodies alone)");
   cli.add_option("--cutoff", o.cutoff,
                  "--robot: smoothing cutoff [Hz], one or one per joint (default: per joint from "
-                 "GCV of its angles)");
+                 "GCV of its angles, or by held-out torque prediction as sid_identify --robot for "
+                 "measured logs: --measured, two files or more, or angles GCV leaves unsmoothed)");
   cli.add_option("--rest-fraction", o.rest_fraction,
                  "--robot: leave out joint j's equations where |qd_j| < F RMS(qd_j) (default 0.1)");
 }
@@ -317,11 +321,12 @@ int diagnose_measured_runs(const Options& o) {
 
 int diagnose_robot(const Options& o) {
   using sid::app::require;
-  require(o.validate.empty() && !o.measured && !o.gear_ratio && o.reference.empty() &&
-              o.plots.empty() && o.window == 0.5 &&
-              o.rest_velocity == sid::DiagnoseOptions{}.rest_velocity,
-          "--validate, --measured, --gear-ratio, --reference-theta, --plots, --window and "
+  require(o.validate.empty() && !o.gear_ratio && o.reference.empty() && o.plots.empty() &&
+              o.window == 0.5 && o.rest_velocity == sid::DiagnoseOptions{}.rest_velocity,
+          "--validate, --gear-ratio, --reference-theta, --plots, --window and "
           "--rest-velocity apply to two-link logs, not with --robot");
+  require(o.measured ? o.cutoff.empty() : true,
+          "--measured chooses the cutoffs; with --cutoff there is nothing to choose");
   sid::app::ChainDiagnoseAppOptions chain;
   chain.chain.robot = o.robot;
   chain.chain.base = o.base;
@@ -338,6 +343,7 @@ int diagnose_robot(const Options& o) {
   chain.chain.force = o.force;
   chain.candidates = o.candidates;
   chain.negligible_size = o.negligible_size;
+  chain.measured = o.measured;
   return sid::app::diagnose_robot(chain);
 }
 

@@ -32,8 +32,9 @@ Methods:
                       observer's delay (a zero-phase filter of rate K).
   residual            ID(q, qd, qdd) - tau with the spline's accelerations: no lag, more noise.
 Rates come from a smoothing spline of the angles at the cutoff GCV chooses for each joint (as
-much of the motion as the angle noise lets through; --cutoff HZ or --cutoff fit for the fit's);
-the torque is taken as logged.
+much of the motion as the angle noise lets through), or at the fit's cutoffs when the log is a
+measured one (angles on a grid, encoder counts, or that GCV leaves unsmoothed: GCV takes their
+error for motion); --cutoff HZ or --cutoff fit chooses. The torque is taken as logged.
 
 Contacts: a joint is in contact where |tau_ext| exceeds --threshold times the fit's residual RMS
 on its own logs (as recorded): the model's own error sets what counts as a contact; where this

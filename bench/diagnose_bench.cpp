@@ -408,8 +408,10 @@ double hidden_value(const sid_test::SuiteArm& a, const SuiteKind& k, int j,
   }
 }
 
-void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)()) {
-  const sid_test::SuiteArm& a = make();
+/// kinds: the drive terms hidden one at a time on each joint; controls: effect-free logs (seeds
+/// 1, 2, ...).
+void run_chain_suite(benchmark::State& state, const sid_test::SuiteArm& a,
+                     const std::vector<SuiteKind>& kinds, unsigned controls_count) {
   const int n = a.joints();
   int right = 0, inseparable = 0, caveated = 0, below_limit = 0, wrong = 0, total = 0,
       false_named = 0, false_flagged = 0, controls = 0, flagged_effect = 0;
@@ -503,13 +505,13 @@ void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)())
                       ", shown from " + std::to_string(t.detection_limit) + "\n";
     };
     double time = 0.0;
-    for (unsigned seed = 1; seed <= 10; ++seed) {
+    for (unsigned seed = 1; seed <= controls_count; ++seed) {
       const auto [r, m] =
           whole_check(sid_test::suite_nominal(a), sid_test::suite_run(a, {}, seed), time);
       record("none", seed, r, m, "", time);
     }
     const sid_test::SuiteExperiment plain = sid_test::suite_experiment(a, {}, 1);
-    for (const SuiteKind& k : suite_kinds())
+    for (const SuiteKind& k : kinds)
       for (int j = 0; j < n; ++j) {
         const sid::DriveTerm term{k.kind, j, false};
         const bool rotor = k.kind == sid::DriveTermKind::Armature;
@@ -527,14 +529,17 @@ void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)())
     }
   }
   std::printf(
-      "\nChain diagnosis suite, %s (%d joints), %.0f s at 500 Hz, sigma_q = 1e-4 rad, sigma_tau "
-      "%s\n%s"
+      "\nChain diagnosis suite, %s (%d joints), %.0f s at %.0f Hz, %s, sigma_tau %s\n%s"
       "effect-free logs: %d; a term named on %d, motion flagged on %d (largest final error %.2f "
       "of the threshold)\nhidden terms: %d logs; named exactly %d; said not separable %d (%d of "
       "them with the look-alike named under a caveat); below the size the log shows %d; wrong "
       "%d; motion flagged on %d\n"
       "whole check (diagnosis + motion check) mean %.2f s, worst %.2f s per log\n\n",
-      a.name.c_str(), n, a.duration, a.relative_noise ? "1 % of each joint's RMS" : "0.1 N m",
+      a.name.c_str(), n, a.duration, 1.0 / a.sample_time,
+      a.angle_step > 0.0 ? ("angles quantised to " + std::to_string(a.angle_step) + " rad").c_str()
+                         : "sigma_q = 1e-4 rad",
+      a.relative_noise ? (std::to_string(100.0 * a.torque_noise) + " % of each joint's RMS").c_str()
+                       : "0.1 N m",
       report.c_str(), controls, false_named, false_flagged, worst_ratio, total - controls, right,
       inseparable, caveated, below_limit, wrong, flagged_effect, seconds / std::max(total, 1),
       worst);
@@ -543,6 +548,17 @@ void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)())
   state.counters["right"] = right;
   state.counters["below_limit"] = below_limit;
   state.counters["wrong"] = wrong;
+}
+
+void BM_ChainSuite(benchmark::State& state, const sid_test::SuiteArm& (*make)()) {
+  run_chain_suite(state, make(), suite_kinds(), 10);
+}
+
+/// The arms the diagnosis was never tuned on, logged as real arms log (1 kHz, quantised angles):
+/// Coulomb friction, springs and encoder offsets hidden, five effect-free logs.
+void BM_RealLoggedSuite(benchmark::State& state, sid_test::SuiteArm (*make)()) {
+  static const std::vector<SuiteKind> kinds = {suite_kinds()[0], suite_kinds()[2]};
+  run_chain_suite(state, make(), kinds, 5);
 }
 
 const sid_test::SuiteArm& ur5();
@@ -577,6 +593,18 @@ const sid_test::SuiteArm& panda() {
   return a;
 }
 BENCHMARK_CAPTURE(BM_ChainSuite, tx40, tx40)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_RealLoggedSuite, kinova, sid_test::kinova_suite_arm)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_RealLoggedSuite, baxter, sid_test::baxter_suite_arm)
+    ->Iterations(1)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_RealLoggedSuite, g1_arm, sid_test::g1_arm_suite_arm)
     ->Iterations(1)
     ->Unit(benchmark::kSecond)
     ->UseRealTime();

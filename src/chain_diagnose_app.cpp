@@ -87,6 +87,7 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
   out << " (" << r.equations << " equations)\nsmoothing cutoffs [Hz]:";
   for (Eigen::Index j = 0; j < r.cutoff_hz.size(); ++j)
     out << " " << number("%.3g", r.cutoff_hz[j]);
+  out << " (" << r.smoothing << ")";
   out << "\n\nper joint [N m]: torque noise | residual nominal -> final | unexplained\n";
   for (int j = 0; j < nominal.joints(); ++j)
     out << "  " << nominal.joint_names()[static_cast<std::size_t>(j)] << ": "
@@ -172,6 +173,7 @@ nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainMod
   j["robot"] = o.chain.robot;
   j["joint_names"] = nominal.joint_names();
   j["cutoff_hz"] = to_json_array(r.cutoff_hz);
+  j["smoothing"] = r.smoothing;
   j["equations"] = r.equations;
   j["noise_floor"] = to_json_array(r.noise_floor);
   j["nominal_residual_rms"] = to_json_array(r.nominal_residual_rms);
@@ -245,6 +247,7 @@ ChainDiagnoseResult diagnose_loaded(const ChainDiagnoseAppOptions& o, const Load
   require(!loaded.runs.empty(), "no run given");
   sid::ChainDiagnoseOptions options = chain_diagnose_options(o);
   options.identify = loaded.options;
+  if (o.measured || loaded.runs.size() > 1) options.smoothing = sid::ChainSmoothingChoice::Measured;
   std::vector<sid::ChainTrajectory<double>> runs;
   for (const auto& r : loaded.runs) runs.push_back(r.data);
   sid::ChainDiagnosis result;

@@ -23,6 +23,9 @@ struct ChainDiagnoseAppOptions {
   std::string
       candidates;  ///< drive term kinds to try; empty: coulomb, offset, armature, spring, viscous
   std::optional<double> negligible_size;
+  /// Smoothing by held-out torque prediction, as sid_identify --robot: --measured, or two runs
+  /// or more. Else the library's automatic choice (see sid::ChainSmoothingChoice).
+  bool measured = false;
 };
 
 /// @brief A chain diagnosis as sid_diagnose --robot makes it, with its report.

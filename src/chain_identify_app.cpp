@@ -46,6 +46,7 @@ ChainRunFile load_run(const std::string& path, const sid::Transmission& transmis
 
 sid::ChainIdentifyOptions make_options(const ChainIdentifyAppOptions& o, int joints) {
   sid::ChainIdentifyOptions options;
+  options.threads = 0;  // a tool's run has the machine to itself
   if (!o.cutoff.empty()) {
     options.cutoff_hz = parse_doubles(o.cutoff, "--cutoff");
     require(options.cutoff_hz.size() == 1 || options.cutoff_hz.size() == std::size_t(joints),

@@ -4,6 +4,7 @@
 #include <sid/identify_chain.hpp>
 #include <sid/identify_runs.hpp>
 #include <sid/momentum_observer.hpp>
+#include <sid/quantisation.hpp>
 #include <sid/smoothing_spline.hpp>
 
 #include "app.hpp"
@@ -14,6 +15,9 @@
 #include <cmath>
 #include <iostream>
 #include <sstream>
+#include <string>
+#include <tuple>
+#include <utility>
 
 namespace sid::app {
 
@@ -85,12 +89,38 @@ Eigen::VectorXd gcv_rate_cutoff(const sid::ChainTrajectory<double>& run) {
   return cutoff;
 }
 
-Eigen::VectorXd rate_cutoff(const ExternalOptions& o, const IdentifiedArm& arm,
-                            const sid::ChainTrajectory<double>& run) {
+/// Why GCV cannot choose the rates of a log, or "" when it can: GCV assumes white angle noise,
+/// and takes a real log's quantised angles (encoder counts, a fixed number of logged decimals)
+/// for motion; rates it leaves unsmoothed carry that error into the momentum, and on a real
+/// arm's free motion they made contacts of the model's error.
+std::string measured_log(const sid::ChainModel& model, const sid::ChainTrajectory<double>& run,
+                         const Eigen::VectorXd& gcv, double h) {
+  for (int j = 0; j < model.joints(); ++j)
+    if (const double step = sid::quantisation_step(run.q.col(j)); step > 0.0)
+      return "the angles of " + model.joint_names()[std::size_t(j)] + " lie on a grid (a step of " +
+             number("%.2g", step) + "): a measured log";
+  for (int j = 0; j < model.joints(); ++j)
+    if (gcv[j] >= 0.25 / h * (1.0 - 1e-9))
+      return "GCV leaves the angles of " + model.joint_names()[std::size_t(j)] +
+             " unsmoothed: a measured log";
+  return "";
+}
+
+/// The rates' cutoffs and, in words, how they were chosen.
+std::pair<Eigen::VectorXd, std::string> rate_cutoff(const ExternalOptions& o,
+                                                    const IdentifiedArm& arm,
+                                                    const sid::ChainTrajectory<double>& run) {
   const int n = arm.model.joints();
   // The residual needs accelerations: the fit's cutoffs, chosen for them, by default.
-  if (o.cutoff == "fit" || (o.cutoff.empty() && o.method == "residual")) return arm.cutoff_hz;
-  if (o.cutoff.empty()) return gcv_rate_cutoff(run);
+  if (o.cutoff == "fit") return {arm.cutoff_hz, "the fit's"};
+  if (o.cutoff.empty() && o.method == "residual") return {arm.cutoff_hz, "the fit's"};
+  if (o.cutoff.empty()) {
+    const double h = (run.t[run.size() - 1] - run.t[0]) / static_cast<double>(run.size() - 1);
+    const Eigen::VectorXd gcv = gcv_rate_cutoff(run);
+    const std::string measured = measured_log(arm.model, run, gcv, h);
+    if (measured.empty()) return {gcv, "GCV"};
+    return {arm.cutoff_hz, "the fit's: " + measured};
+  }
   const std::vector<double> c = parse_doubles(o.cutoff, "--cutoff");
   require(c.size() == 1 || c.size() == std::size_t(n),
           "--cutoff takes one value or one per joint (" + std::to_string(n) + ")");
@@ -99,7 +129,7 @@ Eigen::VectorXd rate_cutoff(const ExternalOptions& o, const IdentifiedArm& arm,
     cutoff[j] = c.size() == 1 ? c[0] : c[std::size_t(j)];
     require(cutoff[j] > 0.0 && std::isfinite(cutoff[j]), "--cutoff values must be > 0 Hz");
   }
-  return cutoff;
+  return {cutoff, "given"};
 }
 
 }  // namespace
@@ -119,10 +149,11 @@ ExternalResult external_torque(const IdentifiedArm& arm, const ChainRunFile& run
           "--skip " + number("%.3g", o.skip) + " s at each end leaves nothing of " + run.file);
   sid::ChainKinematics<double> k;
   Eigen::VectorXd cutoff;
+  std::string cutoff_choice;
   try {
     sid::ChainIdentifyOptions smoothing;
     smoothing.filter_torque = false;
-    cutoff = rate_cutoff(o, arm, log);
+    std::tie(cutoff, cutoff_choice) = rate_cutoff(o, arm, log);
     k = sid::smooth_chain_run(log, cutoff, smoothing);
   } catch (const std::invalid_argument& e) {
     throw InputError(run.file + ": " + e.what());
@@ -194,7 +225,7 @@ ExternalResult external_torque(const IdentifiedArm& arm, const ChainRunFile& run
                : std::string("inverse-dynamics residual (smoothed accelerations)"))
        << "\nangles smoothed at [Hz]:";
   for (int j = 0; j < n; ++j) text << " " << number("%.3g", cutoff[j]);
-  text << (o.cutoff.empty() && o.method == "observer" ? " (GCV)" : "")
+  text << " (" << cutoff_choice << ")"
        << "\ncontacts are looked for from " << number("%.3g", o.skip)
        << " s after the start to as long before the end (the spline's ends)"
        << "\nthresholds (" << number("%.3g", o.threshold_factor)
@@ -224,6 +255,7 @@ ExternalResult external_torque(const IdentifiedArm& arm, const ChainRunFile& run
   j["method"] = o.method;
   if (o.method == "observer") j["gain"] = r.gain;
   j["rate_cutoff_hz"] = to_json_array(cutoff);
+  j["rate_cutoff_choice"] = cutoff_choice;
   j["threshold_factor"] = o.threshold_factor;
   j["thresholds"] = to_json_array(r.thresholds);
   j["fit_residual_rms"] = to_json_array(arm.residual_rms_measured);

@@ -286,6 +286,45 @@ TEST_F(DiagnoseRobot, NamesTheSpringHiddenInASimulatedLog) {
   EXPECT_NE(again.err.find("d.json"), std::string::npos) << again.err;
 }
 
+// The real TX40 run (motor-side, 5 kHz, its transmission) with the defaults: GCV leaves its
+// angles at the top of the range, so the log is smoothed as sid_identify --robot smooths it, at
+// its cutoffs, and the diagnosis names Coulomb friction on joints 1-5 and on the coupled wrist
+// motor, the levels sid_identify fits.
+TEST_F(DiagnoseRobot, SmoothsTheRealTx40RunAsSidIdentifyDoes) {
+#ifdef SID_SANITIZED_TESTS
+  GTEST_SKIP() << "numbers only: a 45 000-sample log, replicated six times";
+#endif
+  const sid_test::AppRun example = shell("PATH=\"" SID_APP_DIR ":$PATH\" bash '" SID_SOURCE_DIR
+                                         "/examples/staubli_tx40.sh' out");
+  ASSERT_EQ(example.exit_code, 0) << example.err;
+  const std::string data = "'" SID_TEST_DATA_DIR "/staubli_tx40/";
+  const sid_test::AppRun run =
+      shell(app("sid_diagnose") + " --robot " + data + "tx40_mdh_modified.urdf' --transmission " +
+            data + "tx40_transmission.yaml' --json d.json out/tx40_motor_log.csv");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json d = nlohmann::json::parse(read(file("d.json")));
+  const nlohmann::json fit = nlohmann::json::parse(read(file("out/fit.json")));
+  EXPECT_NE(d["smoothing"].get<std::string>().find("held-out torque prediction"), std::string::npos)
+      << d["smoothing"];
+  ASSERT_EQ(d["cutoff_hz"].size(), 6u);
+  for (std::size_t j = 0; j < 6; ++j)
+    EXPECT_NEAR(d["cutoff_hz"][j].get<double>(), fit["cutoff_hz"][j].get<double>(),
+                1e-9 * fit["cutoff_hz"][j].get<double>())
+        << "joint " << j + 1;
+  std::set<std::string> named;
+  for (const auto& e : d["named"]) named.insert(e["id"].get<std::string>());
+  EXPECT_EQ(named, (std::set<std::string>{"coulomb_j1", "coulomb_j2", "coulomb_j3", "coulomb_j4",
+                                          "coulomb_j5", "coulomb_m6"}));
+  EXPECT_EQ(d["free_simulation"]["failed_segments_nominal"], 0);
+  EXPECT_EQ(d["free_simulation"]["failed_segments_final"], 0);
+  // --measured says the same; with --cutoff there is nothing to choose.
+  const sid_test::AppRun both =
+      shell(app("sid_diagnose") + " --robot " + data + "tx40_mdh_modified.urdf' --measured " +
+            "--cutoff 8 out/tx40_motor_log.csv");
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_NE(both.err.find("--measured"), std::string::npos) << both.err;
+}
+
 TEST_F(DiagnoseRobot, RefusesOptionsThatDoNotApply) {
   write("run.csv", "t,q1,q2,tau1,tau2\n0,0,0,0,0\n0.1,0,0,0,0\n");
   const auto refused = [&](const std::string& options, const std::string& message) {

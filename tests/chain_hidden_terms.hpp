@@ -5,6 +5,9 @@
 // within ±1.2 rad of zero (joint 2: by default), σq = 1e-4 rad, σ_τ = 0.1 N m. A UR5 and a Panda
 // (their public URDFs) as a user would log them: viscous friction only, 20 s at 500 Hz of a
 // five-harmonic Fourier excitation (base 0.1 Hz), σq = 1e-4 rad, σ_τ 1 % of each joint's RMS.
+// Three arms the diagnosis was never tuned on (a Kinova Jaco 2, a Baxter's left arm and a Unitree
+// G1's left arm, from their public URDFs) as a real arm logs: 1 kHz, the angles quantised by a
+// 16-bit encoder (no other angle noise), σ_τ 2 % of each joint's RMS.
 
 #include <sid/cvode/chain_experiment.hpp>
 #include <sid/fourier_trajectory.hpp>
@@ -12,6 +15,7 @@
 #include <sid/model/chain_model.hpp>
 #include <sid/model/urdf.hpp>
 
+#include <cmath>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -41,6 +45,10 @@ struct SuiteArm {
   double duration = 10.0;
   double torque_noise = 0.1;  ///< σ_τ [N m], or with relative_noise each joint's share of its RMS
   bool relative_noise = false;
+  double sample_time = 0.002;  ///< [s]
+  /// > 0: the measured angles are the true ones rounded to this step [rad] (an encoder's
+  /// resolution), with no other angle noise; 0: σq = 1e-4 rad of white noise.
+  double angle_step = 0.0;
 
   int joints() const { return arm.chain.joints(); }
 };
@@ -93,6 +101,52 @@ inline SuiteArm panda_suite_arm() {
   a.torque_noise = 0.01;
   a.relative_noise = true;
   return a;
+}
+
+/// An arm logged as a real one: 20 s at 1 kHz, angles from a 16-bit encoder, σ_τ 2 % of each
+/// joint's RMS, viscous friction 0.5 (a tenth of it on a light arm), no rotor.
+inline SuiteArm real_logged_arm(std::string name, sid::UrdfChain arm, Eigen::VectorXd center,
+                                Eigen::VectorXd range, double viscous = 0.5) {
+  const auto n = static_cast<Eigen::Index>(center.size());
+  SuiteArm a{std::move(name),          std::move(arm),    Eigen::VectorXd::Constant(n, viscous),
+             Eigen::VectorXd::Zero(n), std::move(center), std::move(range)};
+  a.duration = 20.0;
+  a.torque_noise = 0.02;
+  a.relative_noise = true;
+  a.sample_time = 0.001;
+  a.angle_step = 2.0 * 3.14159265358979323846 / 65536.0;
+  return a;
+}
+
+/// A Kinova Jaco 2 (six joints), centred within its joint limits.
+inline SuiteArm kinova_suite_arm() {
+  Eigen::VectorXd center(6), range(6);
+  center << 0.0, 3.14, 3.14, 0.0, 3.14, 0.0;
+  range << 1.2, 1.0, 1.2, 1.2, 1.2, 1.2;
+  return real_logged_arm("Kinova Jaco 2",
+                         urdf_arm("urdf/real/kinova.urdf", "base", "j2s6s200_end_effector"), center,
+                         range);
+}
+
+/// A Baxter's left arm (seven joints) to its hand, centred within its joint limits.
+inline SuiteArm baxter_suite_arm() {
+  Eigen::VectorXd center(7), range(7);
+  center << 0.0, -0.55, 0.0, 1.28, 0.0, 0.26, 0.0;
+  range << 1.2, 1.0, 1.2, 1.0, 1.2, 1.2, 1.2;
+  return real_logged_arm("Baxter left arm",
+                         urdf_arm("urdf/real/baxter.urdf", "left_arm_mount", "left_hand_link"),
+                         center, range);
+}
+
+/// A Unitree G1's left arm (seven joints, 2 kg in all) from its torso: a light arm.
+inline SuiteArm g1_arm_suite_arm() {
+  Eigen::VectorXd center(7), range(7);
+  center << 0.0, 0.3, 0.0, 0.5, 0.0, 0.0, 0.0;
+  range << 1.2, 1.0, 1.2, 1.0, 1.2, 1.2, 1.2;
+  return real_logged_arm(
+      "G1 left arm",
+      urdf_arm("urdf/real/g1_29dof_rev_1_0.urdf", "torso_link", "left_wrist_yaw_link"), center,
+      range, 0.05);
 }
 
 /// Viscous friction on every joint and a rotor on every joint but `without_rotor` (0-based; -1:
@@ -159,7 +213,7 @@ inline SuiteExperiment suite_experiment(const SuiteArm& a, const std::vector<Hid
       a.center, 5, 0.1, a.range, Eigen::VectorXd::Constant(n, a.qd_max), rng);
   sid::ChainExperiment experiment;
   experiment.duration = a.duration;
-  experiment.sample_time = 0.002;
+  experiment.sample_time = a.sample_time;
   sid::ChainExperimentResult run =
       sid::simulate_chain_experiment(truth, theta, desired, experiment);
   if (!run.ok()) throw std::runtime_error("suite_experiment (" + a.name + "): " + run.message);
@@ -182,7 +236,9 @@ inline sid::ChainTrajectory<double> suite_run(const SuiteArm& a,
   std::normal_distribution<double> normal(0.0, 1.0);
   for (Eigen::Index i = 0; i < measured.size(); ++i)
     for (int j = 0; j < a.joints(); ++j) {
-      measured.q(i, j) += 1e-4 * normal(e.rng);
+      measured.q(i, j) = a.angle_step > 0.0
+                             ? a.angle_step * std::round(measured.q(i, j) / a.angle_step)
+                             : measured.q(i, j) + 1e-4 * normal(e.rng);
       measured.tau(i, j) += sigma[j] * normal(e.rng);
     }
   return measured;

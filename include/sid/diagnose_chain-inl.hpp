@@ -7,6 +7,7 @@
 #include <sid/diagnosis/hac.hpp>
 #include <sid/diagnosis/noise_floor.hpp>
 #include <sid/identify_chain-inl.hpp>
+#include <sid/quantisation.hpp>
 #include <sid/smoothing_spline.hpp>
 
 #include <Eigen/Dense>
@@ -19,6 +20,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -570,6 +572,61 @@ inline std::string significant(double value, int digits) {
   return out.str();
 }
 
+/// The cutoffs identify_chain chooses by held-out torque prediction for the nominal model with
+/// Coulomb friction and a torque offset on every drive that lacks them.
+inline std::vector<double> torque_cv_cutoffs(const ChainModel& nominal,
+                                             const std::vector<ChainTrajectory<double>>& runs,
+                                             ChainIdentifyOptions o, int threads) {
+  std::vector<DriveTerm> terms = nominal.terms();
+  for (const DriveTerm& t :
+       chain_candidates(nominal, {DriveTermKind::Coulomb, DriveTermKind::Offset}, {}))
+    terms.push_back(t);
+  const ChainModel model(nominal.chain(), nominal.joint_names(), terms, nominal.transmission(),
+                         nominal.coulomb_epsilon());
+  o.cutoff_hz.clear();
+  o.statistics = false;
+  o.threads = threads;
+  const ChainIdentification id = identify_chain(model, runs, o);
+  return {id.cutoff_hz.data(), id.cutoff_hz.data() + id.cutoff_hz.size()};
+}
+
+/// The cutoffs options.smoothing chooses (options.identify's when given), and how, in words.
+inline std::pair<std::vector<double>, std::string> diagnosis_cutoffs(
+    const ChainModel& nominal, const std::vector<ChainTrajectory<double>>& runs,
+    const ChainDiagnoseOptions& options, int threads) {
+  const ChainIdentifyOptions& o = options.identify;
+  if (!o.cutoff_hz.empty()) return {o.cutoff_hz, "given"};
+  const std::string torque_cv =
+      "held-out torque prediction (the nominal model with Coulomb friction and a torque offset)";
+  if (options.smoothing == ChainSmoothingChoice::Measured)
+    return {torque_cv_cutoffs(nominal, runs, o, threads), torque_cv + ", as for a measured log"};
+  const auto measured = [&](const std::string& why) {
+    return std::make_pair(torque_cv_cutoffs(nominal, runs, o, threads),
+                          torque_cv + ": " + why + ", as on a measured log");
+  };
+  if (options.smoothing == ChainSmoothingChoice::Automatic) {
+    // Angles that move as a staircase (a coarse encoder on a slow joint): their error is a
+    // sawtooth, not white noise, and GCV follows the stairs.
+    for (int j = 0; j < nominal.joints(); ++j)
+      for (std::size_t r = 0; r < runs.size(); ++r) {
+        check_chain_run(nominal, runs[r], "sid::diagnose_chain: run " + std::to_string(r + 1));
+        const double step = quantisation_step(runs[r].q.col(j));
+        if (step > 0.0 && median_move_in_steps(runs[r].q.col(j), step) < 2.0)
+          return measured("the angles of " + nominal.joint_names()[static_cast<std::size_t>(j)] +
+                          " move by fewer than two steps of their grid (" + significant(step, 2) +
+                          " rad) per sample: a staircase GCV would follow");
+      }
+  }
+  std::vector<double> gcv = gcv_cutoffs(nominal, runs, o, threads);
+  if (options.smoothing == ChainSmoothingChoice::AngleGcv) return {gcv, "GCV of the angles"};
+  std::string top;
+  for (std::size_t j = 0; j < gcv.size(); ++j)
+    if (gcv[j] >= o.max_cutoff_hz * (1.0 - 1e-9))
+      top += (top.empty() ? "" : ", ") + nominal.joint_names()[j];
+  if (top.empty()) return {gcv, "GCV of the angles"};
+  return measured("GCV leaves the angles of " + top + " unsmoothed");
+}
+
 inline std::string percent(double fraction) {
   std::string s = std::to_string(std::round(1000.0 * fraction) / 10.0);
   s.erase(s.find_last_not_of('0') + 1);
@@ -588,7 +645,8 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
   if (runs.empty()) throw std::invalid_argument("sid::diagnose_chain: no runs given");
   ChainIdentifyOptions given = options.identify;
   const int threads = detail::thread_count(options.threads);
-  if (given.cutoff_hz.empty()) given.cutoff_hz = detail::gcv_cutoffs(nominal, runs, given, threads);
+  std::string smoothing;
+  std::tie(given.cutoff_hz, smoothing) = detail::diagnosis_cutoffs(nominal, runs, options, threads);
   given.statistics = false;
   const ChainIdentification id = identify_chain(nominal, runs, given);
   if (!id.fit.ok())
@@ -597,6 +655,7 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
 
   ChainDiagnosis result;
   result.cutoff_hz = id.cutoff_hz;
+  result.smoothing = std::move(smoothing);
   const std::vector<DriveTerm> candidates =
       detail::chain_candidates(nominal, options.candidate_kinds, options.stribeck_velocities);
   // Every candidate as its test starts: the drive terms, then the angle offsets.

@@ -2,6 +2,7 @@
 // Definitions of <sid/identify_chain.hpp>: inline in header-only mode, compiled once in the
 // compiled library (see sid/config.hpp).
 
+#include <sid/detail/parallel.hpp>
 #include <sid/diagnosis/hac.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/identify_runs.hpp>
@@ -188,6 +189,7 @@ inline void check_chain_options(const ChainIdentifyOptions& o, int joints, const
   if (o.grid_points_per_octave < 1 || o.grid_points_per_octave > 64)
     throw std::invalid_argument(prefix + "grid_points_per_octave must be in 1..64");
   if (o.folds_per_run < 2) throw std::invalid_argument(prefix + "folds_per_run must be >= 2");
+  if (o.threads < 0) throw std::invalid_argument(prefix + "threads must be >= 0");
   if (!(o.skip >= 0.0) || !(o.skip_end >= 0.0) || !std::isfinite(o.skip + o.skip_end))
     throw std::invalid_argument(prefix + "skip and skip_end must be finite and >= 0 s");
   if (!positive(o.regression_rate_hz))
@@ -294,42 +296,72 @@ inline double choose_chain_cutoffs(const ChainModel& model, std::vector<Smoothed
   std::vector<double> grid;
   for (double c = o.min_cutoff_hz; c <= o.max_cutoff_hz * (1.0 + 1e-9); c *= step)
     grid.push_back(c);
-  const auto score_at = [&](int joint, double c) {
-    for (auto& s : runs)
+  // Each score is computed on a copy of the runs of its own thread's, so the scores, and with
+  // them the choice, do not depend on the thread count.
+  const int threads = thread_count(o.threads);
+  std::vector<std::vector<SmoothedChainRun>> copies(static_cast<std::size_t>(threads - 1), runs);
+  const auto runs_of = [&](int worker) -> std::vector<SmoothedChainRun>& {
+    return worker == 0 ? runs : copies[static_cast<std::size_t>(worker - 1)];
+  };
+  const auto score_on = [&](std::vector<SmoothedChainRun>& on, int joint, double c) {
+    for (auto& s : on)
       for (int j = 0; j < n; ++j)
         if (joint < 0 || j == joint) s.smooth_joint(j, c, false);
-    return chain_cross_validation(all_equations(model, runs, columns, o.rest_fraction), n,
+    return chain_cross_validation(all_equations(model, on, columns, o.rest_fraction), n,
                                   o.folds_per_run);
   };
+  const auto score_at = [&](int joint, double c) { return score_on(runs, joint, c); };
+  std::vector<double> scores(grid.size());
+  for_each_index(static_cast<Eigen::Index>(grid.size()), threads, [&](Eigen::Index g, int worker) {
+    scores[static_cast<std::size_t>(g)] =
+        score_on(runs_of(worker), -1, grid[static_cast<std::size_t>(g)]);
+  });
   double best = std::numeric_limits<double>::infinity();
   double shared = grid.front();
-  for (const double c : grid) {
-    const double score = score_at(-1, c);
-    if (score < best) {
-      best = score;
-      shared = c;
+  for (std::size_t g = 0; g < grid.size(); ++g)
+    if (scores[g] < best) {
+      best = scores[g];
+      shared = grid[g];
     }
-  }
   if (!std::isfinite(best))
     throw std::invalid_argument(
         "sid::identify_chain: no cutoff gives a fit on every fold; the runs do not excite the "
         "model's base parameters (or are too short for the folds)");
   cutoff = Eigen::VectorXd::Constant(n, shared);
   (void)score_at(-1, shared);
-  // Half-octave moves per joint while the held-out prediction improves.
+  for (auto& copy : copies) copy = runs;
+  // Half-octave moves per joint while the held-out prediction improves: up, then down. A joint
+  // that moved up does not move down (that is where it came from), so the first step of each
+  // way is scored at once, on a copy of its own.
   const double move = std::sqrt(2.0);
+  const auto inside = [&](double c) {
+    return c >= o.min_cutoff_hz * (1.0 - 1e-9) && c <= o.max_cutoff_hz * (1.0 + 1e-9);
+  };
   for (int j = 0; j < n; ++j) {
-    for (const double factor : {move, 1.0 / move}) {
+    const double first[2] = {cutoff[j] * move, cutoff[j] / move};
+    double first_score[2] = {std::numeric_limits<double>::infinity(),
+                             std::numeric_limits<double>::infinity()};
+    for_each_index(2, std::min(threads, 2), [&](Eigen::Index way, int worker) {
+      if (inside(first[way])) first_score[way] = score_on(runs_of(worker), j, first[way]);
+    });
+    for (int way = 0; way < 2; ++way) {
+      if (!(first_score[way] < best)) continue;
+      const double factor = way == 0 ? move : 1.0 / move;
+      best = first_score[way];
+      cutoff[j] = first[way];
       for (;;) {
         const double c = cutoff[j] * factor;
-        if (c < o.min_cutoff_hz * (1.0 - 1e-9) || c > o.max_cutoff_hz * (1.0 + 1e-9)) break;
+        if (!inside(c)) break;
         const double score = score_at(j, c);
         if (!(score < best)) break;
         best = score;
         cutoff[j] = c;
       }
-      for (auto& s : runs) s.smooth_joint(j, cutoff[j], false);
+      break;
     }
+    for (auto& s : runs) s.smooth_joint(j, cutoff[j], false);
+    for (auto& copy : copies)
+      for (auto& s : copy) s.smooth_joint(j, cutoff[j], false);
   }
   return best;
 }

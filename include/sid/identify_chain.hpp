@@ -71,6 +71,10 @@ struct ChainIdentifyOptions {
   /// Without them std_dev is the fit's own and `fitted` holds the figures over the fitted
   /// equations only: what a caller that needs the fit alone (the diagnosis, a bootstrap) takes.
   bool statistics = true;
+  /// Threads the cutoff search scores its candidates on (0: every core); the cutoffs and the
+  /// fit do not depend on it. 1 by default: a caller that runs fits side by side (a study, a
+  /// bootstrap) has the cores busy already.
+  int threads = 1;
   LeastSquaresOptions least_squares;
 };
 

@@ -48,6 +48,9 @@ class Diagnosis:
         self.nominal_residual_rms: np.ndarray = np.asarray(handle.nominal_residual_rms)
         self.final_residual_rms: np.ndarray = np.asarray(handle.final_residual_rms)
         self.unexplained_rms: np.ndarray = np.asarray(handle.unexplained_rms)
+        #: the smoothing cutoffs per joint [Hz], and how they were chosen, in words
+        self.cutoff_hz: np.ndarray = np.asarray(handle.cutoff_hz)
+        self.smoothing: str = handle.smoothing
         #: the joints (names) whose free simulation the final model does not explain
         self.motion_not_explained: list[str] = [robot.joint_names[j] for j in handle.beyond]
         self.report: str = handle.report
@@ -75,12 +78,15 @@ def diagnose(
     cutoff: Union[None, float, Sequence[float]] = None,
     rest_fraction: Optional[float] = None,
     negligible_size: Optional[float] = None,
+    measured: bool = False,
 ) -> Diagnosis:
     """Which drive terms the runs support beyond the nominal model (rigid bodies and drives,
     default viscous friction and armature), as ``sid_diagnose --robot``.
 
     candidates: the kinds tried (default coulomb, offset, armature, spring, viscous, stribeck and
-    angle_offset). Several runs are judged by the runs each fit has not seen.
+    angle_offset). Several runs are judged by the runs each fit has not seen. measured: smooth
+    as sid_identify does (held-out torque prediction), as two runs or more, or angles GCV cannot
+    smooth (an encoder's staircase, or GCV at its ceiling), imply; else by GCV of the angles.
     """
     _as_robot(robot)
     runs = [runs] if isinstance(runs, Run) else list(runs)
@@ -90,5 +96,6 @@ def diagnose(
     options.cutoff = _join([cutoff] if isinstance(cutoff, (int, float)) else cutoff)
     options.rest_fraction = rest_fraction
     options.negligible_size = negligible_size
+    options.measured = measured
     data = [_as_run(r, "runs")._data() for r in runs]
     return Diagnosis(_sid.diagnose(robot._handle, data, options), robot)

@@ -257,6 +257,7 @@ std::string payload_urdf(const Robot& robot, const Eigen::VectorXd& phi, const s
 struct DiagnoseOptions {
   std::string drives, candidates, cutoff;
   std::optional<double> rest_fraction, negligible_size;
+  bool measured = false;
 };
 
 sid::app::ChainDiagnoseResult diagnose(const Robot& robot, const std::vector<RunData>& runs,
@@ -268,6 +269,7 @@ sid::app::ChainDiagnoseResult diagnose(const Robot& robot, const std::vector<Run
   o.chain.rest_fraction = options.rest_fraction;
   o.candidates = options.candidates;
   o.negligible_size = options.negligible_size;
+  o.measured = options.measured;
   sid::app::require(!runs.empty(), "no run given");
   sid::app::LoadedChain loaded =
       sid::app::load_chain(o.chain, {sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature});
@@ -578,7 +580,8 @@ NB_MODULE(_sid, m) {
       .def_rw("candidates", &DiagnoseOptions::candidates)
       .def_rw("cutoff", &DiagnoseOptions::cutoff)
       .def_rw("rest_fraction", &DiagnoseOptions::rest_fraction)
-      .def_rw("negligible_size", &DiagnoseOptions::negligible_size);
+      .def_rw("negligible_size", &DiagnoseOptions::negligible_size)
+      .def_rw("measured", &DiagnoseOptions::measured);
   using Diagnosis = sid::app::ChainDiagnoseResult;
   nb::class_<Diagnosis>(m, "_Diagnosis")
       .def_prop_ro("named",
@@ -603,6 +606,9 @@ NB_MODULE(_sid, m) {
           [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.final_residual_rms); })
       .def_prop_ro("unexplained_rms",
                    [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.unexplained_rms); })
+      .def_prop_ro("cutoff_hz",
+                   [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.cutoff_hz); })
+      .def_prop_ro("smoothing", [](const Diagnosis& d) { return d.diagnosis.smoothing; })
       .def_prop_ro("beyond", [](const Diagnosis& d) { return d.motion.beyond; })
       .def_prop_ro("motion_note", [](const Diagnosis& d) { return d.motion_note; })
       .def_prop_ro("report", [](const Diagnosis& d) { return d.text; })

@@ -34,6 +34,9 @@ def test_names_the_real_tx40s_coulomb_friction(diagnosis):
             assert abs(t.value) <= t.detection_limit
     assert np.all(diagnosis.final_residual_rms <= diagnosis.nominal_residual_rms)
     assert diagnosis.noise_floor.shape == (6,)
+    # GCV leaves the real log's angles at the top of its range: smoothed as sid_identify does.
+    assert "held-out torque prediction" in diagnosis.smoothing
+    assert diagnosis.cutoff_hz.shape == (6,)
 
 
 def test_gives_the_clis_result(tx40_csv, diagnosis, cli, tmp_path):
@@ -50,6 +53,8 @@ def test_gives_the_clis_result(tx40_csv, diagnosis, cli, tmp_path):
     np.testing.assert_allclose([t["value"] for t in got["named"]],
                                [t["value"] for t in expected["named"]], rtol=1e-12)
     assert diagnosis.motion_not_explained == expected["free_simulation"]["beyond"]
+    assert diagnosis.smoothing == expected["smoothing"]
+    np.testing.assert_array_equal(diagnosis.cutoff_hz, expected["cutoff_hz"])
 
 
 def test_bad_input_raises_value_error(tx40_csv):

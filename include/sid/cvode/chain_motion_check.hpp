@@ -237,19 +237,28 @@ inline ChainMotionCheck check_chain_motion(const ChainModel& nominal,
   out.threshold = Eigen::VectorXd::Constant(n, nan);
   if (final_sim.theta.size() == 0) return out;
 
+  // What every replicate's noise is added to: the smoothed motion and the final model's torque
+  // along it.
+  std::vector<ChainTrajectory<double>> exact;
+  for (const ChainKinematics<double>& k : corrected_kinematics) {
+    ChainTrajectory<double> log{k.t, k.q, k.tau};
+    detail::for_each_index(threads, threads, [&](Eigen::Index block, int) {
+      Eigen::MatrixXd y(n, final_model.parameters());
+      for (Eigen::Index i = k.size() * block / threads; i < k.size() * (block + 1) / threads; ++i) {
+        final_model.regressor(k.q.row(i), k.qd.row(i), k.qdd.row(i), y);
+        log.tau.row(i) = (y * final_sim.theta).transpose();
+      }
+    });
+    exact.push_back(std::move(log));
+  }
   std::vector<detail::MotionSimulation> replicates(static_cast<std::size_t>(options.replicates));
   detail::for_each_index(options.replicates, threads, [&](Eigen::Index b, int) {
     std::mt19937_64 rng(options.seed + static_cast<std::uint64_t>(b));
     std::normal_distribution<double> normal(0.0, 1.0);
     std::vector<ChainTrajectory<double>> logs;
-    Eigen::MatrixXd y(n, final_model.parameters());
     for (std::size_t r = 0; r < runs.size(); ++r) {
       const ChainKinematics<double>& k = corrected_kinematics[r];
-      ChainTrajectory<double> log{k.t, k.q, k.tau};
-      for (Eigen::Index i = 0; i < k.size(); ++i) {
-        final_model.regressor(k.q.row(i), k.qd.row(i), k.qdd.row(i), y);
-        log.tau.row(i) = (y * final_sim.theta).transpose();
-      }
+      ChainTrajectory<double> log = exact[r];
       for (Eigen::Index i = 0; i < k.size(); ++i)
         for (int j = 0; j < n; ++j) {
           log.q(i, j) += out.angle_noise[j] * normal(rng);
@@ -257,6 +266,13 @@ inline ChainMotionCheck check_chain_motion(const ChainModel& nominal,
         }
       logs.push_back(std::move(log));
     }
+    // A named encoder offset is known only to its standard deviation: the replicate's angles
+    // carry an error of that size, as the log's corrected angles do.
+    for (const ChainEffectTest& e : diagnosis.named)
+      if (e.angle_offset) {
+        const double error = e.std * normal(rng);
+        for (auto& log : logs) log.q.col(e.term.index).array() += error;
+      }
     std::vector<ChainKinematics<double>> smoothed;
     for (const auto& log : logs)
       smoothed.push_back(smooth_chain_run(log, diagnosis.cutoff_hz, identify));
