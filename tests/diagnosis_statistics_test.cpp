@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <random>
+#include <vector>
 #include <sid/diagnosis/kinematic_floor.hpp>
 #include <sid/model/two_link_arm.hpp>
 #include <sid/diagnosis/noise_floor.hpp>
@@ -116,6 +117,49 @@ TEST(NeweyWest, QuadraticFormsAreThoseOfTheLongRunSum) {
     }
   }
   EXPECT_THROW((void)sid::hac_long_run_quadratic(Eigen::MatrixXd::Ones(20, 2), directions),
+               std::invalid_argument);
+}
+
+// The sandwich of stacked runs: a sample's rows add into one score, runs add their long-run
+// sums, and a regression with one row per sample and white errors gives about the ordinary
+// covariance σ² (XᵀX)⁻¹.
+TEST(HacSandwich, AddsASamplesRowsAndTheRunsLongRunSums) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const Eigen::Index n = 4000;
+  Eigen::MatrixXd x(2 * n, 3);
+  Eigen::VectorXd e(2 * n);
+  for (Eigen::Index i = 0; i < 2 * n; ++i) {
+    x.row(i) << 1.0, normal(rng), normal(rng);
+    e[i] = 0.5 * normal(rng);
+  }
+  std::vector<Eigen::Index> at(static_cast<std::size_t>(n)), paired(static_cast<std::size_t>(n));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    at[static_cast<std::size_t>(i)] = i;
+    paired[static_cast<std::size_t>(i)] = i / 2;  // two rows per sample, as two joints
+  }
+  const Eigen::MatrixXd bread = (x.transpose() * x).inverse();
+  const Eigen::MatrixXd two_runs = sid::hac_sandwich(
+      {{x.topRows(n), e.head(n), at, n}, {x.bottomRows(n), e.tail(n), at, n}}, bread);
+  Eigen::MatrixXd scores_1 = x.topRows(n), scores_2 = x.bottomRows(n);
+  scores_1.array().colwise() *= e.head(n).array();
+  scores_2.array().colwise() *= e.tail(n).array();
+  const Eigen::MatrixXd by_hand =
+      bread * (sid::hac_long_run_sum(scores_1) + sid::hac_long_run_sum(scores_2)) * bread;
+  EXPECT_LT((two_runs - by_hand).norm(), 1e-12 * by_hand.norm());
+  const Eigen::MatrixXd ordinary = 0.25 * bread;
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(two_runs(c, c) / ordinary(c, c), 1.0, 0.15) << c;
+
+  Eigen::MatrixXd summed = Eigen::MatrixXd::Zero(n / 2, 3);
+  for (Eigen::Index i = 0; i < n; ++i) summed.row(i / 2) += e[i] * x.row(i);
+  const Eigen::MatrixXd one_run =
+      sid::hac_sandwich({{x.topRows(n), e.head(n), paired, n / 2}}, bread);
+  EXPECT_LT((one_run - bread * sid::hac_long_run_sum(summed) * bread).norm(),
+            1e-12 * one_run.norm());
+
+  EXPECT_THROW((void)sid::hac_sandwich({{x.topRows(n), e.head(n - 1), at, n}}, bread),
+               std::invalid_argument);
+  EXPECT_THROW((void)sid::hac_sandwich({{x.topRows(n), e.head(n), at, n - 1}}, bread),
                std::invalid_argument);
 }
 

@@ -387,23 +387,20 @@ inline DriveGainIdentification identify_drive_gains(
     fit = weighted_least_squares(xk, rhs, weight, 1, o.least_squares);
   }
   if (!fit.ok()) throw std::invalid_argument(who + ": the fit of the gains failed: " + fit.message);
-  const auto p = static_cast<Eigen::Index>(kept.size());
   result.gain = fit.theta.tail(n);
   result.std_dev_uncorrelated = fit.std_dev.tail(n);
 
   // HAC as identify_chain's: scores summed per sample position, runs independent.
-  Eigen::MatrixXd long_run = Eigen::MatrixXd::Zero(p, p);
+  const Eigen::VectorXd weighted_residual = weight.cwiseProduct(fit.residual);
+  std::vector<HacRun> per_run;
   Eigen::Index offset = 0;
   for (const auto& e : equations) {
-    Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(e.positions, p);
-    for (Eigen::Index r = 0; r < e.y.size(); ++r)
-      scores.row(e.at[static_cast<std::size_t>(r)]) +=
-          weight[offset + r] * fit.residual[offset + r] * xk.row(offset + r);
-    long_run += hac_long_run_sum(scores);
+    per_run.push_back({xk.middleRows(offset, e.y.size()),
+                       weighted_residual.segment(offset, e.y.size()), e.at, e.positions});
     offset += e.y.size();
   }
-  const Eigen::MatrixXd bread = fit.inverse_gram();
-  result.std_dev = (bread * long_run * bread).diagonal().tail(n).cwiseMax(0.0).cwiseSqrt();
+  result.std_dev =
+      hac_sandwich(per_run, fit.inverse_gram()).diagonal().tail(n).cwiseMax(0.0).cwiseSqrt();
   result.fit = std::move(fit);
   return result;
 }

@@ -431,20 +431,18 @@ inline Eigen::VectorXd chain_hac_std_dev(const std::vector<ChainEquations>& equa
                                          const Eigen::VectorXd& row_weight) {
   const Eigen::Index p = fit.theta.size();
   if (!fit.ok()) return Eigen::VectorXd::Constant(p, std::nan(""));
-  Eigen::MatrixXd long_run = Eigen::MatrixXd::Zero(p, p);
+  std::vector<Eigen::VectorXd> weighted;
+  std::vector<HacRun> runs;
   Eigen::Index offset = 0;
   for (const auto& e : equations) {
-    const Eigen::Index positions = e.at.empty() ? 0 : e.at.back() + 1;
-    Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(positions, p);
-    const Eigen::VectorXd residual = e.y - e.x * fit.theta;
-    for (Eigen::Index r = 0; r < e.y.size(); ++r)
-      scores.row(e.at[static_cast<std::size_t>(r)]) +=
-          row_weight[offset + r] * residual[r] * e.x.row(r);
-    long_run += hac_long_run_sum(scores);
+    weighted.push_back(row_weight.segment(offset, e.y.size()).cwiseProduct(e.y - e.x * fit.theta));
     offset += e.y.size();
   }
-  const Eigen::MatrixXd bread = fit.inverse_gram();
-  return (bread * long_run * bread).diagonal().cwiseMax(0.0).cwiseSqrt();
+  for (std::size_t r = 0; r < equations.size(); ++r) {
+    const ChainEquations& e = equations[r];
+    runs.push_back({e.x, weighted[r], e.at, e.at.empty() ? 0 : e.at.back() + 1});
+  }
+  return hac_sandwich(runs, fit.inverse_gram()).diagonal().cwiseMax(0.0).cwiseSqrt();
 }
 
 /// Least squares on the stacked equations, or Gautier's weighted least squares: each joint's

@@ -414,19 +414,15 @@ inline PayloadIdentification identify_payload(const ChainModel& model,
   out.covariance_uncorrelated = fit.covariance;
   // HAC: each sample's score summed over its joints (their residuals are correlated too), the
   // long-run sum per run, runs independent; the sandwich around (XᵀX)⁻¹.
-  Eigen::MatrixXd long_run = Eigen::MatrixXd::Zero(10, 10);
   {
+    std::vector<HacRun> per_run;
     Eigen::Index offset = 0;
     for (const auto& e : rows) {
-      Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(e.positions, 10);
-      for (Eigen::Index r = 0; r < e.y.size(); ++r)
-        scores.row(e.at[static_cast<std::size_t>(r)]) += fit.residual[offset + r] * e.x.row(r);
-      long_run += hac_long_run_sum(scores);
+      per_run.push_back({e.x, fit.residual.segment(offset, e.y.size()), e.at, e.positions});
       offset += e.y.size();
     }
+    out.covariance = hac_sandwich(per_run, fit.inverse_gram());
   }
-  const Eigen::MatrixXd bread = fit.inverse_gram();
-  out.covariance = bread * long_run * bread;
   out.covariance = 0.5 * (out.covariance + out.covariance.transpose()).eval();
   {
     // The noise as the HAC covariance sees it: the fit's σ inflated by the residuals'

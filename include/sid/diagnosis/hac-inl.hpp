@@ -221,4 +221,26 @@ SID_INLINE std::vector<double> holm_adjusted(const std::vector<double>& p) {
   return adjusted;
 }
 
+SID_INLINE Eigen::MatrixXd hac_sandwich(const std::vector<HacRun>& runs,
+                                        const Eigen::Ref<const Eigen::MatrixXd>& bread) {
+  const Eigen::Index p = bread.rows();
+  if (bread.cols() != p) throw std::invalid_argument("sid::hac_sandwich: the bread must be square");
+  Eigen::MatrixXd long_run = Eigen::MatrixXd::Zero(p, p);
+  for (const HacRun& run : runs) {
+    if (run.x.cols() != p || run.weighted_residual.size() != run.x.rows() ||
+        static_cast<Eigen::Index>(run.at.size()) != run.x.rows())
+      throw std::invalid_argument(
+          "sid::hac_sandwich: a run's rows, residuals and samples disagree");
+    Eigen::MatrixXd scores = Eigen::MatrixXd::Zero(run.positions, p);
+    for (Eigen::Index r = 0; r < run.x.rows(); ++r) {
+      const Eigen::Index sample = run.at[static_cast<std::size_t>(r)];
+      if (sample < 0 || sample >= run.positions)
+        throw std::invalid_argument("sid::hac_sandwich: a row's sample is out of range");
+      scores.row(sample) += run.weighted_residual[r] * run.x.row(r);
+    }
+    long_run += hac_long_run_sum(scores);
+  }
+  return bread * long_run * bread;
+}
+
 }  // namespace sid

@@ -75,6 +75,25 @@ SID_INLINE Eigen::VectorXd hac_long_run_quadratic(
     const Eigen::Ref<const Eigen::MatrixXd>& scores,
     const Eigen::Ref<const Eigen::MatrixXd>& directions);
 
+/// @brief One run's rows of a least-squares fit on stacked runs, for hac_sandwich(): the rows'
+/// columns x (as fitted), each row's weight times its residual, and the sample each row belongs
+/// to, at[r] in [0, positions): a sample's rows (one per joint) share one score, their residuals
+/// being correlated too.
+struct HacRun {
+  Eigen::Ref<const Eigen::MatrixXd> x;
+  Eigen::Ref<const Eigen::VectorXd> weighted_residual;
+  const std::vector<Eigen::Index>& at;
+  Eigen::Index positions;
+};
+
+/// @brief The HAC covariance of a least-squares estimate on stacked runs: per run, the scores
+/// (each sample's rows' weighted residual times their columns, summed) and their long-run sum
+/// (hac_long_run_sum); runs independent, the sums added; the sandwich bread S bread around
+/// bread = (XᵀWX)⁻¹.
+/// @throws std::invalid_argument when a run's sizes disagree or a row's sample is out of range.
+SID_INLINE Eigen::MatrixXd hac_sandwich(const std::vector<HacRun>& runs,
+                                        const Eigen::Ref<const Eigen::MatrixXd>& bread);
+
 /// @brief Wald statistic γ̂ᵀ V⁻¹ γ̂ (V symmetric positive definite; pseudo-inverse otherwise).
 SID_INLINE double wald_statistic(const Eigen::Ref<const Eigen::VectorXd>& gamma,
                                  const Eigen::Ref<const Eigen::MatrixXd>& covariance);
