@@ -64,7 +64,10 @@ struct ChainConsistencyOptions {
   /// γ, >= 0, relative to the least-squares fit's residual sum of squares; 0: from prior_std and
   /// the identification.
   double prior_weight = 0.0;
-  int max_iterations = 500;  ///< Newton steps in all, >= 1
+  /// Newton steps in all, >= 1: a guard against a loop, not a stopping rule (the problem is
+  /// convex). An estimate far from every real arm (every mass negated) takes 500–700 steps,
+  /// depending on the machine's rounding.
+  int max_iterations = 2000;
   /// The answer's cost is within tolerance times the least-squares RSS of the optimum.
   double tolerance = 1e-7;
 };
