@@ -1,14 +1,13 @@
 #include "chain_diagnose_app.hpp"
 
 #include <sid/chain_consistency.hpp>
-#include <sid/cvode/chain_motion_check.hpp>
+#include <sid/cvode/diagnose_robot.hpp>
 #include <sid/diagnose_chain.hpp>
 
 #include "app.hpp"
 
 #include <nlohmann/json.hpp>
 
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <iostream>
@@ -25,37 +24,6 @@ std::string width(const sid::DriveTerm& term) {
   return term.kind == sid::DriveTermKind::Stribeck
              ? " (vs = " + number("%.3g", term.velocity) + " rad/s)"
              : std::string();
-}
-
-/// The free simulations and their verdict, or why there are none.
-struct FreeSimulations {
-  std::string note;
-  sid::ChainMotionCheck check;
-  double seconds = 0.0;
-};
-
-FreeSimulations free_simulations(const LoadedChain& loaded, const sid::ChainDiagnosis& r,
-                                 const sid::ChainDiagnoseOptions& options,
-                                 const std::vector<sid::ChainTrajectory<double>>& runs) {
-  const auto start = std::chrono::steady_clock::now();
-  FreeSimulations out;
-  if (loaded.robot.link_parameters.size() == 0) {
-    out.note = "no free simulation: a DH table has no link inertias";
-    return out;
-  }
-  const sid::ChainModel& nominal = loaded.model;
-  const sid::ChainModel final_model(nominal.chain(), nominal.joint_names(), r.final_terms,
-                                    nominal.transmission(), nominal.coulomb_epsilon());
-  out.check = sid::check_chain_motion(nominal, r, runs, options.identify,
-                                      description_prior(loaded.robot, final_model));
-  if (!out.check.final_error.allFinite() || !out.check.threshold.allFinite())
-    out.note = "no free-simulation verdict: " +
-               std::string(out.check.final_error.allFinite()
-                               ? "no exact-model replicate could be fitted and simulated"
-                               : "the final model could not be fitted or simulated") +
-               (out.check.failure.empty() ? "" : " (" + out.check.failure + ")");
-  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return out;
 }
 
 /// The sid_excite call that designs a motion on which a named term and its look-alikes are told
@@ -78,7 +46,8 @@ std::string separating(const ChainDiagnoseAppOptions& o, const sid::ChainEffectT
 const double kMotionMargin = sid::ChainMotionCheckOptions().margin;
 
 std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel& nominal,
-                        const sid::ChainDiagnosis& r, const FreeSimulations& sim) {
+                        const sid::RobotDiagnosis& whole) {
+  const sid::ChainDiagnosis& r = whole.diagnosis;
   std::ostringstream out;
   out << "robot " << o.chain.robot << ": " << nominal.joints() << " joints; nominal model: rigid "
       << "bodies";
@@ -114,7 +83,7 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
   double unexplained = 0.0;
   for (Eigen::Index j = 0; j < r.unexplained_rms.size(); ++j)
     unexplained = std::max(unexplained, r.unexplained_rms[j] / r.noise_floor[j]);
-  const sid::ChainMotionCheck& m = sim.check;
+  const sid::ChainMotionCheck& m = whole.motion;
   if (m.final_error.size()) {
     out << "\nfree simulation (" << m.segments
         << " segments of 1 s from the smoothed state, driven by the smoothed torque; each model "
@@ -142,14 +111,14 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
       out << "  segments that blew up or failed: nominal " << m.failed_nominal << ", final "
           << m.failed_final << " (first: " << m.failure << ")\n";
   }
-  if (!sim.note.empty()) out << "\n" << sim.note << "\n";
+  if (!whole.motion_note.empty()) out << "\n" << whole.motion_note << "\n";
   out << "\n"
       << (unexplained > 0.5
               ? "what remains above the noise (unexplained, per joint above) is not a tried drive "
                 "term: look at the rigid-body model, the kinematics or effects not in the library\n"
               : "what remains is at the noise\n")
       << "time " << number("%.2f", r.seconds) << " s (the free simulations "
-      << number("%.2f", sim.seconds) << " s)\n";
+      << number("%.2f", whole.motion_seconds) << " s)\n";
   return out.str();
 }
 
@@ -168,7 +137,8 @@ nlohmann::json test_json(const sid::ChainEffectTest& t) {
 }
 
 nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainModel& nominal,
-                           const sid::ChainDiagnosis& r, const FreeSimulations& sim) {
+                           const sid::RobotDiagnosis& whole) {
+  const sid::ChainDiagnosis& r = whole.diagnosis;
   nlohmann::json j;
   j["robot"] = o.chain.robot;
   j["joint_names"] = nominal.joint_names();
@@ -184,7 +154,7 @@ nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainMod
   for (const auto& e : r.named) j["named"].push_back(test_json(e));
   j["not_named"] = nlohmann::json::array();
   for (const auto& t : r.not_named) j["not_named"].push_back(test_json(t));
-  const sid::ChainMotionCheck& m = sim.check;
+  const sid::ChainMotionCheck& m = whole.motion;
   if (m.final_error.size()) {
     nlohmann::json replicates = nlohmann::json::array();
     for (Eigen::Index b = 0; b < m.replicate_error.rows(); ++b)
@@ -204,7 +174,7 @@ nlohmann::json report_json(const ChainDiagnoseAppOptions& o, const sid::ChainMod
                             {"failed_segments_final", m.failed_final},
                             {"failed_segments_replicates", m.failed_replicates}};
   }
-  if (!sim.note.empty()) j["free_simulation_note"] = sim.note;
+  if (!whole.motion_note.empty()) j["free_simulation_note"] = whole.motion_note;
   j["seconds"] = r.seconds;
   return j;
 }
@@ -250,16 +220,16 @@ ChainDiagnoseResult diagnose_loaded(const ChainDiagnoseAppOptions& o, const Load
   if (o.measured || loaded.runs.size() > 1) options.smoothing = sid::ChainSmoothingChoice::Measured;
   std::vector<sid::ChainTrajectory<double>> runs;
   for (const auto& r : loaded.runs) runs.push_back(r.data);
-  sid::ChainDiagnosis result;
+  ChainDiagnoseResult out;
   try {
-    result = sid::diagnose_chain(loaded.model, runs, options);
+    out.result =
+        sid::diagnose_robot(loaded.model, runs, options, description_dynamics(loaded.robot));
   } catch (const std::invalid_argument& e) {
     throw InputError(e.what());
   }
-  const FreeSimulations sim = free_simulations(loaded, result, options, runs);
-  std::string text = report_text(o, loaded.model, result, sim);
-  nlohmann::json json = report_json(o, loaded.model, result, sim);
-  return {std::move(result), sim.check, sim.note, std::move(text), std::move(json)};
+  out.text = report_text(o, loaded.model, out.result);
+  out.json = report_json(o, loaded.model, out.result);
+  return out;
 }
 
 int diagnose_robot(const ChainDiagnoseAppOptions& o) {

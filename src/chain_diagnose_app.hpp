@@ -3,7 +3,7 @@
 /// @brief sid_diagnose --robot: which drive terms a chain's logs support beyond its nominal
 /// model, with the text report and the JSON.
 
-#include <sid/cvode/chain_motion_check.hpp>
+#include <sid/cvode/diagnose_robot.hpp>
 #include <sid/diagnose_chain.hpp>
 
 #include "chain_identify_app.hpp"
@@ -30,11 +30,9 @@ struct ChainDiagnoseAppOptions {
 
 /// @brief A chain diagnosis as sid_diagnose --robot makes it, with its report.
 struct ChainDiagnoseResult {
-  sid::ChainDiagnosis diagnosis;
-  sid::ChainMotionCheck motion;  ///< the free simulations' verdict (empty without one)
-  std::string motion_note;       ///< why there is no verdict, when there is none
-  std::string text;              ///< the report sid_diagnose prints
-  nlohmann::json json;           ///< what --json writes
+  sid::RobotDiagnosis result;
+  std::string text;     ///< the report sid_diagnose prints
+  nlohmann::json json;  ///< what --json writes
 };
 
 /// @brief Diagnoses loaded's runs (loaded.model: the nominal model) with the options o gives

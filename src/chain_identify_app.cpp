@@ -1,7 +1,7 @@
 #include "chain_identify_app.hpp"
 
 #include <sid/chain_consistency.hpp>
-#include <sid/cvode/chain_instrumental_variables.hpp>
+#include <sid/cvode/identify_robot.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/model/chain_model.hpp>
 
@@ -69,9 +69,6 @@ sid::ChainIdentifyOptions make_options(const ChainIdentifyAppOptions& o, int joi
 
 std::string number(const char* format, double v) { return format_number(format, v); }
 
-/// ChainConsistentFit::fits_estimate's bound on the misfit, for r base parameters.
-double misfit_limit(double r) { return r + 3.0 * std::sqrt(2.0 * r); }
-
 /// The kinds of drive term the model fits, in its order, and the names of their parameters.
 std::vector<std::string> drive_term_keywords(const sid::ChainModel& model) {
   std::vector<std::string> kinds;
@@ -115,30 +112,12 @@ void print_prediction_rows(std::ostream& out, const sid::ChainModel& model,
       << number("%.2f", 100.0 * p.measured_relative_residual) << " %)\n";
 }
 
-/// An IV estimate that did not converge, or whose residual on its rows is more than this many
-/// times least squares', is not used: the simulated motion did not follow the measured one and
-/// the instruments are weak. Where it follows, IV moves the residual by under 20 % (1.16 on the
-/// real TX40 run, 1.00–1.01 on simulated arms with rotors); on a simulated TX40 without rotors,
-/// whose light wrist wanders off within a segment, it did not converge.
-constexpr double kWeakInstruments = 1.5;
-
-/// The IV refinement as the report states it.
-struct IvSummary {
-  bool used = false;     ///< --estimator iv
-  bool applied = false;  ///< its estimate is the one reported
-  int iterations = 0;
-  bool converged = false;
-  double residual_ratio = 0.0;
-  std::string message;
-  Eigen::VectorXd least_squares;           ///< the first fit on the IV's rows
-  std::vector<sid::ChainPrediction> runs;  ///< the IV estimate on each fitted run
-};
-
 std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel& model,
-                        const sid::ChainIdentification& id,
-                        const std::vector<sid::ChainPrediction>& validation,
-                        const sid::ChainConsistentFit& consistent,
-                        const std::vector<std::string>& link_names, const IvSummary& iv) {
+                        const sid::RobotIdentification& r,
+                        const std::vector<std::string>& link_names) {
+  const sid::ChainIdentification& id = r.identification;
+  const sid::ChainIvRefinement& iv = r.iv;
+  const sid::ChainConsistentFit& consistent = r.consistent;
   std::ostringstream out;
   out << "robot " << o.robot << ": " << model.joints() << " joints (" << [&] {
     std::string s;
@@ -205,7 +184,7 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
     out << "residual of the fit:\n";
     print_prediction_rows(out, model, id.fitted);
   }
-  for (const auto& v : validation) {
+  for (const auto& v : r.validation) {
     out << "prediction of " << v.source << ":\n";
     print_prediction_rows(out, model, v);
   }
@@ -226,8 +205,7 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
            "refuses them)\n";
   else if (!consistent.fits_estimate)
     out << "  REAL BODIES DO NOT FIT THE ESTIMATE: misfit " << number("%.3g", consistent.misfit)
-        << " where noise alone gives at most "
-        << number("%.3g", misfit_limit(static_cast<double>(id.base.rank())))
+        << " where noise alone gives at most " << number("%.3g", consistent.misfit_limit)
         << " (the model probably lacks a drive term the data have; see --effects): the links "
            "below are the nearest real bodies, not the arm's (--write-urdf refuses them)\n";
   for (int i = 0; i < model.joints(); ++i) {
@@ -242,9 +220,10 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
 }
 
 nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainModel& model,
-                           const sid::ChainIdentification& id,
-                           const std::vector<sid::ChainPrediction>& validation,
-                           const sid::ChainConsistentFit& consistent, const IvSummary& iv) {
+                           const sid::RobotIdentification& r) {
+  const sid::ChainIdentification& id = r.identification;
+  const sid::ChainIvRefinement& iv = r.iv;
+  const sid::ChainConsistentFit& consistent = r.consistent;
   nlohmann::json j;
   j["robot"] = o.robot;
   j["joint_names"] = model.joint_names();
@@ -283,7 +262,7 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
     for (const auto& r : iv.runs) j["iv_fit"].push_back(prediction_json(r));
   }
   j["validation"] = nlohmann::json::array();
-  for (const auto& v : validation) j["validation"].push_back(prediction_json(v));
+  for (const auto& v : r.validation) j["validation"].push_back(prediction_json(v));
   nlohmann::json physical;
   physical["theta"] = to_json_array(consistent.theta);
   physical["beta"] = to_json_array(consistent.beta);
@@ -306,37 +285,27 @@ std::vector<sid::DriveTermKind> identify_drive_term_kinds(const std::string& eff
   require(!no_default_effects || !effects.empty(),
           "--no-default-effects: name every drive term to fit with --effects (none for rigid "
           "bodies only)");
-  std::vector<sid::DriveTermKind> kinds;
-  if (effects == "none") return kinds;
-  if (!no_default_effects) kinds = {sid::DriveTermKind::Viscous, sid::DriveTermKind::Armature};
-  std::vector<sid::DriveTermKind> added = {sid::DriveTermKind::Coulomb, sid::DriveTermKind::Offset};
-  if (!effects.empty()) {
-    try {
-      added = sid::parse_drive_term_kinds(effects);
-    } catch (const std::invalid_argument& e) {
-      throw InputError(std::string("--effects: ") + e.what());
-    }
+  if (effects == "none") return {};
+  if (effects.empty()) return sid::robot_drive_term_kinds();
+  std::vector<sid::DriveTermKind> listed;
+  try {
+    listed = sid::parse_drive_term_kinds(effects);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("--effects: ") + e.what());
   }
-  for (const sid::DriveTermKind kind : added)
-    if (std::find(kinds.begin(), kinds.end(), kind) == kinds.end()) kinds.push_back(kind);
+  if (!no_default_effects) return sid::robot_drive_term_kinds(listed);
   // One order whatever the list's, so the same terms give the same parameters.
-  std::sort(kinds.begin(), kinds.end());
-  return kinds;
+  std::sort(listed.begin(), listed.end());
+  listed.erase(std::unique(listed.begin(), listed.end()), listed.end());
+  return listed;
+}
+
+sid::DescriptionDynamics description_dynamics(const RobotDescription& robot) {
+  return {robot.link_parameters, robot.damping, robot.friction};
 }
 
 Eigen::VectorXd description_prior(const RobotDescription& robot, const sid::ChainModel& model) {
-  if (robot.link_parameters.size() == 0) return {};
-  Eigen::VectorXd prior = Eigen::VectorXd::Zero(model.parameters());
-  prior.head(robot.link_parameters.size()) = robot.link_parameters;
-  Eigen::Index column = model.rigid_body_parameters();
-  for (const sid::DriveTerm& t : model.terms()) {
-    if (!t.on_motor && t.kind == sid::DriveTermKind::Viscous)
-      prior[column] = robot.damping[t.index];
-    if (!t.on_motor && t.kind == sid::DriveTermKind::Coulomb)
-      prior[column] = robot.friction[t.index];
-    ++column;
-  }
-  return prior;
+  return sid::description_prior(model, description_dynamics(robot));
 }
 
 LoadedChain load_chain(const ChainIdentifyAppOptions& o,
@@ -370,56 +339,11 @@ LoadedChain load_chain(const ChainIdentifyAppOptions& o,
 
 namespace {
 
-/// --estimator iv: IDIM-IV from the least-squares fit's base parameters. When its estimate is
-/// used, it replaces id's (values, their IV standard deviations, residuals on id's equations).
-IvSummary refine_by_iv(const sid::ChainModel& model, const RobotDescription& robot,
-                       const std::vector<sid::ChainTrajectory<double>>& data,
-                       const std::vector<ChainRunFile>& runs,
-                       const sid::ChainIdentifyOptions& options, sid::ChainIdentification& id) {
-  sid::ChainInstrumentalVariableOptions iv_options;
-  iv_options.prior = description_prior(robot, model);
-  sid::ChainIvIdentification refined;
-  try {
-    refined = sid::identify_chain_iv(model, id.base, data, options, iv_options);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(std::string("--estimator iv: ") + e.what());
-  }
-  IvSummary iv;
-  iv.used = true;
-  iv.iterations = refined.iv.iterations;
-  iv.converged = refined.iv.converged;
-  iv.residual_ratio = refined.residual_ratio;
-  iv.least_squares = refined.least_squares.theta;
-  if (!refined.iv.ok()) {
-    iv.message = "the IV step failed (" + refined.iv.message + ")";
-    return iv;
-  }
-  if (!refined.iv.converged) {
-    iv.message = "the IV iteration did not converge (" + refined.iv.message +
-                 "): the simulated motion does not follow the measured one closely enough";
-    return iv;
-  }
-  if (!(refined.residual_ratio <= kWeakInstruments)) {
-    iv.message = "the IV estimate leaves " + number("%.3g", refined.residual_ratio) +
-                 " times least squares' residual (more than " + number("%.3g", kWeakInstruments) +
-                 "): the simulated motion does not follow the measured one, the instruments "
-                 "are weak";
-    return iv;
-  }
-  iv.applied = true;
-  const double condition_number = id.fit.condition_number;
-  id.fit = refined.iv.fit;
-  id.fit.condition_number = condition_number;
-  id.std_dev = id.fit.std_dev;
-  id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
-  id.jackknife_std_dev.resize(0);
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    iv.runs.push_back(sid::predict_chain(model, id, data[r], options));
-    iv.runs.back().source = runs[r].file;
-  }
-  // The JSON's residual figures: the first run's (iv_fit has every run's).
-  id.fitted = iv.runs.front();
-  return iv;
+sid::ChainEstimator estimator_named(const std::string& name) {
+  if (name == "wls") return sid::ChainEstimator::WeightedLeastSquares;
+  if (name == "iv") return sid::ChainEstimator::InstrumentalVariables;
+  require(name == "ls", "--estimator: the estimators are ls, wls and iv, not '" + name + "'");
+  return sid::ChainEstimator::LeastSquares;
 }
 
 }  // namespace
@@ -431,70 +355,35 @@ ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChai
           "--validate-fraction splits one run; give one run (or use --validate)");
   require(!o.validate_fraction || (*o.validate_fraction > 0.0 && *o.validate_fraction < 1.0),
           "--validate-fraction must be in (0, 1)");
-  const RobotDescription& robot = loaded.robot;
-  const sid::ChainModel& model = loaded.model;
-  const sid::ChainIdentifyOptions& options = loaded.options;
-  std::vector<ChainRunFile>& runs = loaded.runs;
-  if (o.validate_fraction) {
-    try {
-      auto [first, last] = sid::split_run(runs.front().data, 1.0 - *o.validate_fraction);
-      held_out.insert(held_out.begin(), {runs.front().file + " (last " +
-                                             number("%.3g", 100.0 * *o.validate_fraction) + " %)",
-                                         std::move(last)});
-      runs.front().data = std::move(first);
-    } catch (const std::invalid_argument& e) {
-      throw InputError(runs.front().file + ": " + e.what());
-    }
-  }
-  std::vector<sid::ChainTrajectory<double>> data;
-  for (const auto& r : runs) data.push_back(r.data);
-  sid::ChainIdentification id;
+  sid::RobotIdentifyOptions options;
+  options.fit = loaded.options;
+  options.estimator = estimator_named(o.estimator);
+  options.validate_fraction = o.validate_fraction.value_or(0.0);
+  options.description = description_dynamics(loaded.robot);
+  std::vector<sid::NamedChainRun> runs, held;
+  for (auto& r : loaded.runs) runs.push_back({std::move(r.file), std::move(r.data)});
+  for (auto& r : held_out) held.push_back({std::move(r.file), std::move(r.data)});
+  loaded.runs.clear();  // the result holds the runs it fitted
+  sid::RobotIdentification result;
   try {
-    id = sid::identify_chain(model, data, options);
+    result = sid::identify_robot(loaded.model, std::move(runs), std::move(held), options);
   } catch (const std::invalid_argument& e) {
-    throw InputError(e.what());
+    const std::string what = e.what();
+    throw InputError(what.rfind("estimator iv: ", 0) == 0 ? "--" + what : what);
   }
-  if (!id.fit.ok())
-    throw InputError("the base parameters cannot be identified from these runs: " + id.fit.message);
-  id.fitted.source = runs.size() == 1 ? runs.front().file : "all runs";
-  const IvSummary iv =
-      o.estimator == "iv" ? refine_by_iv(model, robot, data, runs, options, id) : IvSummary{};
-  std::vector<std::string> warnings;
-  if (iv.used && !iv.applied) warnings.push_back(iv.message);
-  std::vector<sid::ChainPrediction> validation;
-  for (const auto& r : held_out) {
-    try {
-      validation.push_back(sid::predict_chain(model, id, r.data, options));
-    } catch (const std::invalid_argument& e) {
-      throw InputError(r.file + ": " + e.what());
-    }
-    validation.back().source = r.file;
-  }
-  // The consistent fit stays near the description where the data say nothing.
-  sid::ChainConsistentFit consistent =
-      sid::consistent_chain_parameters(model, id, description_prior(robot, model));
-  if (id.fit.ill_conditioned) warnings.push_back(id.fit.message);
-  std::string text = report_text(o, model, id, validation, consistent, robot.link_names, iv);
-  nlohmann::json json = report_json(o, model, id, validation, consistent, iv);
-  return {std::move(loaded), std::move(id),   std::move(validation), std::move(consistent),
-          std::move(text),   std::move(json), std::move(warnings)};
+  std::string text = report_text(o, loaded.model, result, loaded.robot.link_names);
+  nlohmann::json json = report_json(o, loaded.model, result);
+  return {std::move(loaded), std::move(result), std::move(text), std::move(json)};
 }
 
 std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& what) {
   const RobotDescription& robot = r.loaded.robot;
   require(!robot.urdf.empty(), what + " needs a URDF as the robot, not a DH table");
-  if (!r.consistent.converged)
-    throw InputError(what + ": the physically consistent fit did not converge in " +
-                     std::to_string(r.consistent.iterations) +
-                     " Newton steps; its links would not be a result");
-  if (!r.consistent.fits_estimate)
-    throw InputError(what + ": real bodies do not reproduce the estimate (misfit " +
-                     number("%.3g", r.consistent.misfit) + " where noise alone gives at most " +
-                     number("%.3g", misfit_limit(static_cast<double>(r.id.base.rank()))) +
-                     "; a drive term the data have may be missing from the effects)");
+  const std::string problem = sid::consistent_links_problem(r.result);
+  if (!problem.empty()) throw InputError(what + ": " + problem);
   std::vector<sid::LinkParameters<double>> phi;
   for (int i = 0; i < robot.chain.joints(); ++i)
-    phi.push_back(r.consistent.theta.segment<10>(10 * i));
+    phi.push_back(r.result.consistent.theta.segment<10>(10 * i));
   return urdf_with_link_parameters(robot.urdf, robot.base, robot.tip, robot.link_names, phi);
 }
 
@@ -524,7 +413,7 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
 void write_identify_outputs(const ChainIdentifyAppOptions& o, const ChainIdentifyResult& r,
                             const char* app_name) {
   (o.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
-  for (const auto& w : r.warnings) std::cerr << app_name << ": warning: " << w << "\n";
+  for (const auto& w : r.result.warnings) std::cerr << app_name << ": warning: " << w << "\n";
   if (!o.json.empty()) write_json(o.json, r.json);
   if (o.write_urdf.empty()) return;
   std::string written;

@@ -4,6 +4,7 @@
 /// and its logs, with the text report and the JSON.
 
 #include <sid/chain_consistency.hpp>
+#include <sid/cvode/identify_robot.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/model/chain_model.hpp>
 
@@ -81,6 +82,10 @@ LoadedChain load_identify_chain(const ChainIdentifyAppOptions& options);
 std::vector<sid::DriveTermKind> identify_drive_term_kinds(const std::string& effects,
                                                           bool no_default_effects);
 
+/// @brief What the description gives of the arm's dynamics: a URDF's links and joints'
+/// <dynamics>; nothing for a DH table.
+sid::DescriptionDynamics description_dynamics(const RobotDescription& robot);
+
 /// @brief What the description says of model's parameters: its links, and its joints'
 /// <dynamics> damping and friction for the viscous and Coulomb terms (0 elsewhere); empty for a
 /// DH table, which has no inertias. The prior a physically consistent fit stays near.
@@ -88,13 +93,10 @@ Eigen::VectorXd description_prior(const RobotDescription& robot, const sid::Chai
 
 /// @brief An identification as sid_identify --robot makes it, with its report.
 struct ChainIdentifyResult {
-  LoadedChain loaded;  ///< the fitted runs (the first cut by --validate-fraction)
-  sid::ChainIdentification id;
-  std::vector<sid::ChainPrediction> validation;  ///< one per held-out run
-  sid::ChainConsistentFit consistent;
-  std::string text;                   ///< the report sid_identify prints
-  nlohmann::json json;                ///< what --json writes
-  std::vector<std::string> warnings;  ///< said on stderr by the tool
+  LoadedChain loaded;               ///< the robot and model (its runs are in result.fitted_runs)
+  sid::RobotIdentification result;  ///< its warnings are said on stderr by the tool
+  std::string text;                 ///< the report sid_identify prints
+  nlohmann::json json;              ///< what --json writes
 };
 /// @brief Identifies loaded's model from its runs (options o: estimator, validate_fraction,
 /// cutoff, ...) and predicts held_out.

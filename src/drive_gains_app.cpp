@@ -254,13 +254,13 @@ DriveGainResult identify_with_drive_gains(const ChainIdentifyAppOptions& chain,
   ChainIdentifyResult identified = identify_loaded(
       chain, std::move(fit), converted_runs(model, held_out, {}, payload, gains, options));
   if (choose) {
-    identified.id.cutoff_chosen = true;
+    identified.result.identification.cutoff_chosen = true;
     identified.json["cutoff_chosen"] = true;
   }
 
   for (Eigen::Index j = 0; j < n; ++j)
     if (!(gains.std_dev[j] <= kPoorGain * std::abs(gains.gain[j])))
-      identified.warnings.push_back(
+      identified.result.warnings.push_back(
           "the drive gain of " + model.joint_names()[static_cast<std::size_t>(j)] +
           " is poorly determined (std " +
           number("%.3g", 100.0 * gains.std_dev[j] / std::abs(gains.gain[j])) +

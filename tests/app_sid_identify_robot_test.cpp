@@ -3,15 +3,18 @@
 // joint-side runs, and bad input refused with a message naming it.
 
 #include <nlohmann/json.hpp>
+#include <sid/cvode/identify_robot.hpp>
 #include <sid/model/urdf.hpp>
 
 #include "app_test_support.hpp"
 #include "chain_simulation.hpp"
 #include "csv.hpp"
+#include "robot_description.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -214,6 +217,72 @@ TEST_F(IdentifyLightWrist, EffectsAddToViscousFrictionAndArmatureAndTheLinksStay
   const nlohmann::json stiff = nlohmann::json::parse(read(file("rigid.json")));
   EXPECT_TRUE(stiff["drive_terms"].empty());
   EXPECT_EQ(stiff["model_parameters"].size(), 60u);
+}
+
+// A C++ program that links the library gets sid_identify --robot's numbers from one call of
+// sid::identify_robot on the same description and log, bit for bit.
+TEST_F(IdentifyRobot, TheLibraryCallGivesTheToolsNumbers) {
+  write_run("run.csv", 4.0, 7);
+  const std::string urdf = write("arm.urdf", R"(<robot name="arm">
+  <link name="base"/>
+  <joint name="a" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
+    <dynamics damping="0.1" friction="0.2"/></joint>
+  <link name="l1"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="b" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0 0 0.4" rpy="1.5707963267948966 0 0"/><axis xyz="0 0 1"/></joint>
+  <link name="l2"><inertial><mass value="2"/><origin xyz="0.25 0 0"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.05" iyz="0" izz="0.05"/></inertial></link>
+  <joint name="c" type="revolute"><parent link="l2"/><child link="l3"/>
+    <origin xyz="0.5 0 0"/><axis xyz="0 0 1"/></joint>
+  <link name="l3"><inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial></link>
+</robot>
+)");
+  const sid_test::AppRun tool = shell(app("sid_identify") +
+                                      " --robot arm.urdf --validate-fraction 0.25 --json fit.json "
+                                      "run.csv");
+  ASSERT_EQ(tool.exit_code, 0) << tool.err;
+  const nlohmann::json j = nlohmann::json::parse(read(file("fit.json")));
+
+  const sid::UrdfChain arm = sid::chain_from_urdf(read(urdf), "base", "l3");
+  const sid::Transmission joint_side(arm.chain.joints());
+  const sid::ChainModel model(arm.chain, arm.joint_names,
+                              sid::drive_terms(sid::robot_drive_term_kinds(), joint_side),
+                              joint_side);
+  sid::RobotIdentifyOptions options;
+  options.validate_fraction = 0.25;
+  options.description = sid::description_dynamics(arm);
+  const sid::app::CsvTable table = sid::app::read_csv(file("run.csv"));
+  const sid::RobotIdentification r =
+      sid::identify_robot(model,
+                          {{"run.csv", sid::app::chain_trajectory_from_table(
+                                           table, 3, sid::app::chain_columns("", 3, "--columns"))}},
+                          {}, options);
+
+  const auto expect_same = [](const nlohmann::json& tool_values, const Eigen::VectorXd& library,
+                              const char* what) {
+    ASSERT_EQ(tool_values.size(), std::size_t(library.size())) << what;
+    for (Eigen::Index i = 0; i < library.size(); ++i)
+      EXPECT_EQ(tool_values[std::size_t(i)].get<double>(), library[i]) << what << " " << i;
+  };
+  EXPECT_EQ(j["parameter_names"].get<std::vector<std::string>>(), r.identification.parameter_names);
+  expect_same(j["theta"], r.identification.fit.theta, "theta");
+  expect_same(j["std_dev"], r.identification.std_dev, "std_dev");
+  expect_same(j["cutoff_hz"], r.identification.cutoff_hz, "cutoff_hz");
+  ASSERT_EQ(r.validation.size(), 1u);
+  EXPECT_EQ(r.validation[0].source, "run.csv (last 25 %)");
+  EXPECT_EQ(j["validation"][0]["relative_residual"].get<double>(),
+            r.validation[0].relative_residual);
+  expect_same(j["physically_consistent"]["theta"], r.consistent.theta, "consistent theta");
+  // The description's damping and friction are the prior of joint a's viscous and Coulomb terms.
+  const Eigen::VectorXd prior = sid::description_prior(model, options.description);
+  const auto& names = model.parameter_names();
+  const auto at = [&](const std::string& name) {
+    return prior[std::find(names.begin(), names.end(), name) - names.begin()];
+  };
+  EXPECT_EQ(at("fv_1"), 0.1);
+  EXPECT_EQ(at("fc_1"), 0.2);
+  EXPECT_EQ(at("fv_2"), 0.0);
+  EXPECT_EQ(at("m_2"), 2.0);
+  EXPECT_TRUE(sid::consistent_links_problem(r).empty()) << sid::consistent_links_problem(r);
 }
 
 TEST_F(IdentifyRobot, DhTableWithJointSideRunsAndValidation) {

@@ -6,6 +6,7 @@
 // (12 bits), the diagnosis smooths as for a measured log and names nothing on a control.
 
 #include <sid/cvode/chain_motion_check.hpp>
+#include <sid/cvode/diagnose_robot.hpp>
 
 #include <gtest/gtest.h>
 
@@ -17,24 +18,13 @@
 
 namespace {
 
-struct WholeCheck {
-  sid::ChainDiagnosis diagnosis;
-  sid::ChainMotionCheck motion;
-};
-
 /// What sid_diagnose --robot runs on a log: the diagnosis and the motion check, with the
 /// description's links as the prior.
-WholeCheck whole_check(const sid_test::SuiteArm& a, const sid::ChainTrajectory<double>& run) {
-  const sid::ChainModel nominal = sid_test::suite_nominal(a);
-  WholeCheck out;
-  out.diagnosis = sid::diagnose_chain(nominal, {run});
-  const sid::ChainModel final_model(nominal.chain(), nominal.joint_names(),
-                                    out.diagnosis.final_terms, nominal.transmission(),
-                                    nominal.coulomb_epsilon());
-  Eigen::VectorXd prior = Eigen::VectorXd::Zero(final_model.parameters());
-  prior.head(10 * a.joints()) = a.arm.theta.head(10 * a.joints());
-  out.motion = sid::check_chain_motion(nominal, out.diagnosis, {run}, {}, prior);
-  return out;
+sid::RobotDiagnosis whole_check(const sid_test::SuiteArm& a,
+                                const sid::ChainTrajectory<double>& run) {
+  sid::DescriptionDynamics description;
+  description.link_parameters = a.arm.theta.head(10 * a.joints());
+  return sid::diagnose_robot(sid_test::suite_nominal(a), {run}, {}, description);
 }
 
 std::string named(const sid::ChainDiagnosis& d) {
@@ -86,7 +76,7 @@ TEST_P(RealLoggedArm, FlagsNoLogWhoseNamedSetIsRight) {
               {{{spring, spring_of(a, c.spring_joint)}}, sid::drive_term_id(spring)},
               {{{offset, 0.05, true}}, offset_id}};
   for (const auto& log : logs) {
-    const WholeCheck w = whole_check(a, sid_test::suite_run(a, log.hidden, 1));
+    const sid::RobotDiagnosis w = whole_check(a, sid_test::suite_run(a, log.hidden, 1));
     const std::string what = std::string(c.name) +
                              ", hidden: " + (log.expected.empty() ? "none" : log.expected) +
                              ", smoothing " + w.diagnosis.smoothing;
@@ -117,7 +107,7 @@ TEST(RealLoggedArm, SmoothsACoarseEncodersLogAsAMeasuredOne) {
   sid_test::SuiteArm a = sid_test::baxter_suite_arm();
   a.angle_step = 2.0 * 3.14159265358979323846 / 4096.0;
   const sid::ChainTrajectory<double> run = sid_test::suite_run(a, {}, 2);
-  const WholeCheck w = whole_check(a, run);
+  const sid::RobotDiagnosis w = whole_check(a, run);
   EXPECT_NE(w.diagnosis.smoothing.find("held-out torque prediction"), std::string::npos)
       << w.diagnosis.smoothing;
   EXPECT_NE(w.diagnosis.smoothing.find("staircase"), std::string::npos) << w.diagnosis.smoothing;

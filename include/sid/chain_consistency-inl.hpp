@@ -303,7 +303,8 @@ SID_INLINE ChainConsistentFit consistent_chain_parameters(const ChainModel& mode
   out.relative_residual = std::sqrt((rss + growth) / yy);
   const auto r = static_cast<double>(id.base.rank());
   out.misfit = growth * dof / (out.correlation_inflation * rss);
-  out.fits_estimate = out.misfit <= r + 3.0 * std::sqrt(2.0 * r);
+  out.misfit_limit = r + 3.0 * std::sqrt(2.0 * r);
+  out.fits_estimate = out.misfit <= out.misfit_limit;
   return out;
 }
 

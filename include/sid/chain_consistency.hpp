@@ -93,7 +93,9 @@ struct ChainConsistentFit {
   /// ‖R S (β − β̂)‖² (N − r) / (κ RSS), about χ² with r degrees of freedom when the estimate is a
   /// real arm plus noise (less, as the prior pulls only where the data say little).
   double misfit = 0.0;
-  /// misfit ≤ r + 3 √(2 r): real bodies reproduce the estimate within its uncertainty. When
+  /// r + 3 √(2 r): about the largest misfit noise alone gives.
+  double misfit_limit = 0.0;
+  /// misfit ≤ misfit_limit: real bodies reproduce the estimate within its uncertainty. When
   /// false, no set of real bodies near it fits the data as well: the model lacks something
   /// the data have (a drive term), and theta is not a description of the arm.
   bool fits_estimate = false;

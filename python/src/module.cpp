@@ -128,13 +128,13 @@ class Fit {
   /// measured torque and the model's.
   nb::list fitted_runs() const {
     nb::list out;
-    for (const auto& run : r_.loaded.runs) {
+    for (const auto& run : r_.result.fitted_runs) {
       Eigen::MatrixXd model;
       {
         nb::gil_scoped_release release;
-        model = predict_joint_side(run.data, run.file);
+        model = predict_joint_side(run.data, run.name);
       }
-      out.append(nb::make_tuple(run.file, Eigen::VectorXd(run.data.t),
+      out.append(nb::make_tuple(run.name, Eigen::VectorXd(run.data.t),
                                 Eigen::MatrixXd(run.data.tau), model));
     }
     return out;
@@ -146,19 +146,19 @@ class Fit {
     const sid::ChainIdentifyOptions& options = r_.loaded.options;
     sid::ChainKinematics<double> k;
     try {
-      k = sid::smooth_chain_run(run, r_.id.cutoff_hz, options);
+      k = sid::smooth_chain_run(run, r_.result.identification.cutoff_hz, options);
     } catch (const std::invalid_argument& e) {
       throw InputError(name + ": " + e.what());
     }
     const sid::ChainModel& model = r_.loaded.model;
-    const auto& independent = r_.id.base.independent;
+    const auto& independent = r_.result.identification.base.independent;
     Eigen::MatrixXd w(model.joints(), model.parameters());
     Eigen::MatrixXd tau(k.size(), model.joints());
     for (Eigen::Index i = 0; i < k.size(); ++i) {
       const Eigen::VectorXd q = k.q.row(i).transpose(), qd = k.qd.row(i).transpose(),
                             qdd = k.qdd.row(i).transpose();
       model.regressor(q, qd, qdd, w);
-      tau.row(i) = (w(Eigen::all, independent) * r_.id.fit.theta).transpose();
+      tau.row(i) = (w(Eigen::all, independent) * r_.result.identification.fit.theta).transpose();
     }
     return tau;
   }
@@ -535,18 +535,26 @@ NB_MODULE(_sid, m) {
       .def_rw("validate_fraction", &IdentifyOptions::validate_fraction);
 
   nb::class_<Fit>(m, "_Fit")
-      .def_prop_ro("parameter_names", [](const Fit& f) { return f.result().id.parameter_names; })
-      .def_prop_ro("theta", [](const Fit& f) { return Eigen::VectorXd(f.result().id.fit.theta); })
-      .def_prop_ro("std_dev", [](const Fit& f) { return Eigen::VectorXd(f.result().id.std_dev); })
-      .def_prop_ro("fitted", [](const Fit& f) { return prediction_dict(f.result().id.fitted); })
+      .def_prop_ro("parameter_names",
+                   [](const Fit& f) { return f.result().result.identification.parameter_names; })
+      .def_prop_ro(
+          "theta",
+          [](const Fit& f) { return Eigen::VectorXd(f.result().result.identification.fit.theta); })
+      .def_prop_ro(
+          "std_dev",
+          [](const Fit& f) { return Eigen::VectorXd(f.result().result.identification.std_dev); })
+      .def_prop_ro(
+          "fitted",
+          [](const Fit& f) { return prediction_dict(f.result().result.identification.fitted); })
       .def_prop_ro("validation",
                    [](const Fit& f) {
                      nb::list l;
-                     for (const auto& v : f.result().validation) l.append(prediction_dict(v));
+                     for (const auto& v : f.result().result.validation)
+                       l.append(prediction_dict(v));
                      return l;
                    })
       .def_prop_ro("report", [](const Fit& f) { return f.result().text; })
-      .def_prop_ro("warnings", [](const Fit& f) { return f.result().warnings; })
+      .def_prop_ro("warnings", [](const Fit& f) { return f.result().result.warnings; })
       .def("json", [](const Fit& f) { return f.result().json.dump(); })
       .def("predict", &Fit::predict, "run"_a, nb::call_guard<nb::gil_scoped_release>())
       .def("fitted_runs", &Fit::fitted_runs)
@@ -587,30 +595,34 @@ NB_MODULE(_sid, m) {
       .def_prop_ro("named",
                    [](const Diagnosis& d) {
                      nb::list l;
-                     for (const auto& t : d.diagnosis.named) l.append(effect_test_dict(t));
+                     for (const auto& t : d.result.diagnosis.named) l.append(effect_test_dict(t));
                      return l;
                    })
       .def_prop_ro("not_named",
                    [](const Diagnosis& d) {
                      nb::list l;
-                     for (const auto& t : d.diagnosis.not_named) l.append(effect_test_dict(t));
+                     for (const auto& t : d.result.diagnosis.not_named)
+                       l.append(effect_test_dict(t));
                      return l;
                    })
-      .def_prop_ro("noise_floor",
-                   [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.noise_floor); })
       .def_prop_ro(
-          "nominal_residual_rms",
-          [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.nominal_residual_rms); })
+          "noise_floor",
+          [](const Diagnosis& d) { return Eigen::VectorXd(d.result.diagnosis.noise_floor); })
+      .def_prop_ro("nominal_residual_rms",
+                   [](const Diagnosis& d) {
+                     return Eigen::VectorXd(d.result.diagnosis.nominal_residual_rms);
+                   })
       .def_prop_ro(
           "final_residual_rms",
-          [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.final_residual_rms); })
-      .def_prop_ro("unexplained_rms",
-                   [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.unexplained_rms); })
+          [](const Diagnosis& d) { return Eigen::VectorXd(d.result.diagnosis.final_residual_rms); })
+      .def_prop_ro(
+          "unexplained_rms",
+          [](const Diagnosis& d) { return Eigen::VectorXd(d.result.diagnosis.unexplained_rms); })
       .def_prop_ro("cutoff_hz",
-                   [](const Diagnosis& d) { return Eigen::VectorXd(d.diagnosis.cutoff_hz); })
-      .def_prop_ro("smoothing", [](const Diagnosis& d) { return d.diagnosis.smoothing; })
-      .def_prop_ro("beyond", [](const Diagnosis& d) { return d.motion.beyond; })
-      .def_prop_ro("motion_note", [](const Diagnosis& d) { return d.motion_note; })
+                   [](const Diagnosis& d) { return Eigen::VectorXd(d.result.diagnosis.cutoff_hz); })
+      .def_prop_ro("smoothing", [](const Diagnosis& d) { return d.result.diagnosis.smoothing; })
+      .def_prop_ro("beyond", [](const Diagnosis& d) { return d.result.motion.beyond; })
+      .def_prop_ro("motion_note", [](const Diagnosis& d) { return d.result.motion_note; })
       .def_prop_ro("report", [](const Diagnosis& d) { return d.text; })
       .def("json", [](const Diagnosis& d) { return d.json.dump(); });
   m.def("diagnose", &diagnose, "robot"_a, "runs"_a, "options"_a,

@@ -1,0 +1,164 @@
+#pragma once
+// The definitions of <sid/cvode/identify_robot.hpp>: included by it in header-only mode, compiled
+// once into sid::cvode_compiled otherwise.
+
+#include <sid/cvode/identify_robot.hpp>
+
+#include <sid/cvode/chain_instrumental_variables.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <utility>
+
+namespace sid {
+
+namespace detail {
+
+inline std::string robot_number(const char* format, double v) {
+  char text[64];
+  std::snprintf(text, sizeof text, format, v);
+  return text;
+}
+
+/// With validate_fraction, the single run's last part becomes the first held-out run.
+inline void hold_back_run_end(std::vector<NamedChainRun>& runs,
+                              std::vector<NamedChainRun>& held_out, double fraction) {
+  const char* who = "sid::identify_robot";
+  if (!(fraction >= 0.0 && fraction < 1.0))
+    throw std::invalid_argument(std::string(who) + ": validate_fraction must be in [0, 1), not " +
+                                robot_number("%g", fraction));
+  if (fraction == 0.0) return;
+  if (runs.size() != 1)
+    throw std::invalid_argument(std::string(who) +
+                                ": validate_fraction splits one run; give one run, not " +
+                                std::to_string(runs.size()));
+  NamedChainRun& run = runs.front();
+  try {
+    auto [first, last] = split_run(run.data, 1.0 - fraction);
+    held_out.insert(
+        held_out.begin(),
+        {run.name + " (last " + robot_number("%.3g", 100.0 * fraction) + " %)", std::move(last)});
+    run.data = std::move(first);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(run.name + ": " + e.what());
+  }
+}
+
+/// IDIM-IV from the least-squares fit's base parameters. When its estimate is used, it replaces
+/// id's values and their (IV) standard deviations, and id.fitted becomes the first run's
+/// prediction (iv.runs has every run's).
+inline ChainIvRefinement refine_robot_by_iv(const ChainModel& model,
+                                            const std::vector<NamedChainRun>& runs,
+                                            const std::vector<ChainTrajectory<double>>& data,
+                                            const RobotIdentifyOptions& options,
+                                            ChainIdentification& id) {
+  ChainInstrumentalVariableOptions iv_options;
+  iv_options.prior = description_prior(model, options.description);
+  ChainIvIdentification refined;
+  try {
+    refined = identify_chain_iv(model, id.base, data, options.fit, iv_options);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("estimator iv: ") + e.what());
+  }
+  ChainIvRefinement iv;
+  iv.used = true;
+  iv.iterations = refined.iv.iterations;
+  iv.converged = refined.iv.converged;
+  iv.residual_ratio = refined.residual_ratio;
+  iv.least_squares = refined.least_squares.theta;
+  if (!refined.iv.ok()) {
+    iv.message = "the IV step failed (" + refined.iv.message + ")";
+    return iv;
+  }
+  if (!refined.iv.converged) {
+    iv.message = "the IV iteration did not converge (" + refined.iv.message +
+                 "): the simulated motion does not follow the measured one closely enough";
+    return iv;
+  }
+  if (!(refined.residual_ratio <= options.weak_instruments)) {
+    iv.message = "the IV estimate leaves " + robot_number("%.3g", refined.residual_ratio) +
+                 " times least squares' residual (more than " +
+                 robot_number("%.3g", options.weak_instruments) +
+                 "): the simulated motion does not follow the measured one, the instruments "
+                 "are weak";
+    return iv;
+  }
+  iv.applied = true;
+  const double condition_number = id.fit.condition_number;
+  id.fit = refined.iv.fit;
+  id.fit.condition_number = condition_number;
+  id.std_dev = id.fit.std_dev;
+  id.relative_std_dev = 100.0 * id.std_dev.array() / id.fit.theta.array().abs();
+  id.jackknife_std_dev.resize(0);
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    iv.runs.push_back(predict_chain(model, id, data[r], options.fit));
+    iv.runs.back().source = runs[r].name;
+  }
+  id.fitted = iv.runs.front();
+  return iv;
+}
+
+}  // namespace detail
+
+SID_INLINE RobotIdentification identify_robot(const ChainModel& model,
+                                              std::vector<NamedChainRun> runs,
+                                              std::vector<NamedChainRun> held_out,
+                                              const RobotIdentifyOptions& options) {
+  if (runs.empty()) throw std::invalid_argument("sid::identify_robot: no run given");
+  detail::hold_back_run_end(runs, held_out, options.validate_fraction);
+  RobotIdentifyOptions o = options;
+  o.fit.weighted = options.estimator == ChainEstimator::WeightedLeastSquares;
+  RobotIdentification out;
+  std::vector<ChainTrajectory<double>> data;
+  for (auto& r : runs) {
+    out.fitted_runs.push_back(r.name);
+    data.push_back(std::move(r.data));
+  }
+  ChainIdentification& id = out.identification;
+  id = identify_chain(model, data, o.fit);
+  if (!id.fit.ok())
+    throw std::invalid_argument("the base parameters cannot be identified from these runs: " +
+                                id.fit.message);
+  id.fitted.source = runs.size() == 1 ? runs.front().name : "all runs";
+  if (o.estimator == ChainEstimator::InstrumentalVariables) {
+    out.iv = detail::refine_robot_by_iv(model, runs, data, o, id);
+    if (!out.iv.applied) out.warnings.push_back(out.iv.message);
+  }
+  for (const auto& r : held_out) {
+    try {
+      out.validation.push_back(predict_chain(model, id, r.data, o.fit));
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(r.name + ": " + e.what());
+    }
+    out.validation.back().source = r.name;
+  }
+  out.consistent = consistent_chain_parameters(model, id, description_prior(model, o.description));
+  if (id.fit.ill_conditioned) out.warnings.push_back(id.fit.message);
+  return out;
+}
+
+SID_INLINE std::vector<DriveTermKind> robot_drive_term_kinds(
+    const std::vector<DriveTermKind>& added) {
+  std::vector<DriveTermKind> kinds = {DriveTermKind::Viscous, DriveTermKind::Armature};
+  for (const DriveTermKind kind : added)
+    if (std::find(kinds.begin(), kinds.end(), kind) == kinds.end()) kinds.push_back(kind);
+  std::sort(kinds.begin(), kinds.end());
+  return kinds;
+}
+
+SID_INLINE std::string consistent_links_problem(const RobotIdentification& result) {
+  const ChainConsistentFit& c = result.consistent;
+  if (!c.converged)
+    return "the physically consistent fit did not converge in " + std::to_string(c.iterations) +
+           " Newton steps; its links would not be a result";
+  if (!c.fits_estimate)
+    return "real bodies do not reproduce the estimate (misfit " +
+           detail::robot_number("%.3g", c.misfit) + " where noise alone gives at most " +
+           detail::robot_number("%.3g", c.misfit_limit) +
+           "; a drive term the data have may be missing from the effects)";
+  return {};
+}
+
+}  // namespace sid

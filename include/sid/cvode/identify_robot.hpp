@@ -1,0 +1,107 @@
+#pragma once
+/// @file
+/// @brief The whole identification of a serial chain from its logs, as `sid_identify --robot`
+/// makes it: the smoothing cutoffs chosen by held-out torque prediction, the fit (least squares,
+/// weighted least squares, or IDIM-IV whose instruments come from simulations of the arm), the HAC
+/// standard deviations, the prediction of held-out runs and the physically consistent links near
+/// what the robot's description says. One call gives a C++ program the tool's numbers.
+///
+/// It lives under cvode/ because the IV estimator simulates the arm with CVODE.
+
+#include <sid/chain_consistency.hpp>
+#include <sid/config.hpp>
+#include <sid/description_prior.hpp>
+#include <sid/identify_chain.hpp>
+#include <sid/model/chain_model.hpp>
+
+#include <Eigen/Core>
+
+#include <string>
+#include <vector>
+
+namespace sid {
+
+/// @brief How the base parameters are estimated from the smoothed runs.
+enum class ChainEstimator {
+  LeastSquares,          ///< ordinary least squares (QR)
+  WeightedLeastSquares,  ///< each joint's equations weighted by 1/σ_j² of a first fit
+  /// IDIM-IV: the regressor rebuilt from open-loop simulations of the physically consistent arm
+  /// nearest each estimate, used only where that simulated motion follows the measured one.
+  InstrumentalVariables,
+};
+
+/// @brief A log of the chain, joint-side, with the name the results call it by.
+struct NamedChainRun {
+  std::string name;
+  ChainTrajectory<double> data;
+};
+
+/// @brief Options of identify_robot().
+struct RobotIdentifyOptions {
+  /// The smoothing, the equations and the fit. Its `weighted` is set from `estimator`.
+  ChainIdentifyOptions fit;
+  ChainEstimator estimator = ChainEstimator::LeastSquares;
+  /// In (0, 1): the single run's last fraction is held back and predicted from a fit of the rest
+  /// (validation[0]); 0: every sample is fitted.
+  double validate_fraction = 0.0;
+  /// What the robot's description says (description_dynamics() of a URDF): the physically
+  /// consistent fit, and the arm the IV simulates, stay near it where the data say little.
+  /// Empty: none (a DH table has no inertias).
+  DescriptionDynamics description;
+  /// An IV estimate whose residual on its rows exceeds this many times least squares' is not
+  /// used: the simulated motion did not follow the measured one and the instruments are weak.
+  /// Where it follows, IV moves the residual by under 20 % (1.16 on a real Staubli TX40 run,
+  /// 1.00-1.01 on simulated arms with rotors).
+  double weak_instruments = 1.5;
+};
+
+/// @brief What the IV refinement did (estimator InstrumentalVariables).
+struct ChainIvRefinement {
+  bool used = false;     ///< the estimator was InstrumentalVariables
+  bool applied = false;  ///< its estimate is the one reported (else the least-squares fit)
+  int iterations = 0;
+  bool converged = false;
+  double residual_ratio = 0.0;        ///< its residual on its rows over least squares'
+  std::string message;                ///< why it was not applied
+  Eigen::VectorXd least_squares;      ///< the first fit on the IV's rows
+  std::vector<ChainPrediction> runs;  ///< the IV estimate on each fitted run, when applied
+};
+
+/// @brief What identify_robot() found.
+struct RobotIdentification {
+  /// The runs fitted (with validate_fraction, the first one cut to its fitted part).
+  std::vector<std::string> fitted_runs;
+  /// The estimate. With IV applied, its fit and std_dev are the IV's (std_dev assumes
+  /// uncorrelated residuals) and `fitted` is the first run's prediction.
+  ChainIdentification identification;
+  ChainIvRefinement iv;
+  std::vector<ChainPrediction> validation;  ///< one per held-out run, named as given
+  ChainConsistentFit consistent;            ///< real bodies near the estimate and the prior
+  std::vector<std::string> warnings;        ///< an IV estimate not used; an ill-conditioned fit
+};
+
+/// @brief Identifies model from runs (joint side) and predicts held_out with the estimate.
+/// @throws std::invalid_argument naming the run or option at fault: no runs, a validate_fraction
+///         outside [0, 1) or with several runs, a run the identification cannot use, base
+///         parameters the runs do not determine, a held-out run of another size.
+SID_INLINE RobotIdentification identify_robot(const ChainModel& model,
+                                              std::vector<NamedChainRun> runs,
+                                              std::vector<NamedChainRun> held_out = {},
+                                              const RobotIdentifyOptions& options = {});
+
+/// @brief The drive terms identify_robot's users fit on every joint: viscous friction and armature,
+/// which every geared drive has, plus `added` (Coulomb friction and a torque offset by default),
+/// in DriveTermKind's order so that the same terms always give the same parameters.
+SID_INLINE std::vector<DriveTermKind> robot_drive_term_kinds(
+    const std::vector<DriveTermKind>& added = {DriveTermKind::Coulomb, DriveTermKind::Offset});
+
+/// @brief Whether real bodies reproduce the estimate: the consistent fit converged and its misfit
+/// is within what noise alone gives. Links that fail are no result and are not to be written.
+/// @return "" when they are, else the reason.
+SID_INLINE std::string consistent_links_problem(const RobotIdentification& result);
+
+}  // namespace sid
+
+#ifdef SID_HEADER_ONLY
+#include <sid/cvode/identify_robot-inl.hpp>
+#endif
