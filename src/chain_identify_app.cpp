@@ -348,11 +348,8 @@ sid::ChainEstimator estimator_named(const std::string& name) {
 
 }  // namespace
 
-ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChain loaded,
-                                    std::vector<ChainRunFile> held_out) {
-  require(!loaded.runs.empty(), "no run given");
-  require(!o.validate_fraction || loaded.runs.size() == 1,
-          "--validate-fraction splits one run; give one run (or use --validate)");
+sid::RobotIdentifyOptions robot_identify_options(const ChainIdentifyAppOptions& o,
+                                                 const LoadedChain& loaded) {
   require(!o.validate_fraction || (*o.validate_fraction > 0.0 && *o.validate_fraction < 1.0),
           "--validate-fraction must be in (0, 1)");
   sid::RobotIdentifyOptions options;
@@ -360,6 +357,22 @@ ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChai
   options.estimator = estimator_named(o.estimator);
   options.validate_fraction = o.validate_fraction.value_or(0.0);
   options.description = description_dynamics(loaded.robot);
+  return options;
+}
+
+ChainIdentifyResult identify_report(const ChainIdentifyAppOptions& o, LoadedChain loaded,
+                                    sid::RobotIdentification result) {
+  std::string text = report_text(o, loaded.model, result, loaded.robot.link_names);
+  nlohmann::json json = report_json(o, loaded.model, result);
+  return {std::move(loaded), std::move(result), std::move(text), std::move(json)};
+}
+
+ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChain loaded,
+                                    std::vector<ChainRunFile> held_out) {
+  require(!loaded.runs.empty(), "no run given");
+  require(!o.validate_fraction || loaded.runs.size() == 1,
+          "--validate-fraction splits one run; give one run (or use --validate)");
+  const sid::RobotIdentifyOptions options = robot_identify_options(o, loaded);
   std::vector<sid::NamedChainRun> runs, held;
   for (auto& r : loaded.runs) runs.push_back({std::move(r.file), std::move(r.data)});
   for (auto& r : held_out) held.push_back({std::move(r.file), std::move(r.data)});
@@ -371,9 +384,7 @@ ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChai
     const std::string what = e.what();
     throw InputError(what.rfind("estimator iv: ", 0) == 0 ? "--" + what : what);
   }
-  std::string text = report_text(o, loaded.model, result, loaded.robot.link_names);
-  nlohmann::json json = report_json(o, loaded.model, result);
-  return {std::move(loaded), std::move(result), std::move(text), std::move(json)};
+  return identify_report(o, std::move(loaded), std::move(result));
 }
 
 std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& what) {

@@ -98,6 +98,14 @@ struct ChainIdentifyResult {
   std::string text;                 ///< the report sid_identify prints
   nlohmann::json json;              ///< what --json writes
 };
+/// @brief The library's identification options from the tool's (estimator, validate_fraction)
+/// and loaded's (smoothing, rest rule, skips; the description's prior).
+/// @throws InputError naming the option at fault.
+sid::RobotIdentifyOptions robot_identify_options(const ChainIdentifyAppOptions& options,
+                                                 const LoadedChain& loaded);
+/// @brief The report sid_identify prints and its JSON, for an identification of loaded's model.
+ChainIdentifyResult identify_report(const ChainIdentifyAppOptions& options, LoadedChain loaded,
+                                    sid::RobotIdentification result);
 /// @brief Identifies loaded's model from its runs (options o: estimator, validate_fraction,
 /// cutoff, ...) and predicts held_out.
 /// @throws InputError naming what is wrong with the runs or options.

@@ -1,7 +1,7 @@
 #include "drive_gains_app.hpp"
 
+#include <sid/cvode/identify_robot_currents.hpp>
 #include <sid/drive_gains.hpp>
-#include <sid/identify_chain.hpp>
 
 #include "app.hpp"
 #include "chain_identify_app.hpp"
@@ -21,19 +21,10 @@ namespace sid::app {
 
 namespace {
 
-/// A gain whose HAC std exceeds this share of it is reported but said to be poorly determined:
-/// the load barely reaches that motor, or the loaded run barely moves it.
-constexpr double kPoorGain = 0.05;
-
 /// A run as logged (motor side with --transmission) and as the gain fit takes it: joint-side
 /// angles, the motor currents kept.
-struct CurrentRun {
-  std::string file;
-  sid::ChainTrajectory<double> currents;
-};
-
-CurrentRun read_current_run(const std::string& path, const LoadedChain& chain,
-                            const std::vector<std::string>& columns) {
+sid::NamedChainRun read_current_run(const std::string& path, const LoadedChain& chain,
+                                    const std::vector<std::string>& columns) {
   const CsvTable table = read_csv(path);
   const int n = chain.model.joints();
   sid::ChainTrajectory<double> raw = chain_trajectory_from_table(table, n, columns);
@@ -48,27 +39,6 @@ CurrentRun read_current_run(const std::string& path, const LoadedChain& chain,
   }
   joint.tau = raw.tau;
   return {table.source, std::move(joint)};
-}
-
-/// The runs in N m: currents times the gains, the payload's torque taken from the loaded one
-/// (computed on its kinematics smoothed at the gains' cutoffs).
-std::vector<ChainRunFile> converted_runs(const sid::ChainModel& model,
-                                         const std::vector<CurrentRun>& runs,
-                                         const std::vector<bool>& loaded,
-                                         const sid::LinkInertia<double>& payload,
-                                         const sid::DriveGainIdentification& gains,
-                                         const sid::ChainIdentifyOptions& options) {
-  std::vector<ChainRunFile> out;
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    sid::ChainTrajectory<double> torque =
-        sid::torques_from_currents(model, runs[r].currents, gains.gain);
-    if (r < loaded.size() && loaded[r])
-      torque.tau -= sid::payload_torque(
-          model, sid::smooth_chain_run(runs[r].currents, gains.cutoff_hz, options),
-          sid::standard_parameters(payload));
-    out.push_back({runs[r].file, std::move(torque)});
-  }
-  return out;
 }
 
 std::string number(const char* format, double v) { return format_number(format, v); }
@@ -140,22 +110,6 @@ nlohmann::json gain_fit_json(const sid::DriveGainIdentification& g,
   return j;
 }
 
-sid::DriveGainIdentification find_gains(const LoadedChain& chain,
-                                        const std::vector<CurrentRun>& runs,
-                                        const std::vector<bool>& loaded,
-                                        const sid::LinkInertia<double>& payload,
-                                        const Eigen::VectorXd& cutoff_hz) {
-  std::vector<sid::ChainTrajectory<double>> data;
-  for (const auto& r : runs) data.push_back(r.currents);
-  sid::DriveGainOptions options;
-  options.chain = chain.options;
-  try {
-    return sid::identify_drive_gains(chain.model, data, loaded, payload, cutoff_hz, options);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(std::string("--currents: ") + e.what());
-  }
-}
-
 }  // namespace
 
 sid::LinkInertia<double> parse_known_payload(const std::string& text) {
@@ -215,62 +169,25 @@ DriveGainResult identify_with_drive_gains(const ChainIdentifyAppOptions& chain,
       "the frame of " + frame_name + (frame.empty() ? " (a DH table: its last link's)" : "");
   const std::vector<std::string> columns = chain_columns(chain.columns, n, "--columns");
 
-  std::vector<CurrentRun> runs = {read_current_run(o.payload_run, loaded, columns)};
+  const sid::NamedChainRun loaded_run = read_current_run(o.payload_run, loaded, columns);
+  std::vector<sid::NamedChainRun> runs, held_out;
   for (const auto& f : chain.inputs) runs.push_back(read_current_run(f, loaded, columns));
-  std::vector<bool> carries(runs.size(), false);
-  carries.front() = true;
-  std::vector<CurrentRun> held_out;
   for (const auto& f : chain.validate) held_out.push_back(read_current_run(f, loaded, columns));
-
-  // The gains at the cutoffs given. Else the identification's choice is made on the runs
-  // converted by a first fit of the gains at the middle of its search range (where
-  // identify_chain judges what the runs determine), and gains and arm are then fitted at it, so
-  // that both smooth alike.
-  const sid::ChainIdentifyOptions& options = loaded.options;
-  const bool choose = options.cutoff_hz.empty();
-  Eigen::VectorXd cutoff(n);
-  for (int j = 0; j < n; ++j)
-    cutoff[j] =
-        choose ? std::sqrt(options.min_cutoff_hz * options.max_cutoff_hz)
-               : options.cutoff_hz[options.cutoff_hz.size() == 1 ? std::size_t{0} : std::size_t(j)];
-  sid::DriveGainIdentification gains = find_gains(loaded, runs, carries, payload, cutoff);
-  const double first_cutoff = cutoff[0];
-  LoadedChain fit = loaded;
-  if (choose) {
-    std::vector<sid::ChainTrajectory<double>> data;
-    for (auto& r : converted_runs(model, runs, carries, payload, gains, options))
-      data.push_back(std::move(r.data));
-    sid::ChainIdentifyOptions only_cutoffs = options;
-    only_cutoffs.statistics = false;
-    try {
-      cutoff = sid::identify_chain(model, data, only_cutoffs).cutoff_hz;
-    } catch (const std::invalid_argument& e) {
-      throw InputError(e.what());
-    }
-    gains = find_gains(loaded, runs, carries, payload, cutoff);
-    fit.options.cutoff_hz.assign(cutoff.data(), cutoff.data() + n);
+  sid::RobotCurrentsOptions options;
+  options.identify = robot_identify_options(chain, loaded);
+  sid::RobotCurrentsIdentification r;
+  try {
+    r = sid::identify_robot_currents(model, loaded_run, runs, payload, held_out, options);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("--currents: ") + e.what());
   }
-  fit.runs = converted_runs(model, runs, carries, payload, gains, options);
-  ChainIdentifyResult identified = identify_loaded(
-      chain, std::move(fit), converted_runs(model, held_out, {}, payload, gains, options));
-  if (choose) {
-    identified.result.identification.cutoff_chosen = true;
-    identified.json["cutoff_chosen"] = true;
-  }
-
-  for (Eigen::Index j = 0; j < n; ++j)
-    if (!(gains.std_dev[j] <= kPoorGain * std::abs(gains.gain[j])))
-      identified.result.warnings.push_back(
-          "the drive gain of " + model.joint_names()[static_cast<std::size_t>(j)] +
-          " is poorly determined (std " +
-          number("%.3g", 100.0 * gains.std_dev[j] / std::abs(gains.gain[j])) +
-          " %): the payload's torque there is small, or the loaded run moves it little");
-  identified.text = gain_text(model, gains, given, frame_text, runs.front().file, runs.size() - 1,
-                              loaded.motor_side, choose ? first_cutoff : std::nan("")) +
+  ChainIdentifyResult identified = identify_report(chain, loaded, std::move(r.arm));
+  identified.text = gain_text(model, r.gains, given, frame_text, loaded_run.name, runs.size(),
+                              loaded.motor_side, r.first_cutoff_hz) +
                     identified.text;
-  identified.json["drive_gains"] = gain_json(model, gains);
-  identified.json["drive_gain_fit"] = gain_fit_json(gains, given, frame_name, runs.front().file);
-  return {std::move(gains), std::move(identified)};
+  identified.json["drive_gains"] = gain_json(model, r.gains);
+  identified.json["drive_gain_fit"] = gain_fit_json(r.gains, given, frame_name, loaded_run.name);
+  return {std::move(r.gains), std::move(identified)};
 }
 
 int identify_robot_currents(const ChainIdentifyAppOptions& chain, const DriveGainAppOptions& o,

@@ -4,6 +4,7 @@
 /// angles and drive torques, and the contacts it makes: by the generalized-momentum observer
 /// (sid::MomentumObserver, no acceleration) or by the inverse-dynamics residual.
 
+#include <sid/external_torque.hpp>
 #include <sid/trajectory.hpp>
 
 #include "chain_identify_app.hpp"
@@ -42,25 +43,12 @@ struct ExternalOptions {
   bool force = false;
 };
 
-/// One contact: from the first to the last sample above threshold.
-struct Contact {
-  double start = 0.0, end = 0.0;  ///< [s]
-  std::vector<int> joints;        ///< those above their threshold during it
-  Eigen::VectorXd peak;           ///< per joint, the largest |tau_ext| during it, signed
-};
-
 struct ExternalResult {
-  Eigen::VectorXd t;
-  Eigen::MatrixXd external;    ///< samples x joints [N m or N]
-  Eigen::VectorXi contact;     ///< per sample, 1 inside a contact
-  Eigen::VectorXd thresholds;  ///< per joint
-  Eigen::VectorXd noise;       ///< per joint, the estimate's robust spread (1.4826 MAD)
-  std::vector<Contact> contacts;
-  std::string method;
-  double gain = 0.0;  ///< the observer's K [1/s] (0 for the residual)
+  sid::ExternalTorque torque;
+  std::string method;  ///< --method
   std::string text;
   nlohmann::json json;
-  std::vector<std::string> warnings;
+  std::vector<std::string> warnings;  ///< the arm's, then the estimate's
 };
 
 /// @brief The external torque on run (joint-side) under the identified arm.

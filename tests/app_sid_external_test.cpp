@@ -15,8 +15,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include <sid/external_torque.hpp>
+
 #include "app_test_support.hpp"
 #include "csv.hpp"
+#include "identified_arm.hpp"
+#include "robot_description.hpp"
 
 namespace {
 
@@ -161,6 +165,49 @@ TEST_F(SidExternal, RefusesWhatItCannotUse) {
 }
 
 }  // namespace
+
+// A C++ program that links the library gets sid_external's numbers from one call of
+// sid::estimate_external_torque on the arm the tool reads.
+TEST_F(SidExternal, TheLibraryCallGivesTheToolsNumbers) {
+  const sid_test::AppRun r = external("--json ext.json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json j = nlohmann::json::parse(read(file("ext.json")));
+  const sid::app::RobotDescription robot =
+      sid::app::read_robot_description(SID_TEST_DATA_DIR "/urdf/real/ur5_robot.urdf", "", "tool0");
+  const sid::app::IdentifiedArm arm = sid::app::read_identified_arm(
+      (shared_ / "arm.json").string(), robot, sid::Transmission(robot.chain.joints()));
+  const sid::ChainTrajectory<double> log =
+      sid::app::chain_trajectory_from_table(sid::app::read_csv((shared_ / "push.csv").string()), 6,
+                                            sid::app::chain_columns("", 6, "--columns"));
+  const sid::ExternalTorque e = sid::estimate_external_torque(arm.model, arm.theta, arm.cutoff_hz,
+                                                              arm.residual_rms_measured, log);
+  const auto expect_same = [](const nlohmann::json& tool, const Eigen::VectorXd& library,
+                              const char* what) {
+    ASSERT_EQ(tool.size(), std::size_t(library.size())) << what;
+    for (Eigen::Index i = 0; i < library.size(); ++i)
+      EXPECT_EQ(tool[std::size_t(i)].get<double>(), library[i]) << what << " " << i;
+  };
+  expect_same(j["rate_cutoff_hz"], e.rate_cutoff_hz, "rate_cutoff_hz");
+  EXPECT_EQ(j["rate_cutoff_choice"].get<std::string>(), e.rate_cutoff_choice);
+  EXPECT_EQ(j["gain"].get<double>(), e.gain);
+  expect_same(j["thresholds"], e.thresholds, "thresholds");
+  expect_same(j["peak"], e.external.cwiseAbs().colwise().maxCoeff().transpose(), "peak");
+  ASSERT_EQ(j["contacts"].size(), e.contacts.size());
+  for (std::size_t c = 0; c < e.contacts.size(); ++c) {
+    EXPECT_EQ(j["contacts"][c]["start"].get<double>(), e.contacts[c].start);
+    EXPECT_EQ(j["contacts"][c]["end"].get<double>(), e.contacts[c].end);
+  }
+  // The library refuses what it cannot use, naming it.
+  sid::ExternalTorqueOptions bad;
+  bad.skip = 6.0;
+  try {
+    (void)sid::estimate_external_torque(arm.model, arm.theta, arm.cutoff_hz,
+                                        arm.residual_rms_measured, log, bad);
+    ADD_FAILURE() << "a skip longer than half the log was taken";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("skip"), std::string::npos) << error.what();
+  }
+}
 
 // The DFKI double pendulum's real runs (14-bit encoders, 3.8e-4 rad per count): GCV takes the
 // encoder's steps for motion and smooths the angles at some 144 Hz, and the momentum's spread

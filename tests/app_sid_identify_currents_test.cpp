@@ -4,6 +4,7 @@
 // options are refused with a message naming them.
 
 #include <sid/drive_gains.hpp>
+#include <sid/cvode/identify_robot_currents.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -279,6 +280,25 @@ TEST_F(IdentifyCurrents, TheKnownPayloadMayBeGivenInAnyLinkFixedToTheLastMovingL
                 link_gains[j], 100.0 * (link_gains[j] / kTrueGain[j] - 1.0),
                 100.0 * (tool0_gains[j] / kTrueGain[j] - 1.0));
   }
+  // One library call gives the tool's numbers.
+  const sid::app::LoadedChain& chain = ur5().chain;
+  const auto run = [&](const char* name) {
+    return sid::NamedChainRun{
+        name, sid::app::chain_trajectory_from_table(sid::app::read_csv(file(name)), 6,
+                                                    sid::app::chain_columns("", 6, "--columns"))};
+  };
+  sid::RobotCurrentsOptions options;
+  options.identify.fit = chain.options;
+  options.identify.fit.cutoff_hz = {8.0};
+  const sid::RobotCurrentsIdentification library =
+      sid::identify_robot_currents(chain.model, run("loaded.csv"), {run("unloaded.csv")},
+                                   sid_test::in_wrist_3(payload()), {}, options);
+  for (int j = 0; j < 6; ++j) EXPECT_EQ(library.gains.gain[j], link_gains[j]) << j;
+  ASSERT_EQ(link["theta"].size(), std::size_t(library.arm.identification.fit.theta.size()));
+  for (Eigen::Index i = 0; i < library.arm.identification.fit.theta.size(); ++i)
+    EXPECT_EQ(link["theta"][std::size_t(i)].get<double>(), library.arm.identification.fit.theta[i])
+        << i;
+  EXPECT_TRUE(std::isnan(library.first_cutoff_hz));
   // The tool0 figures read in wrist_3_link's frame are another load: the gains follow it.
   const sid_test::AppRun misread =
       shell(tool() + payload_option() + " --payload-frame wrist_3_link --json misread.json" + runs);

@@ -208,12 +208,12 @@ nb::dict external_torque(const Robot& robot, const std::string& model_json,
     r = sid::app::external_torque(arm, chain_run(data, loaded), options);
   }
   nb::dict d;
-  d["t"] = r.t;
-  d["tau_ext"] = r.external;
-  d["contact"] = Eigen::VectorXi(r.contact);
-  d["thresholds"] = r.thresholds;
+  d["t"] = r.torque.t;
+  d["tau_ext"] = r.torque.external;
+  d["contact"] = Eigen::VectorXi(r.torque.contact);
+  d["thresholds"] = r.torque.thresholds;
   d["method"] = r.method;
-  d["gain"] = r.gain;
+  d["gain"] = r.torque.gain;
   d["report"] = r.text;
   d["json"] = r.json.dump();
   d["warnings"] = r.warnings;

@@ -1,0 +1,241 @@
+#pragma once
+// The definitions of <sid/external_torque.hpp>: included by it in header-only mode, compiled once
+// into sid::compiled otherwise.
+
+#include <sid/external_torque.hpp>
+
+#include <sid/arm_dynamics.hpp>
+#include <sid/identify_chain.hpp>
+#include <sid/identify_runs.hpp>
+#include <sid/momentum_observer.hpp>
+#include <sid/quantisation.hpp>
+#include <sid/smoothing_spline.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <utility>
+
+namespace sid {
+
+namespace detail {
+
+inline std::string external_number(const char* format, double v) {
+  char text[64];
+  std::snprintf(text, sizeof text, format, v);
+  return text;
+}
+
+/// Runs of samples above threshold, merged across short gaps, short ones dropped.
+inline std::vector<std::pair<Eigen::Index, Eigen::Index>> contact_spans(
+    const Eigen::VectorXd& t, const Eigen::MatrixXd& external, const Eigen::VectorXd& threshold,
+    const ExternalTorqueOptions& o) {
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> spans;
+  for (Eigen::Index k = 0; k < t.size(); ++k) {
+    if (t[k] < t[0] + o.skip || t[k] > t[t.size() - 1] - o.skip) continue;
+    if (!(external.row(k).cwiseAbs().transpose().array() > threshold.array()).any()) continue;
+    if (!spans.empty() && t[k] - t[spans.back().second] <= o.merge_gap)
+      spans.back().second = k;
+    else
+      spans.push_back({k, k});
+  }
+  spans.erase(
+      std::remove_if(spans.begin(), spans.end(),
+                     [&](const auto& s) { return t[s.second] - t[s.first] < o.min_duration; }),
+      spans.end());
+  return spans;
+}
+
+/// Per joint, 1.4826 times the median absolute deviation of the estimate from its median, over
+/// the samples where contacts are looked for: its standard deviation where it is noise.
+inline Eigen::VectorXd robust_spread(const Eigen::VectorXd& t, const Eigen::MatrixXd& external,
+                                     double skip) {
+  std::vector<double> values;
+  Eigen::VectorXd spread(external.cols());
+  for (Eigen::Index j = 0; j < external.cols(); ++j) {
+    values.clear();
+    for (Eigen::Index i = 0; i < t.size(); ++i)
+      if (t[i] >= t[0] + skip && t[i] <= t[t.size() - 1] - skip) values.push_back(external(i, j));
+    const auto median = [](std::vector<double>& v) {
+      const auto middle = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+      std::nth_element(v.begin(), middle, v.end());
+      return *middle;
+    };
+    const double centre = median(values);
+    for (double& v : values) v = std::abs(v - centre);
+    spread[j] = 1.4826 * median(values);
+  }
+  return spread;
+}
+
+/// Per joint, the cutoff [Hz] of the GCV smoothing spline of the log's angles.
+inline Eigen::VectorXd gcv_rate_cutoff(const ChainTrajectory<double>& run) {
+  const Eigen::Index n = run.q.cols();
+  const double h = (run.t[run.size() - 1] - run.t[0]) / static_cast<double>(run.size() - 1);
+  const SmoothingSpline<double> spline(run.t);
+  Eigen::VectorXd cutoff(n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const double lambda = spline.fit_cross_validated(run.q.col(j)).lambda;
+    cutoff[j] = std::min(smoothing_cutoff_for_lambda(lambda, h), 0.25 / h);
+  }
+  return cutoff;
+}
+
+/// Why GCV cannot choose the rates of a log, or "" when it can: GCV assumes white angle noise,
+/// and takes a real log's quantised angles (encoder counts, a fixed number of logged decimals)
+/// for motion; rates it leaves unsmoothed carry that error into the momentum, and on a real
+/// arm's free motion they made contacts of the model's error.
+inline std::string measured_log(const ChainModel& model, const ChainTrajectory<double>& run,
+                                const Eigen::VectorXd& gcv, double h) {
+  for (int j = 0; j < model.joints(); ++j)
+    if (const double step = quantisation_step(run.q.col(j)); step > 0.0)
+      return "the angles of " + model.joint_names()[std::size_t(j)] + " lie on a grid (a step of " +
+             external_number("%.2g", step) + "): a measured log";
+  for (int j = 0; j < model.joints(); ++j)
+    if (gcv[j] >= 0.25 / h * (1.0 - 1e-9))
+      return "GCV leaves the angles of " + model.joint_names()[std::size_t(j)] +
+             " unsmoothed: a measured log";
+  return "";
+}
+
+/// The rates' cutoffs and, in words, how they were chosen.
+inline std::pair<Eigen::VectorXd, std::string> rate_cutoff(const ExternalTorqueOptions& o,
+                                                           const ChainModel& model,
+                                                           const Eigen::VectorXd& fit_cutoff_hz,
+                                                           const ChainTrajectory<double>& run) {
+  const int n = model.joints();
+  if (o.fit_cutoffs) return {fit_cutoff_hz, "the fit's"};
+  if (o.cutoff_hz.empty() && o.method == ExternalTorqueMethod::InverseDynamicsResidual)
+    return {fit_cutoff_hz, "the fit's"};
+  if (o.cutoff_hz.empty()) {
+    const double h = (run.t[run.size() - 1] - run.t[0]) / static_cast<double>(run.size() - 1);
+    const Eigen::VectorXd gcv = gcv_rate_cutoff(run);
+    const std::string measured = measured_log(model, run, gcv, h);
+    if (measured.empty()) return {gcv, "GCV"};
+    return {fit_cutoff_hz, "the fit's: " + measured};
+  }
+  Eigen::VectorXd cutoff(n);
+  for (int j = 0; j < n; ++j) cutoff[j] = o.cutoff_hz[o.cutoff_hz.size() == 1 ? 0 : std::size_t(j)];
+  return {cutoff, "given"};
+}
+
+inline void check_external_torque_input(const ChainModel& model, const Eigen::VectorXd& theta,
+                                        const Eigen::VectorXd& fit_cutoff_hz,
+                                        const Eigen::VectorXd& fit_residual_rms,
+                                        const ChainTrajectory<double>& run,
+                                        const ExternalTorqueOptions& o) {
+  const std::string who = "sid::estimate_external_torque: ";
+  const int n = model.joints();
+  if (theta.size() != model.parameters() || fit_cutoff_hz.size() != n ||
+      fit_residual_rms.size() != n)
+    throw std::invalid_argument(
+        who + "theta needs the model's " + std::to_string(model.parameters()) +
+        " parameters and the fit's cutoffs and residual one per joint (" + std::to_string(n) + ")");
+  if (run.joints() != n)
+    throw std::invalid_argument(who + "the run has " + std::to_string(run.joints()) +
+                                " joints, the model " + std::to_string(n));
+  run.validate("sid::estimate_external_torque");
+  if (run.size() < 4) throw std::invalid_argument(who + "the run needs at least 4 samples");
+  if (!(o.threshold_factor > 0.0 && std::isfinite(o.threshold_factor)))
+    throw std::invalid_argument(who + "threshold_factor must be > 0");
+  if (!(o.min_duration >= 0.0 && o.merge_gap >= 0.0 && o.skip >= 0.0))
+    throw std::invalid_argument(who + "min_duration, merge_gap and skip must be >= 0 s");
+  if (!(2.0 * o.skip < run.t[run.size() - 1] - run.t[0]))
+    throw std::invalid_argument(who + "a skip of " + external_number("%.3g", o.skip) +
+                                " s at each end leaves nothing of the run");
+  if (!(o.gain >= 0.0 && std::isfinite(o.gain)))
+    throw std::invalid_argument(who + "the gain must be > 0 [1/s] (0: the default)");
+  if (!o.cutoff_hz.empty() && o.cutoff_hz.size() != 1 && o.cutoff_hz.size() != std::size_t(n))
+    throw std::invalid_argument(who + "cutoff_hz takes one value or one per joint (" +
+                                std::to_string(n) + ")");
+  for (const double c : o.cutoff_hz)
+    if (!(c > 0.0 && std::isfinite(c)))
+      throw std::invalid_argument(who + "cutoff_hz values must be > 0 Hz");
+}
+
+}  // namespace detail
+
+SID_INLINE ExternalTorque estimate_external_torque(const ChainModel& model,
+                                                   const Eigen::VectorXd& theta,
+                                                   const Eigen::VectorXd& fit_cutoff_hz,
+                                                   const Eigen::VectorXd& fit_residual_rms,
+                                                   const ChainTrajectory<double>& log,
+                                                   const ExternalTorqueOptions& o) {
+  detail::check_external_torque_input(model, theta, fit_cutoff_hz, fit_residual_rms, log, o);
+  const int n = model.joints();
+  const Eigen::Index samples = log.size();
+  ExternalTorque r;
+  std::tie(r.rate_cutoff_hz, r.rate_cutoff_choice) =
+      detail::rate_cutoff(o, model, fit_cutoff_hz, log);
+  ChainIdentifyOptions smoothing;
+  smoothing.filter_torque = false;
+  const ChainKinematics<double> k = smooth_chain_run(log, r.rate_cutoff_hz, smoothing);
+  r.t = log.t;
+  r.external.resize(samples, n);
+  const ArmDynamics dynamics(model, theta);
+  using Vector = ArmDynamics::Vector;
+  Vector q(n), qd(n), qdd(n), tau(n), id(n);
+  if (o.method == ExternalTorqueMethod::InverseDynamicsResidual) {
+    for (Eigen::Index i = 0; i < samples; ++i) {
+      q = k.q.row(i).transpose();
+      qd = k.qd.row(i).transpose();
+      qdd = k.qdd.row(i).transpose();
+      dynamics.inverse_dynamics(q, qd, qdd, id);
+      r.external.row(i) = (id - log.tau.row(i).transpose()).transpose();
+    }
+  } else {
+    const double dt = (log.t[samples - 1] - log.t[0]) / static_cast<double>(samples - 1);
+    r.gain = o.gain > 0.0 ? o.gain : std::min(300.0, 0.5 / dt);
+    MomentumObserver observer(dynamics, Eigen::VectorXd::Constant(n, r.gain));
+    for (Eigen::Index i = 0; i < samples; ++i) {
+      q = k.q.row(i).transpose();
+      qd = k.qd.row(i).transpose();
+      tau = log.tau.row(i).transpose();
+      const double step = i > 0 ? log.t[i] - log.t[i - 1] : 0.0;
+      r.external.row(i) = observer.update(q, qd, tau, step).transpose();
+    }
+    // The observer lags the external torque by 1 / K; with the whole log at hand, the same
+    // first-order lag run backwards in time cancels that phase (a ramp comes out where it was),
+    // and halves the noise's bandwidth again.
+    for (Eigen::Index i = samples - 2; i >= 0; --i) {
+      const double decay = std::exp(-r.gain * (log.t[i + 1] - log.t[i]));
+      r.external.row(i) += decay * (r.external.row(i + 1) - r.external.row(i));
+    }
+  }
+  // The model's own error sets what counts as a contact; where this log's estimate is noisier
+  // still (coarse encoders: the momentum's rate noise), its robust spread does, so that noise is
+  // not called a contact. The median absolute deviation ignores the contacts themselves as long
+  // as they cover less than half the log.
+  r.noise = detail::robust_spread(r.t, r.external, o.skip);
+  r.thresholds = o.threshold_factor * fit_residual_rms.cwiseMax(r.noise);
+  r.contact = Eigen::VectorXi::Zero(samples);
+  for (const auto& [first, last] : detail::contact_spans(r.t, r.external, r.thresholds, o)) {
+    ExternalContact c;
+    c.start = r.t[first];
+    c.end = r.t[last];
+    r.contact.segment(first, last - first + 1).setOnes();
+    c.peak = Eigen::VectorXd::Zero(n);
+    for (int j = 0; j < n; ++j) {
+      for (Eigen::Index i = first; i <= last; ++i)
+        if (std::abs(r.external(i, j)) > std::abs(c.peak[j])) c.peak[j] = r.external(i, j);
+      if (std::abs(c.peak[j]) > r.thresholds[j]) c.joints.push_back(j);
+    }
+    r.contacts.push_back(std::move(c));
+  }
+  // Twice the model's own error: the estimate's noise, not the model, sets the thresholds.
+  for (int joint = 0; joint < n; ++joint)
+    if (r.noise[joint] > 2.0 * fit_residual_rms[joint]) {
+      r.warnings.push_back(
+          "the estimate's spread on " + model.joint_names()[static_cast<std::size_t>(joint)] +
+          " (" + detail::external_number("%.3g", r.noise[joint]) +
+          " N m) is more than twice the fit's residual (" +
+          detail::external_number("%.3g", fit_residual_rms[joint]) +
+          "): the rates are noisy (coarse encoders?), so only contacts above its threshold are "
+          "seen; lower rate cutoffs (the fit's, for one) and a lower gain quiet it");
+      break;
+    }
+  return r;
+}
+
+}  // namespace sid
