@@ -16,6 +16,7 @@
 #include <sid/model/two_link_arm.hpp>
 #include <sstream>
 #include <stdexcept>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -31,12 +32,14 @@ namespace {
 constexpr const char* kName = "sid_identify";
 
 constexpr const char* kDescription =
-    "Identify the parameters theta1..theta7 of the two-link arm (and, on request, effect terms\n"
-    "such as Coulomb friction) from measured joint angles and torques of one or several runs:\n"
-    "estimate the joint velocities and accelerations (cubic smoothing spline, or raw or filtered\n"
-    "differences), then solve tau = Z(q, qd, qdd) theta by least squares, and print the estimate\n"
-    "with standard deviations, fit statistics, its physical plausibility and, for runs kept\n"
-    "aside (--validate), how well it predicts their torques.\n";
+    "Identify the dynamic parameters of an arm from measured joint angles and torques of one or\n"
+    "several runs: the paper's two-link arm (theta1..theta7), or any serial chain with --robot\n"
+    "URDF/DH (its links' base parameters and per-drive friction, offset and rotor inertia).\n"
+    "Each angle is smoothed by a cubic smoothing spline, velocities and accelerations are taken\n"
+    "from it, tau = Z(q, qd, qdd) theta is solved by least squares, and the estimate is printed\n"
+    "with its standard deviations, fit statistics, its physical plausibility and, for runs kept\n"
+    "aside (--validate), how well it predicts their torques. The options below are grouped by\n"
+    "the arm they apply to.\n";
 
 constexpr const char* kFooter = R"(
 Input: CSV files (one per run) with a header row and the columns t [s], q1, q2 [rad], tau1,
@@ -362,6 +365,18 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--estimator", o.estimator, "ls (default), wls or iv; see below");
   cli.add_option("--json", o.json, "also write the result as JSON to FILE ('-': standard output)");
   cli.add_flag("--force", o.force, "overwrite the --json file if it exists");
+  const auto group = [&](const std::string& name, std::initializer_list<const char*> options) {
+    for (const char* option : options) cli.get_option(option)->group(name);
+  };
+  group("Every arm", {"--columns", "--validate", "--cutoff", "--effects", "--skip", "--estimator",
+                      "--json", "--force"});
+  group("Any serial chain (--robot)",
+        {"--robot", "--base", "--tip", "--hold", "--transmission", "--validate-fraction",
+         "--rest-fraction", "--no-default-effects", "--coulomb-epsilon", "--write-urdf",
+         "--payload-of", "--payload-frame", "--currents", "--known-payload", "--payload-run"});
+  group("The paper's two-link arm (without --robot)",
+        {"--method", "--smoothing", "--sigma-q", "--S", "--lambda", "--true", "--reference-theta",
+         "--gear-ratio"});
 }
 
 std::string short_number(double v) {

@@ -112,10 +112,7 @@ SID_INLINE RobotIdentification identify_robot(const ChainModel& model,
   o.fit.weighted = options.estimator == ChainEstimator::WeightedLeastSquares;
   RobotIdentification out;
   std::vector<ChainTrajectory<double>> data;
-  for (auto& r : runs) {
-    out.fitted_runs.push_back(r.name);
-    data.push_back(std::move(r.data));
-  }
+  for (auto& r : runs) data.push_back(std::move(r.data));
   ChainIdentification& id = out.identification;
   id = identify_chain(model, data, o.fit);
   if (!id.fit.ok())
@@ -136,6 +133,8 @@ SID_INLINE RobotIdentification identify_robot(const ChainModel& model,
   }
   out.consistent = consistent_chain_parameters(model, id, description_prior(model, o.description));
   if (id.fit.ill_conditioned) out.warnings.push_back(id.fit.message);
+  for (std::size_t r = 0; r < runs.size(); ++r)
+    out.fitted_runs.push_back({std::move(runs[r].name), std::move(data[r])});
   return out;
 }
 

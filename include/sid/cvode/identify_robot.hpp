@@ -69,8 +69,8 @@ struct ChainIvRefinement {
 
 /// @brief What identify_robot() found.
 struct RobotIdentification {
-  /// The runs fitted (with validate_fraction, the first one cut to its fitted part).
-  std::vector<std::string> fitted_runs;
+  /// The runs fitted, joint side (with validate_fraction, the first one cut to its fitted part).
+  std::vector<NamedChainRun> fitted_runs;
   /// The estimate. With IV applied, its fit and std_dev are the IV's (std_dev assumes
   /// uncorrelated residuals) and `fitted` is the first run's prediction.
   ChainIdentification identification;
