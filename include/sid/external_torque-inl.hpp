@@ -11,21 +11,16 @@
 #include <sid/quantisation.hpp>
 #include <sid/smoothing_spline.hpp>
 
+#include <sid/detail/format.hpp>
+
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <stdexcept>
 #include <utility>
 
 namespace sid {
 
 namespace detail {
-
-inline std::string external_number(const char* format, double v) {
-  char text[64];
-  std::snprintf(text, sizeof text, format, v);
-  return text;
-}
 
 /// Runs of samples above threshold, merged across short gaps, short ones dropped.
 inline std::vector<std::pair<Eigen::Index, Eigen::Index>> contact_spans(
@@ -91,7 +86,7 @@ inline std::string measured_log(const ChainModel& model, const ChainTrajectory<d
   for (int j = 0; j < model.joints(); ++j)
     if (const double step = quantisation_step(run.q.col(j)); step > 0.0)
       return "the angles of " + model.joint_names()[std::size_t(j)] + " lie on a grid (a step of " +
-             external_number("%.2g", step) + "): a measured log";
+             format_number("%.2g", step) + "): a measured log";
   for (int j = 0; j < model.joints(); ++j)
     if (gcv[j] >= 0.25 / h * (1.0 - 1e-9))
       return "GCV leaves the angles of " + model.joint_names()[std::size_t(j)] +
@@ -142,7 +137,7 @@ inline void check_external_torque_input(const ChainModel& model, const Eigen::Ve
   if (!(o.min_duration >= 0.0 && o.merge_gap >= 0.0 && o.skip >= 0.0))
     throw std::invalid_argument(who + "min_duration, merge_gap and skip must be >= 0 s");
   if (!(2.0 * o.skip < run.t[run.size() - 1] - run.t[0]))
-    throw std::invalid_argument(who + "a skip of " + external_number("%.3g", o.skip) +
+    throw std::invalid_argument(who + "a skip of " + format_number("%.3g", o.skip) +
                                 " s at each end leaves nothing of the run");
   if (!(o.gain >= 0.0 && std::isfinite(o.gain)))
     throw std::invalid_argument(who + "the gain must be > 0 [1/s] (0: the default)");
@@ -228,9 +223,9 @@ SID_INLINE ExternalTorque estimate_external_torque(const ChainModel& model,
     if (r.noise[joint] > 2.0 * fit_residual_rms[joint]) {
       r.warnings.push_back(
           "the estimate's spread on " + model.joint_names()[static_cast<std::size_t>(joint)] +
-          " (" + detail::external_number("%.3g", r.noise[joint]) +
+          " (" + detail::format_number("%.3g", r.noise[joint]) +
           " N m) is more than twice the fit's residual (" +
-          detail::external_number("%.3g", fit_residual_rms[joint]) +
+          detail::format_number("%.3g", fit_residual_rms[joint]) +
           "): the rates are noisy (coarse encoders?), so only contacts above its threshold are "
           "seen; lower rate cutoffs (the fit's, for one) and a lower gain quiet it");
       break;

@@ -6,9 +6,10 @@
 
 #include <sid/cvode/chain_instrumental_variables.hpp>
 
+#include <sid/detail/format.hpp>
+
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <stdexcept>
 #include <utility>
 
@@ -16,19 +17,13 @@ namespace sid {
 
 namespace detail {
 
-inline std::string robot_number(const char* format, double v) {
-  char text[64];
-  std::snprintf(text, sizeof text, format, v);
-  return text;
-}
-
 /// With validate_fraction, the single run's last part becomes the first held-out run.
 inline void hold_back_run_end(std::vector<NamedChainRun>& runs,
                               std::vector<NamedChainRun>& held_out, double fraction) {
   const char* who = "sid::identify_robot";
   if (!(fraction >= 0.0 && fraction < 1.0))
     throw std::invalid_argument(std::string(who) + ": validate_fraction must be in [0, 1), not " +
-                                robot_number("%g", fraction));
+                                format_number("%g", fraction));
   if (fraction == 0.0) return;
   if (runs.size() != 1)
     throw std::invalid_argument(std::string(who) +
@@ -39,7 +34,7 @@ inline void hold_back_run_end(std::vector<NamedChainRun>& runs,
     auto [first, last] = split_run(run.data, 1.0 - fraction);
     held_out.insert(
         held_out.begin(),
-        {run.name + " (last " + robot_number("%.3g", 100.0 * fraction) + " %)", std::move(last)});
+        {run.name + " (last " + format_number("%.3g", 100.0 * fraction) + " %)", std::move(last)});
     run.data = std::move(first);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(run.name + ": " + e.what());
@@ -78,9 +73,9 @@ inline ChainIvRefinement refine_robot_by_iv(const ChainModel& model,
     return iv;
   }
   if (!(refined.residual_ratio <= options.weak_instruments)) {
-    iv.message = "the IV estimate leaves " + robot_number("%.3g", refined.residual_ratio) +
+    iv.message = "the IV estimate leaves " + format_number("%.3g", refined.residual_ratio) +
                  " times least squares' residual (more than " +
-                 robot_number("%.3g", options.weak_instruments) +
+                 format_number("%.3g", options.weak_instruments) +
                  "): the simulated motion does not follow the measured one, the instruments "
                  "are weak";
     return iv;
@@ -154,8 +149,8 @@ SID_INLINE std::string consistent_links_problem(const RobotIdentification& resul
            " Newton steps; its links would not be a result";
   if (!c.fits_estimate)
     return "real bodies do not reproduce the estimate (misfit " +
-           detail::robot_number("%.3g", c.misfit) + " where noise alone gives at most " +
-           detail::robot_number("%.3g", c.misfit_limit) +
+           detail::format_number("%.3g", c.misfit) + " where noise alone gives at most " +
+           detail::format_number("%.3g", c.misfit_limit) +
            "; a drive term the data have may be missing from the effects)";
   return {};
 }

@@ -4,8 +4,9 @@
 
 #include <sid/cvode/identify_robot_currents.hpp>
 
+#include <sid/detail/format.hpp>
+
 #include <cmath>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -87,11 +88,10 @@ SID_INLINE RobotCurrentsIdentification identify_robot_currents(
   const DriveGainIdentification& g = out.gains;
   for (Eigen::Index j = 0; j < n; ++j)
     if (!(g.std_dev[j] <= options.poor_gain * std::abs(g.gain[j]))) {
-      char share[32];
-      std::snprintf(share, sizeof share, "%.3g", 100.0 * g.std_dev[j] / std::abs(g.gain[j]));
       out.arm.warnings.push_back(
           "the drive gain of " + model.joint_names()[static_cast<std::size_t>(j)] +
-          " is poorly determined (std " + share +
+          " is poorly determined (std " +
+          detail::format_number("%.3g", 100.0 * g.std_dev[j] / std::abs(g.gain[j])) +
           " %): the payload's torque there is small, or the loaded run moves it little");
     }
   return out;
