@@ -149,6 +149,139 @@ inline std::array<std::size_t, 2> role_order(const std::vector<TransmissionPart>
   return {1, 0};
 }
 
+/// The joints of the document's <robot>, on the chain or not.
+inline std::set<std::string> robot_joints(const XmlElement& root) {
+  std::set<std::string> defined;
+  if (root.name == "robot")
+    for (const auto& e : root.children)
+      if (e.name == "joint" && e.attribute("name")) defined.insert(*e.attribute("name"));
+  return defined;
+}
+
+/// The chain's index of each joint of transmission e, or -1 for a joint the document defines
+/// off the chain.
+inline std::vector<Eigen::Index> transmission_joint_indices(
+    const XmlElement& e, const std::string& where, const std::vector<std::string>& joint_names,
+    const std::set<std::string>& defined) {
+  const std::string who = transmission_who();
+  std::vector<Eigen::Index> at;
+  for (const auto& c : e.children) {
+    if (c.name != "joint") continue;
+    const std::string* joint = c.attribute("name");
+    if (!joint || joint->empty())
+      throw std::invalid_argument(who + ": " + where + ": a <joint> has no name");
+    const auto found = std::find(joint_names.begin(), joint_names.end(), *joint);
+    if (found != joint_names.end()) {
+      at.push_back(static_cast<Eigen::Index>(found - joint_names.begin()));
+      continue;
+    }
+    if (!defined.count(*joint)) {
+      std::string chain;
+      for (const auto& j : joint_names) chain += (chain.empty() ? "" : ", ") + j;
+      throw std::invalid_argument(who + ": " + where + ", joint '" + *joint +
+                                  "': not a joint of the chain (" + chain + ")");
+    }
+    at.push_back(-1);
+  }
+  return at;
+}
+
+/// A transmission's form (ROS 2's <plugin> or ROS 1's <type>) and type.
+struct TransmissionKind {
+  bool ros2 = false;
+  bool simple = false;
+};
+
+inline TransmissionKind transmission_kind(const XmlElement& e, const std::string& where) {
+  const std::string who = transmission_who();
+  const XmlElement* plugin = e.child("plugin");
+  const XmlElement* type_element = plugin ? plugin : e.child("type");
+  const bool ros2 = plugin != nullptr;
+  if (!type_element)
+    throw std::invalid_argument(who + ": " + where + " has no <type> (ROS 1) or <plugin> " +
+                                "(ROS 2)");
+  const std::string type = trim_space(type_element->text);
+  const bool simple = type == "transmission_interface/SimpleTransmission";
+  if (!simple && type != "transmission_interface/DifferentialTransmission")
+    throw std::invalid_argument(who + ": " + where + " is of type '" + type +
+                                "'; transmission_interface/SimpleTransmission and "
+                                "transmission_interface/DifferentialTransmission are read");
+  return {ros2, simple};
+}
+
+/// A transmission's joints and actuators, as many of each as its type has.
+struct TransmissionParts {
+  std::vector<TransmissionPart> joints, actuators;
+};
+
+inline TransmissionParts transmission_parts(const XmlElement& e, const TransmissionKind& kind,
+                                            const std::string& where) {
+  const std::string who = transmission_who();
+  const bool ros2 = kind.ros2, simple = kind.simple;
+  TransmissionParts parts;
+  std::vector<TransmissionPart>& joints = parts.joints;
+  std::vector<TransmissionPart>& actuators = parts.actuators;
+  for (const auto& c : e.children) {
+    if (c.name == "joint") joints.emplace_back(c, ros2, where);
+    if (c.name == "actuator") actuators.emplace_back(c, ros2, where);
+  }
+  const std::size_t count = simple ? 1 : 2;
+  if (joints.size() != count || actuators.size() != count)
+    throw std::invalid_argument(who + ": " + where + " has " + std::to_string(joints.size()) +
+                                " joints and " + std::to_string(actuators.size()) +
+                                " actuators; a " + (simple ? "Simple" : "Differential") +
+                                "Transmission has " + std::to_string(count) + " of each");
+  return parts;
+}
+
+/// A SimpleTransmission's reduction n, read where ros_control (the actuator's) or ros2_control
+/// (the joint's) reads it.
+inline double simple_transmission_ratio(const TransmissionPart& joint,
+                                        const TransmissionPart& actuator, bool ros2) {
+  const std::string who = transmission_who();
+  double ratio = 0.0;
+  if (ros2) {
+    ratio = joint.reduction(1.0);
+    if (actuator.has_reduction()) {
+      const double a = actuator.reduction(1.0);
+      if (a != 1.0 && a != ratio)
+        throw std::invalid_argument(
+            who + ": " + actuator.where() + ": <mechanical_reduction> " + std::to_string(a) +
+            " differs from the joint's (" + std::to_string(ratio) +
+            "); ros2_control's SimpleTransmission reads only the joint's, so state it there");
+    }
+  } else {
+    ratio = actuator.reduction(std::numeric_limits<double>::quiet_NaN());
+    if (joint.has_reduction() && joint.reduction(1.0) != 1.0)
+      throw std::invalid_argument(who + ": " + joint.where() +
+                                  ": ros_control's SimpleTransmission reads the reduction " +
+                                  "from the actuator's <mechanicalReduction>, not the joint's");
+  }
+  return ratio;
+}
+
+/// A DifferentialTransmission's 2 x 2 block of G and its joints' offsets (the file comment).
+inline void set_differential_transmission(const TransmissionParts& parts,
+                                          const std::vector<Eigen::Index>& at, bool ros2,
+                                          const std::string& where, Eigen::MatrixXd& g,
+                                          Eigen::VectorXd& zero) {
+  const std::vector<TransmissionPart>& joints = parts.joints;
+  const std::vector<TransmissionPart>& actuators = parts.actuators;
+  const std::array<std::size_t, 2> j = role_order(joints, "joint", ros2, where);
+  const std::array<std::size_t, 2> a = role_order(actuators, "actuator", ros2, where);
+  const double required = ros2 ? 1.0 : std::numeric_limits<double>::quiet_NaN();
+  const double a1 = actuators[a[0]].reduction(required);
+  const double a2 = actuators[a[1]].reduction(required);
+  const double n1 = joints[j[0]].reduction(1.0), n2 = joints[j[1]].reduction(1.0);
+  const Eigen::Index j1 = at[j[0]], j2 = at[j[1]];
+  g(j1, j1) = a1 * n1;  // q_a1 = na1 (nj1 (q_j1 - x1) + nj2 (q_j2 - x2))
+  g(j1, j2) = a1 * n2;
+  g(j2, j1) = a2 * n1;  // q_a2 = na2 (nj1 (q_j1 - x1) - nj2 (q_j2 - x2))
+  g(j2, j2) = -a2 * n2;
+  zero[j1] = joints[j[0]].offset();
+  zero[j2] = joints[j[1]].offset();
+}
+
 }  // namespace detail
 
 /// @brief The transmission of a chain from the ros_control / ros2_control `<transmission>`
@@ -184,10 +317,7 @@ inline Transmission transmission_from_urdf(const std::string& text,
   detail::collect_transmissions(root, transmissions);
   if (transmissions.empty())
     throw std::invalid_argument(who + ": the document has no <transmission> element");
-  std::set<std::string> defined;  // the joints of the <robot>, on the chain or not
-  if (root.name == "robot")
-    for (const auto& e : root.children)
-      if (e.name == "joint" && e.attribute("name")) defined.insert(*e.attribute("name"));
+  const std::set<std::string> defined = detail::robot_joints(root);
 
   const auto n = static_cast<Eigen::Index>(joint_names.size());
   Eigen::MatrixXd g = Eigen::MatrixXd::Identity(n, n);
@@ -199,52 +329,16 @@ inline Transmission transmission_from_urdf(const std::string& text,
     const std::string* name = e.attribute("name");
     const std::string where =
         "transmission " + (name ? "'" + *name + "'" : "#" + std::to_string(t + 1));
-    // The chain's index of each joint, or -1 for a joint the document defines off the chain.
-    std::vector<Eigen::Index> at;
-    for (const auto& c : e.children) {
-      if (c.name != "joint") continue;
-      const std::string* joint = c.attribute("name");
-      if (!joint || joint->empty())
-        throw std::invalid_argument(who + ": " + where + ": a <joint> has no name");
-      const auto found = std::find(joint_names.begin(), joint_names.end(), *joint);
-      if (found != joint_names.end()) {
-        at.push_back(static_cast<Eigen::Index>(found - joint_names.begin()));
-        continue;
-      }
-      if (!defined.count(*joint)) {
-        std::string chain;
-        for (const auto& j : joint_names) chain += (chain.empty() ? "" : ", ") + j;
-        throw std::invalid_argument(who + ": " + where + ", joint '" + *joint +
-                                    "': not a joint of the chain (" + chain + ")");
-      }
-      at.push_back(-1);
-    }
+    const std::vector<Eigen::Index> at =
+        detail::transmission_joint_indices(e, where, joint_names, defined);
     const auto off_chain = static_cast<std::size_t>(std::count(at.begin(), at.end(), -1));
     if (!at.empty() && off_chain == at.size()) continue;  // it drives joints off the chain
 
-    const detail::XmlElement* plugin = e.child("plugin");
-    const detail::XmlElement* type_element = plugin ? plugin : e.child("type");
-    const bool ros2 = plugin != nullptr;
-    if (!type_element)
-      throw std::invalid_argument(who + ": " + where + " has no <type> (ROS 1) or <plugin> " +
-                                  "(ROS 2)");
-    const std::string type = detail::trim_space(type_element->text);
-    const bool simple = type == "transmission_interface/SimpleTransmission";
-    if (!simple && type != "transmission_interface/DifferentialTransmission")
-      throw std::invalid_argument(who + ": " + where + " is of type '" + type +
-                                  "'; transmission_interface/SimpleTransmission and "
-                                  "transmission_interface/DifferentialTransmission are read");
-    std::vector<detail::TransmissionPart> joints, actuators;
-    for (const auto& c : e.children) {
-      if (c.name == "joint") joints.emplace_back(c, ros2, where);
-      if (c.name == "actuator") actuators.emplace_back(c, ros2, where);
-    }
-    const std::size_t count = simple ? 1 : 2;
-    if (joints.size() != count || actuators.size() != count)
-      throw std::invalid_argument(who + ": " + where + " has " + std::to_string(joints.size()) +
-                                  " joints and " + std::to_string(actuators.size()) +
-                                  " actuators; a " + (simple ? "Simple" : "Differential") +
-                                  "Transmission has " + std::to_string(count) + " of each");
+    const detail::TransmissionKind kind = detail::transmission_kind(e, where);
+    const bool ros2 = kind.ros2, simple = kind.simple;
+    const detail::TransmissionParts parts = detail::transmission_parts(e, kind, where);
+    const std::vector<detail::TransmissionPart>& joints = parts.joints;
+    const std::vector<detail::TransmissionPart>& actuators = parts.actuators;
     if (off_chain > 0)
       throw std::invalid_argument(who + ": " + where + " couples a joint of the chain with one " +
                                   "off it; both of a differential's joints must be on the chain");
@@ -261,43 +355,11 @@ inline Transmission transmission_from_urdf(const std::string& text,
     any = true;
 
     if (simple) {
-      const detail::TransmissionPart& joint = joints[0];
-      const detail::TransmissionPart& actuator = actuators[0];
-      double ratio = 0.0;
-      if (ros2) {
-        ratio = joint.reduction(1.0);
-        if (actuator.has_reduction()) {
-          const double a = actuator.reduction(1.0);
-          if (a != 1.0 && a != ratio)
-            throw std::invalid_argument(
-                who + ": " + actuator.where() + ": <mechanical_reduction> " + std::to_string(a) +
-                " differs from the joint's (" + std::to_string(ratio) +
-                "); ros2_control's SimpleTransmission reads only the joint's, so state it there");
-        }
-      } else {
-        ratio = actuator.reduction(std::numeric_limits<double>::quiet_NaN());
-        if (joint.has_reduction() && joint.reduction(1.0) != 1.0)
-          throw std::invalid_argument(who + ": " + joint.where() +
-                                      ": ros_control's SimpleTransmission reads the reduction " +
-                                      "from the actuator's <mechanicalReduction>, not the joint's");
-      }
-      g(at[0], at[0]) = ratio;
-      zero[at[0]] = joint.offset();
+      g(at[0], at[0]) = detail::simple_transmission_ratio(joints[0], actuators[0], ros2);
+      zero[at[0]] = joints[0].offset();
       continue;
     }
-    const std::array<std::size_t, 2> j = detail::role_order(joints, "joint", ros2, where);
-    const std::array<std::size_t, 2> a = detail::role_order(actuators, "actuator", ros2, where);
-    const double required = ros2 ? 1.0 : std::numeric_limits<double>::quiet_NaN();
-    const double a1 = actuators[a[0]].reduction(required);
-    const double a2 = actuators[a[1]].reduction(required);
-    const double n1 = joints[j[0]].reduction(1.0), n2 = joints[j[1]].reduction(1.0);
-    const Eigen::Index j1 = at[j[0]], j2 = at[j[1]];
-    g(j1, j1) = a1 * n1;  // q_a1 = na1 (nj1 (q_j1 - x1) + nj2 (q_j2 - x2))
-    g(j1, j2) = a1 * n2;
-    g(j2, j1) = a2 * n1;  // q_a2 = na2 (nj1 (q_j1 - x1) - nj2 (q_j2 - x2))
-    g(j2, j2) = -a2 * n2;
-    zero[j1] = joints[j[0]].offset();
-    zero[j2] = joints[j[1]].offset();
+    detail::set_differential_transmission(parts, at, ros2, where, g, zero);
   }
   if (!any) throw std::invalid_argument(who + ": no <transmission> drives a joint of the chain");
   return Transmission(g, zero);
