@@ -265,22 +265,14 @@ inline LinkParameters<double> nearest_real_body(const LinkParameters<double>& ph
   return p;
 }
 
-/// @brief Identifies the ten standard parameters of a load fixed to model's tip link from runs
-/// that carry it, the arm held at arm_theta (every parameter of model: the load-free arm, a
-/// physically consistent fit), smoothed at cutoff_hz (the arm fit's, one per joint). See the
-/// file comment.
-/// @throws PayloadNotIdentifiable if the runs' rows do not determine every parameter;
-///         std::invalid_argument on an empty run list, a run that is invalid, of another joint
-///         count or without equations after the skips, arm_theta or cutoff_hz of the wrong size,
-///         or invalid options.
-inline PayloadIdentification identify_payload(const ChainModel& model,
-                                              const Eigen::VectorXd& arm_theta,
-                                              const std::vector<ChainTrajectory<double>>& runs,
-                                              const Eigen::VectorXd& cutoff_hz,
-                                              const PayloadOptions& options = {}) {
+namespace detail {
+
+inline void check_payload_inputs(const ChainModel& model, const Eigen::VectorXd& arm_theta,
+                                 const std::vector<ChainTrajectory<double>>& runs,
+                                 const Eigen::VectorXd& cutoff_hz, const PayloadOptions& options) {
   const std::string who = "sid::identify_payload: ";
   const int n = model.joints();
-  const Eigen::Index p = model.parameters(), tip = 10 * static_cast<Eigen::Index>(n - 1);
+  const Eigen::Index p = model.parameters();
   const ChainIdentifyOptions& o = options.rows;
   if (runs.empty()) throw std::invalid_argument(who + "no run given");
   if (arm_theta.size() != p || !arm_theta.allFinite())
@@ -308,84 +300,98 @@ inline PayloadIdentification identify_payload(const ChainModel& model,
     throw std::invalid_argument(who +
                                 "options.frame is not a rigid pose (a finite translation "
                                 "and a rotation matrix)");
+}
 
-  // Per run: the rows' positions (sample index, joint) and their regression.
-  struct RunRows {
-    Eigen::MatrixXd x;             // tip columns
-    Eigen::VectorXd y, tau;        // τ − Y θ_arm, and τ (filtered)
-    std::vector<Eigen::Index> at;  // the row's sample position in the run
-    Eigen::Index positions = 0;
-  };
-  std::vector<RunRows> rows;
-  Eigen::Index total = 0;
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    const ChainTrajectory<double>& run = runs[r];
-    const std::string where = who + "run " + std::to_string(r + 1) + ": ";
-    run.validate(("sid::identify_payload: run " + std::to_string(r + 1)).c_str());
-    if (run.joints() != n)
-      throw std::invalid_argument(where + "has " + std::to_string(run.joints()) +
-                                  " joints, the model " + std::to_string(n));
-    if (run.size() < 4) throw std::invalid_argument(where + "needs at least 4 samples");
-    const ChainKinematics<double> k = smooth_chain_run(run, cutoff_hz, o);
-    // The samples identify_chain takes: every stride-th, within the skips.
-    const Eigen::Index size = run.size();
-    std::vector<Eigen::Index> samples;
-    for (const Eigen::Index i : chain_regression_samples(run.t, o.regression_rate_hz))
-      if (run.t[i] >= run.t[0] + o.skip && run.t[i] <= run.t[size - 1] - o.skip_end)
-        samples.push_back(i);
-    if (samples.empty()) throw std::invalid_argument(where + "has no samples after the skips");
-    Eigen::VectorXd rest(n);
+/// One run's rows: their positions (sample index, joint) and their regression.
+struct PayloadRunRows {
+  Eigen::MatrixXd x;             // tip columns
+  Eigen::VectorXd y, tau;        // τ − Y θ_arm, and τ (filtered)
+  std::vector<Eigen::Index> at;  // the row's sample position in the run
+  Eigen::Index positions = 0;
+};
+
+/// The rows of run r (0-based) as identify_chain takes them.
+inline PayloadRunRows payload_run_rows(const ChainModel& model, const Eigen::VectorXd& arm_theta,
+                                       const ChainTrajectory<double>& run, std::size_t r,
+                                       const Eigen::VectorXd& cutoff_hz,
+                                       const ChainIdentifyOptions& o) {
+  const std::string who = "sid::identify_payload: ";
+  const int n = model.joints();
+  const Eigen::Index p = model.parameters(), tip = 10 * static_cast<Eigen::Index>(n - 1);
+  const std::string where = who + "run " + std::to_string(r + 1) + ": ";
+  run.validate(("sid::identify_payload: run " + std::to_string(r + 1)).c_str());
+  if (run.joints() != n)
+    throw std::invalid_argument(where + "has " + std::to_string(run.joints()) +
+                                " joints, the model " + std::to_string(n));
+  if (run.size() < 4) throw std::invalid_argument(where + "needs at least 4 samples");
+  const ChainKinematics<double> k = smooth_chain_run(run, cutoff_hz, o);
+  // The samples identify_chain takes: every stride-th, within the skips.
+  const Eigen::Index size = run.size();
+  std::vector<Eigen::Index> samples;
+  for (const Eigen::Index i : chain_regression_samples(run.t, o.regression_rate_hz))
+    if (run.t[i] >= run.t[0] + o.skip && run.t[i] <= run.t[size - 1] - o.skip_end)
+      samples.push_back(i);
+  if (samples.empty()) throw std::invalid_argument(where + "has no samples after the skips");
+  Eigen::VectorXd rest(n);
+  for (int j = 0; j < n; ++j) {
+    double sum = 0.0;
+    for (const Eigen::Index i : samples) sum += k.qd(i, j) * k.qd(i, j);
+    rest[j] = o.rest_fraction * std::sqrt(sum / static_cast<double>(samples.size()));
+  }
+  PayloadRunRows e;
+  e.positions = static_cast<Eigen::Index>(samples.size());
+  e.x.resize(e.positions * n, 10);
+  e.y.resize(e.positions * n);
+  e.tau.resize(e.positions * n);
+  Eigen::MatrixXd y(n, p);
+  Eigen::VectorXd q(n), qd(n), qdd(n);
+  Eigen::Index m = 0;
+  for (Eigen::Index a = 0; a < e.positions; ++a) {
+    const Eigen::Index i = samples[static_cast<std::size_t>(a)];
+    q = k.q.row(i).transpose();
+    qd = k.qd.row(i).transpose();
+    qdd = k.qdd.row(i).transpose();
+    model.regressor(q, qd, qdd, y);
     for (int j = 0; j < n; ++j) {
-      double sum = 0.0;
-      for (const Eigen::Index i : samples) sum += k.qd(i, j) * k.qd(i, j);
-      rest[j] = o.rest_fraction * std::sqrt(sum / static_cast<double>(samples.size()));
-    }
-    RunRows e;
-    e.positions = static_cast<Eigen::Index>(samples.size());
-    e.x.resize(e.positions * n, 10);
-    e.y.resize(e.positions * n);
-    e.tau.resize(e.positions * n);
-    Eigen::MatrixXd y(n, p);
-    Eigen::VectorXd q(n), qd(n), qdd(n);
-    Eigen::Index m = 0;
-    for (Eigen::Index a = 0; a < e.positions; ++a) {
-      const Eigen::Index i = samples[static_cast<std::size_t>(a)];
-      q = k.q.row(i).transpose();
-      qd = k.qd.row(i).transpose();
-      qdd = k.qdd.row(i).transpose();
-      model.regressor(q, qd, qdd, y);
-      for (int j = 0; j < n; ++j) {
-        if (!(std::abs(qd[j]) >= rest[j])) continue;
-        e.x.row(m) = y.row(j).segment<10>(tip);
-        e.tau[m] = k.tau(i, j);
-        e.y[m] = k.tau(i, j) - y.row(j).dot(arm_theta);
-        e.at.push_back(a);
-        ++m;
-      }
-    }
-    e.x.conservativeResize(m, 10);
-    e.y.conservativeResize(m);
-    e.tau.conservativeResize(m);
-    total += m;
-    rows.push_back(std::move(e));
-  }
-  if (total <= 10)
-    throw std::invalid_argument(who + std::to_string(total) +
-                                " equations for 10 parameters; give a longer run");
-  Eigen::MatrixXd x(total, 10);
-  Eigen::VectorXd y(total), tau(total);
-  {
-    Eigen::Index at = 0;
-    for (const auto& e : rows) {
-      x.middleRows(at, e.y.size()) = e.x;
-      y.segment(at, e.y.size()) = e.y;
-      tau.segment(at, e.y.size()) = e.tau;
-      at += e.y.size();
+      if (!(std::abs(qd[j]) >= rest[j])) continue;
+      e.x.row(m) = y.row(j).segment<10>(tip);
+      e.tau[m] = k.tau(i, j);
+      e.y[m] = k.tau(i, j) - y.row(j).dot(arm_theta);
+      e.at.push_back(a);
+      ++m;
     }
   }
+  e.x.conservativeResize(m, 10);
+  e.y.conservativeResize(m);
+  e.tau.conservativeResize(m);
+  return e;
+}
 
-  // The identification's own rule for what the data determine (data_tolerance on unit columns).
-  const BaseParameters<double> base = base_parameters_in_order(x, o.data_tolerance);
+/// Every run's rows, stacked in run order.
+struct PayloadRows {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y, tau;
+};
+
+inline PayloadRows stacked_payload_rows(const std::vector<PayloadRunRows>& rows,
+                                        Eigen::Index total) {
+  PayloadRows out{Eigen::MatrixXd(total, 10), Eigen::VectorXd(total), Eigen::VectorXd(total)};
+  Eigen::Index at = 0;
+  for (const auto& e : rows) {
+    out.x.middleRows(at, e.y.size()) = e.x;
+    out.y.segment(at, e.y.size()) = e.y;
+    out.tau.segment(at, e.y.size()) = e.tau;
+    at += e.y.size();
+  }
+  return out;
+}
+
+/// Refuses columns the rows leave dependent: the identification's own rule for what the data
+/// determine (data_tolerance on unit columns).
+inline void check_payload_rank(const Eigen::MatrixXd& x, double data_tolerance,
+                               Eigen::Index total) {
+  const std::string who = "sid::identify_payload: ";
+  const BaseParameters<double> base = base_parameters_in_order(x, data_tolerance);
   if (base.rank() < 10) {
     std::vector<std::string> missing;
     std::string list;
@@ -400,6 +406,127 @@ inline PayloadIdentification identify_payload(const ChainModel& model,
             "about more axes (the wrist joints) and faster",
         std::move(missing));
   }
+}
+
+/// HAC: each sample's score summed over its joints (their residuals are correlated too), the
+/// long-run sum per run, runs independent; the sandwich around (XᵀX)⁻¹, made symmetric.
+inline Eigen::Matrix<double, 10, 10> payload_hac_covariance(const std::vector<PayloadRunRows>& rows,
+                                                            const LeastSquaresResult<double>& fit) {
+  Eigen::Matrix<double, 10, 10> covariance;
+  {
+    std::vector<HacRun> per_run;
+    Eigen::Index offset = 0;
+    for (const auto& e : rows) {
+      per_run.push_back({e.x, fit.residual.segment(offset, e.y.size()), e.at, e.positions});
+      offset += e.y.size();
+    }
+    covariance = hac_sandwich(per_run, fit.inverse_gram());
+  }
+  covariance = 0.5 * (covariance + covariance.transpose()).eval();
+  return covariance;
+}
+
+/// Refuses parameters the motion does not show: those whose standard deviation exceeds
+/// options.max_relative_std of their natural scale (PayloadOptions::max_relative_std).
+inline void check_payload_determined(const Eigen::MatrixXd& x,
+                                     const LeastSquaresResult<double>& fit,
+                                     const Eigen::Matrix<double, 10, 10>& covariance,
+                                     const PayloadOptions& options) {
+  const std::string who = "sid::identify_payload: ";
+  // The noise as the HAC covariance sees it: the fit's σ inflated by the residuals'
+  // correlation in time (the mean variance ratio, as sid::consistent_chain_parameters' κ).
+  double inflation = 0.0;
+  for (int c = 0; c < 10; ++c)
+    inflation += covariance(c, c) / std::max(fit.covariance(c, c), 1e-300) / 10.0;
+  const double sigma = std::sqrt(fit.sigma2 * std::max(inflation, 1.0));
+  const double mass = std::max(std::abs(fit.theta[0]), 1e-6), l = options.length_scale;
+  Eigen::Matrix<double, 10, 1> scale;
+  scale << mass, Eigen::Vector3d::Constant(mass * l),
+      Eigen::Matrix<double, 6, 1>::Constant(mass * l * l);
+  // Gram–Schmidt in the standard order on the columns in natural units: σ over a column's
+  // distance from the kept ones before it is its standard deviation in its own scale.
+  Eigen::MatrixXd kept(x.rows(), 10);
+  int count = 0;
+  std::vector<std::string> missing;
+  std::string list;
+  for (int c = 0; c < 10; ++c) {
+    Eigen::VectorXd v = x.col(c) * scale[c];
+    for (int k = 0; k < count; ++k) v -= kept.col(k).dot(v) * kept.col(k);
+    for (int k = 0; k < count; ++k) v -= kept.col(k).dot(v) * kept.col(k);  // re-orthogonalise
+    const double distance = v.norm();
+    if (sigma < options.max_relative_std * distance) {
+      kept.col(count++) = v / distance;
+      continue;
+    }
+    missing.push_back(payload_parameter_names()[static_cast<std::size_t>(c)]);
+    list += (list.empty() ? "" : ", ") + missing.back() + " (std " +
+            payload_number(distance > 0.0 ? sigma / distance : HUGE_VAL) + ")";
+  }
+  if (!missing.empty())
+    throw PayloadNotIdentifiable(
+        who + "the motion does not determine the load's " + list +
+            ": their standard deviations, in units of the load's mass and of it times " +
+            payload_number(l) + " m and its square, exceed " +
+            payload_number(options.max_relative_std) +
+            "; move the tip about more axes (the wrist joints) and faster",
+        std::move(missing));
+}
+
+/// Moves out's estimates and covariances from the tip link's frame into `frame`, and gives the
+/// body and its standard deviations there.
+inline void express_payload_in_frame(PayloadIdentification& out, const FramePose<double>& frame) {
+  // The report's frame: A is linear, so its columns are the unit loads moved there.
+  const FramePose<double> tip_in_frame = inverse_pose(frame);
+  Eigen::Matrix<double, 10, 10> to_frame;
+  for (int c = 0; c < 10; ++c)
+    to_frame.col(c) =
+        expressed_in_parent(LinkParameters<double>(LinkParameters<double>::Unit(c)), tip_in_frame);
+  out.phi = to_frame * out.phi;
+  out.least_squares = to_frame * out.least_squares;
+  out.covariance = to_frame * out.covariance * to_frame.transpose();
+  out.covariance_uncorrelated = to_frame * out.covariance_uncorrelated * to_frame.transpose();
+  out.body = link_inertia(out.phi);
+  const Eigen::Matrix<double, 10, 10> g = body_jacobian(out.phi);
+  const Eigen::Matrix<double, 10, 1> variance =
+      (g * out.covariance * g.transpose()).diagonal().cwiseMax(0.0);
+  out.mass_std = std::sqrt(variance[0]);
+  out.com_std = variance.segment<3>(1).cwiseSqrt();
+  out.inertia_std = variance.tail<6>().cwiseSqrt();
+}
+
+}  // namespace detail
+
+/// @brief Identifies the ten standard parameters of a load fixed to model's tip link from runs
+/// that carry it, the arm held at arm_theta (every parameter of model: the load-free arm, a
+/// physically consistent fit), smoothed at cutoff_hz (the arm fit's, one per joint). See the
+/// file comment.
+/// @throws PayloadNotIdentifiable if the runs' rows do not determine every parameter;
+///         std::invalid_argument on an empty run list, a run that is invalid, of another joint
+///         count or without equations after the skips, arm_theta or cutoff_hz of the wrong size,
+///         or invalid options.
+inline PayloadIdentification identify_payload(const ChainModel& model,
+                                              const Eigen::VectorXd& arm_theta,
+                                              const std::vector<ChainTrajectory<double>>& runs,
+                                              const Eigen::VectorXd& cutoff_hz,
+                                              const PayloadOptions& options = {}) {
+  const std::string who = "sid::identify_payload: ";
+  const ChainIdentifyOptions& o = options.rows;
+  detail::check_payload_inputs(model, arm_theta, runs, cutoff_hz, options);
+
+  std::vector<detail::PayloadRunRows> rows;
+  Eigen::Index total = 0;
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    rows.push_back(detail::payload_run_rows(model, arm_theta, runs[r], r, cutoff_hz, o));
+    total += rows.back().y.size();
+  }
+  if (total <= 10)
+    throw std::invalid_argument(who + std::to_string(total) +
+                                " equations for 10 parameters; give a longer run");
+  const detail::PayloadRows stacked = detail::stacked_payload_rows(rows, total);
+  const Eigen::MatrixXd& x = stacked.x;
+  const Eigen::VectorXd &y = stacked.y, &tau = stacked.tau;
+
+  detail::check_payload_rank(x, o.data_tolerance, total);
   LeastSquaresOptions ls;
   ls.column_names.assign(payload_parameter_names().begin(), payload_parameter_names().end());
   const LeastSquaresResult<double> fit = least_squares(x, y, 1, ls);
@@ -412,57 +539,8 @@ inline PayloadIdentification identify_payload(const ChainModel& model,
   out.condition_number = fit.condition_number;
   out.least_squares = fit.theta;
   out.covariance_uncorrelated = fit.covariance;
-  // HAC: each sample's score summed over its joints (their residuals are correlated too), the
-  // long-run sum per run, runs independent; the sandwich around (XᵀX)⁻¹.
-  {
-    std::vector<HacRun> per_run;
-    Eigen::Index offset = 0;
-    for (const auto& e : rows) {
-      per_run.push_back({e.x, fit.residual.segment(offset, e.y.size()), e.at, e.positions});
-      offset += e.y.size();
-    }
-    out.covariance = hac_sandwich(per_run, fit.inverse_gram());
-  }
-  out.covariance = 0.5 * (out.covariance + out.covariance.transpose()).eval();
-  {
-    // The noise as the HAC covariance sees it: the fit's σ inflated by the residuals'
-    // correlation in time (the mean variance ratio, as sid::consistent_chain_parameters' κ).
-    double inflation = 0.0;
-    for (int c = 0; c < 10; ++c)
-      inflation += out.covariance(c, c) / std::max(fit.covariance(c, c), 1e-300) / 10.0;
-    const double sigma = std::sqrt(fit.sigma2 * std::max(inflation, 1.0));
-    const double mass = std::max(std::abs(fit.theta[0]), 1e-6), l = options.length_scale;
-    Eigen::Matrix<double, 10, 1> scale;
-    scale << mass, Eigen::Vector3d::Constant(mass * l),
-        Eigen::Matrix<double, 6, 1>::Constant(mass * l * l);
-    // Gram–Schmidt in the standard order on the columns in natural units: σ over a column's
-    // distance from the kept ones before it is its standard deviation in its own scale.
-    Eigen::MatrixXd kept(x.rows(), 10);
-    int count = 0;
-    std::vector<std::string> missing;
-    std::string list;
-    for (int c = 0; c < 10; ++c) {
-      Eigen::VectorXd v = x.col(c) * scale[c];
-      for (int k = 0; k < count; ++k) v -= kept.col(k).dot(v) * kept.col(k);
-      for (int k = 0; k < count; ++k) v -= kept.col(k).dot(v) * kept.col(k);  // re-orthogonalise
-      const double distance = v.norm();
-      if (sigma < options.max_relative_std * distance) {
-        kept.col(count++) = v / distance;
-        continue;
-      }
-      missing.push_back(payload_parameter_names()[static_cast<std::size_t>(c)]);
-      list += (list.empty() ? "" : ", ") + missing.back() + " (std " +
-              detail::payload_number(distance > 0.0 ? sigma / distance : HUGE_VAL) + ")";
-    }
-    if (!missing.empty())
-      throw PayloadNotIdentifiable(
-          who + "the motion does not determine the load's " + list +
-              ": their standard deviations, in units of the load's mass and of it times " +
-              detail::payload_number(l) + " m and its square, exceed " +
-              detail::payload_number(options.max_relative_std) +
-              "; move the tip about more axes (the wrist joints) and faster",
-          std::move(missing));
-  }
+  out.covariance = detail::payload_hac_covariance(rows, fit);
+  detail::check_payload_determined(x, fit, out.covariance, options);
 
   const double yy = std::max(tau.squaredNorm(), 1e-300);
   const double rss = fit.residual.squaredNorm();
@@ -480,23 +558,7 @@ inline PayloadIdentification identify_payload(const ChainModel& model,
     out.projection_misfit = d.dot(c.solve(d));
   }
   out.relative_residual_after = std::sqrt((y - x * out.phi).squaredNorm() / yy);
-  // The report's frame: A is linear, so its columns are the unit loads moved there.
-  const FramePose<double> tip_in_frame = inverse_pose(options.frame);
-  Eigen::Matrix<double, 10, 10> to_frame;
-  for (int c = 0; c < 10; ++c)
-    to_frame.col(c) =
-        expressed_in_parent(LinkParameters<double>(LinkParameters<double>::Unit(c)), tip_in_frame);
-  out.phi = to_frame * out.phi;
-  out.least_squares = to_frame * out.least_squares;
-  out.covariance = to_frame * out.covariance * to_frame.transpose();
-  out.covariance_uncorrelated = to_frame * out.covariance_uncorrelated * to_frame.transpose();
-  out.body = link_inertia(out.phi);
-  const Eigen::Matrix<double, 10, 10> g = detail::body_jacobian(out.phi);
-  const Eigen::Matrix<double, 10, 1> variance =
-      (g * out.covariance * g.transpose()).diagonal().cwiseMax(0.0);
-  out.mass_std = std::sqrt(variance[0]);
-  out.com_std = variance.segment<3>(1).cwiseSqrt();
-  out.inertia_std = variance.tail<6>().cwiseSqrt();
+  detail::express_payload_in_frame(out, options.frame);
   return out;
 }
 
