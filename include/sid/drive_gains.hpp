@@ -172,24 +172,14 @@ inline std::vector<Eigen::Index> gain_samples(const Eigen::VectorXd& t,
   return samples;
 }
 
-}  // namespace detail
-
-/// @brief Identifies the motors' current-to-torque gains from runs whose tau columns are motor
-/// currents [A] (angles joint-side), the runs marked `loaded` carrying `payload` on the chain's
-/// tip link (its mass [kg], centre of mass [m] and inertia about it [kg m^2] in the tip link's
-/// frame), together with the arm's base parameters (see the file comment).
-/// @param cutoff_hz the smoothing per joint [Hz], as identify_chain's cutoff_hz.
-/// @throws std::invalid_argument naming the problem: sizes, no loaded or no unloaded run, an
-///         inconsistent payload, a run too short for the skips, too few equations, or gains the
-///         runs cannot determine (a motor the load's torque does not reach, or a gain whose
-///         column the others explain), named by their joints.
-inline DriveGainIdentification identify_drive_gains(
-    const ChainModel& model, const std::vector<ChainTrajectory<double>>& runs,
-    const std::vector<bool>& loaded, const LinkInertia<double>& payload,
-    const Eigen::VectorXd& cutoff_hz, const DriveGainOptions& options = {}) {
+inline void check_drive_gain_inputs(const ChainModel& model,
+                                    const std::vector<ChainTrajectory<double>>& runs,
+                                    const std::vector<bool>& loaded,
+                                    const LinkInertia<double>& payload,
+                                    const Eigen::VectorXd& cutoff_hz,
+                                    const DriveGainOptions& options) {
   const std::string who = "sid::identify_drive_gains";
   const int n = model.joints();
-  const ChainIdentifyOptions& o = options.chain;
   if (runs.size() != loaded.size())
     throw std::invalid_argument(who + ": one loaded flag per run is needed");
   if (std::find(loaded.begin(), loaded.end(), true) == loaded.end())
@@ -209,168 +199,234 @@ inline DriveGainIdentification identify_drive_gains(
                                 std::to_string(n) + ")");
   if (!(options.reach_tolerance >= 0.0 && options.reach_tolerance < 1.0))
     throw std::invalid_argument(who + ": reach_tolerance must be in [0, 1)");
-  const auto joint_name = [&](int j) { return model.joint_names()[static_cast<std::size_t>(j)]; };
+}
 
-  const BaseParameters<double> structural = chain_base_parameters(model, o);
-  const Eigen::Index b = structural.rank();
-  const Eigen::Index tip = model.rigid_body_parameters() - kLinkParameters;
-  const LinkParameters<double> phi = standard_parameters(payload);
+/// What every run's equations share: the arm's base columns, the load and the transmission.
+struct GainSetup {
+  BaseParameters<double> structural;
+  Eigen::Index b = 0;    ///< the arm's base parameters
+  Eigen::Index tip = 0;  ///< the tip link's first column
+  LinkParameters<double> phi;
+  Eigen::MatrixXd ratio_inverse;
+};
+
+/// The load's torque on each motor, summed over the loaded runs' samples as squares.
+struct GainReach {
+  Eigen::VectorXd sum;
+  double count = 0.0;
+};
+
+/// Per joint j, at every sample of the run: the base columns, the load's torque and the motors'
+/// currents as they enter the joint's torque (ratio(m, j) i_m).
+inline std::vector<Eigen::MatrixXd> gain_columns(const ChainModel& model, const GainSetup& setup,
+                                                 const ChainTrajectory<double>& run,
+                                                 const ChainKinematics<double>& k) {
+  const int n = model.joints();
+  const Eigen::Index b = setup.b, tip = setup.tip;
   const Eigen::MatrixXd& ratio = model.transmission().ratio();
-  const Eigen::MatrixXd ratio_inverse = ratio.inverse();
-
-  DriveGainIdentification result;
-  result.cutoff_hz = cutoff_hz;
-  std::vector<detail::GainEquations> equations;
-  Eigen::VectorXd reach = Eigen::VectorXd::Zero(n);
-  double reach_count = 0.0;
   Eigen::MatrixXd y(n, model.parameters());
   Eigen::VectorXd q(n), qd(n), qdd(n);
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    const std::string run_who = who + ": run " + std::to_string(r + 1);
-    if (runs[r].joints() != n)
-      throw std::invalid_argument(run_who + " has " + std::to_string(runs[r].joints()) +
-                                  " joints, the model " + std::to_string(n));
-    if (runs[r].size() < 4) throw std::invalid_argument(run_who + " needs at least 4 samples");
-    // Kinematics only: the currents are filtered below with the regressor.
-    ChainIdentifyOptions smoothing = o;
-    smoothing.filter_torque = false;
-    const ChainKinematics<double> k = smooth_chain_run(runs[r], cutoff_hz, smoothing);
-    const std::vector<Eigen::Index> samples = detail::gain_samples(runs[r].t, o);
-    if (samples.size() < 2)
-      throw std::invalid_argument(run_who + " has too few samples left after the skips");
-    // Per joint j, at every sample: the base columns, the load's torque and the motors'
-    // currents as they enter the joint's torque (ratio(m, j) i_m).
-    const Eigen::Index samples_all = runs[r].size();
-    std::vector<Eigen::MatrixXd> columns(static_cast<std::size_t>(n),
-                                         Eigen::MatrixXd(samples_all, b + 1 + n));
-    for (Eigen::Index i = 0; i < samples_all; ++i) {
-      q = k.q.row(i).transpose();
-      qd = k.qd.row(i).transpose();
-      qdd = k.qdd.row(i).transpose();
-      model.regressor(q, qd, qdd, y);
-      const Eigen::VectorXd load = y.middleCols<kLinkParameters>(tip) * phi;
-      for (int j = 0; j < n; ++j) {
-        Eigen::MatrixXd& c = columns[static_cast<std::size_t>(j)];
-        c.row(i).head(b) = y.row(j)(structural.independent);
-        c(i, b) = load[j];
-        for (int m = 0; m < n; ++m) c(i, b + 1 + m) = ratio(m, j) * runs[r].tau(i, m);
-      }
-    }
-    if (options.parallel_filtering) {
-      const SmoothingSpline<double> spline(runs[r].t);
-      const double period =
-          (runs[r].t[samples_all - 1] - runs[r].t[0]) / static_cast<double>(samples_all - 1);
-      for (int j = 0; j < n; ++j) {
-        const double p_j = 1.0 / smoothing_lambda_for_cutoff(cutoff_hz[j], period);
-        Eigen::MatrixXd& c = columns[static_cast<std::size_t>(j)];
-        for (Eigen::Index col = 0; col < c.cols(); ++col) {
-          if (c.col(col).isZero(0.0)) continue;
-          const auto fit = spline.fit_penalized(c.col(col), 1.0, p_j);
-          fit.spline.derivatives_at_knots(0, c.col(col));
-        }
-      }
-    }
-    // The rest rule of identify_chain: friction at rest is stiction, which no term describes.
-    Eigen::VectorXd rest(n);
+  const Eigen::Index samples_all = run.size();
+  std::vector<Eigen::MatrixXd> columns(static_cast<std::size_t>(n),
+                                       Eigen::MatrixXd(samples_all, b + 1 + n));
+  for (Eigen::Index i = 0; i < samples_all; ++i) {
+    q = k.q.row(i).transpose();
+    qd = k.qd.row(i).transpose();
+    qdd = k.qdd.row(i).transpose();
+    model.regressor(q, qd, qdd, y);
+    const Eigen::VectorXd load = y.middleCols<kLinkParameters>(tip) * setup.phi;
     for (int j = 0; j < n; ++j) {
-      double sum = 0.0;
-      for (const Eigen::Index i : samples) sum += k.qd(i, j) * k.qd(i, j);
-      rest[j] = o.rest_fraction * std::sqrt(sum / static_cast<double>(samples.size()));
+      Eigen::MatrixXd& c = columns[static_cast<std::size_t>(j)];
+      c.row(i).head(b) = y.row(j)(setup.structural.independent);
+      c(i, b) = load[j];
+      for (int m = 0; m < n; ++m) c(i, b + 1 + m) = ratio(m, j) * run.tau(i, m);
     }
-    detail::GainEquations e;
-    e.positions = static_cast<Eigen::Index>(samples.size());
-    Eigen::Index rows = 0;
-    for (const Eigen::Index i : samples)
-      for (int j = 0; j < n; ++j)
-        if (std::abs(k.qd(i, j)) >= rest[j]) ++rows;
-    e.x.resize(rows, b + n);
-    e.y.resize(rows);
-    Eigen::Index row = 0;
-    Eigen::VectorXd load(n);
-    for (std::size_t a = 0; a < samples.size(); ++a) {
-      const Eigen::Index i = samples[a];
-      for (int j = 0; j < n; ++j) load[j] = columns[static_cast<std::size_t>(j)](i, b);
-      if (loaded[r]) {
-        // The load's torque on each motor: joint torques are Gᵀ times the motors'.
-        reach += (ratio_inverse.transpose() * load).cwiseAbs2();
-        reach_count += 1.0;
-      }
-      for (int j = 0; j < n; ++j) {
-        if (!(std::abs(k.qd(i, j)) >= rest[j])) continue;
-        const Eigen::MatrixXd& c = columns[static_cast<std::size_t>(j)];
-        e.x.row(row).head(b) = c.row(i).head(b);
-        e.x.row(row).tail(n) = -c.row(i).tail(n);
-        e.y[row] = loaded[r] ? -load[j] : 0.0;
-        e.joint.push_back(j);
-        e.at.push_back(static_cast<Eigen::Index>(a));
-        ++row;
-      }
-    }
-    equations.push_back(std::move(e));
   }
-  result.payload_torque_rms = (reach / std::max(reach_count, 1.0)).cwiseSqrt();
-  {
-    std::string unreached;
-    const double largest = result.payload_torque_rms.maxCoeff();
-    for (int m = 0; m < n; ++m)
-      if (!(result.payload_torque_rms[m] > options.reach_tolerance * largest))
-        unreached += (unreached.empty() ? "" : ", ") + joint_name(m);
-    if (!unreached.empty())
-      throw std::invalid_argument(
-          who + ": the payload's torque does not reach " + unreached +
-          " in the loaded run: the gain there cannot be found (its scale is free); move the "
-          "payload's centre of mass off that axis, give it inertia about it, or move the joints "
-          "that carry it");
-  }
+  return columns;
+}
 
-  Eigen::Index m_rows = 0;
-  for (const auto& e : equations) m_rows += e.y.size();
-  if (m_rows <= b + n)
-    throw std::invalid_argument(who + ": " + std::to_string(m_rows) + " equations for " +
-                                std::to_string(b + n) + " parameters; give longer or more runs");
-  Eigen::MatrixXd x(m_rows, b + n);
-  Eigen::VectorXd rhs(m_rows);
+/// Each joint's columns through its smoother (DriveGainOptions::parallel_filtering).
+inline void filter_gain_columns(const Eigen::VectorXd& t, const Eigen::VectorXd& cutoff_hz,
+                                std::vector<Eigen::MatrixXd>& columns) {
+  const auto n = static_cast<int>(columns.size());
+  const Eigen::Index samples_all = t.size();
+  const SmoothingSpline<double> spline(t);
+  const double period = (t[samples_all - 1] - t[0]) / static_cast<double>(samples_all - 1);
+  for (int j = 0; j < n; ++j) {
+    const double p_j = 1.0 / smoothing_lambda_for_cutoff(cutoff_hz[j], period);
+    Eigen::MatrixXd& c = columns[static_cast<std::size_t>(j)];
+    for (Eigen::Index col = 0; col < c.cols(); ++col) {
+      if (c.col(col).isZero(0.0)) continue;
+      const auto fit = spline.fit_penalized(c.col(col), 1.0, p_j);
+      fit.spline.derivatives_at_knots(0, c.col(col));
+    }
+  }
+}
+
+/// The rest rule of identify_chain: friction at rest is stiction, which no term describes.
+inline Eigen::VectorXd gain_rest_levels(const ChainKinematics<double>& k,
+                                        const std::vector<Eigen::Index>& samples,
+                                        double rest_fraction) {
+  const auto n = static_cast<int>(k.qd.cols());
+  Eigen::VectorXd rest(n);
+  for (int j = 0; j < n; ++j) {
+    double sum = 0.0;
+    for (const Eigen::Index i : samples) sum += k.qd(i, j) * k.qd(i, j);
+    rest[j] = rest_fraction * std::sqrt(sum / static_cast<double>(samples.size()));
+  }
+  return rest;
+}
+
+/// The run's equations at the samples where a joint moves; a loaded run adds its load's torque
+/// on each motor to reach.
+inline GainEquations gain_run_equations(const std::vector<Eigen::MatrixXd>& columns,
+                                        const ChainKinematics<double>& k,
+                                        const std::vector<Eigen::Index>& samples,
+                                        const Eigen::VectorXd& rest, bool loaded,
+                                        const GainSetup& setup, GainReach& reach) {
+  const auto n = static_cast<int>(columns.size());
+  const Eigen::Index b = setup.b;
+  GainEquations e;
+  e.positions = static_cast<Eigen::Index>(samples.size());
+  Eigen::Index rows = 0;
+  for (const Eigen::Index i : samples)
+    for (int j = 0; j < n; ++j)
+      if (std::abs(k.qd(i, j)) >= rest[j]) ++rows;
+  e.x.resize(rows, b + n);
+  e.y.resize(rows);
+  Eigen::Index row = 0;
+  Eigen::VectorXd load(n);
+  for (std::size_t a = 0; a < samples.size(); ++a) {
+    const Eigen::Index i = samples[a];
+    for (int j = 0; j < n; ++j) load[j] = columns[static_cast<std::size_t>(j)](i, b);
+    if (loaded) {
+      // The load's torque on each motor: joint torques are Gᵀ times the motors'.
+      reach.sum += (setup.ratio_inverse.transpose() * load).cwiseAbs2();
+      reach.count += 1.0;
+    }
+    for (int j = 0; j < n; ++j) {
+      if (!(std::abs(k.qd(i, j)) >= rest[j])) continue;
+      const Eigen::MatrixXd& c = columns[static_cast<std::size_t>(j)];
+      e.x.row(row).head(b) = c.row(i).head(b);
+      e.x.row(row).tail(n) = -c.row(i).tail(n);
+      e.y[row] = loaded ? -load[j] : 0.0;
+      e.joint.push_back(j);
+      e.at.push_back(static_cast<Eigen::Index>(a));
+      ++row;
+    }
+  }
+  return e;
+}
+
+/// The equations of run r (0-based), `loaded` if it carries the payload.
+inline GainEquations drive_gain_run_equations(const ChainModel& model, const GainSetup& setup,
+                                              const ChainTrajectory<double>& run, std::size_t r,
+                                              bool loaded, const Eigen::VectorXd& cutoff_hz,
+                                              const DriveGainOptions& options, GainReach& reach) {
+  const std::string who = "sid::identify_drive_gains";
+  const int n = model.joints();
+  const ChainIdentifyOptions& o = options.chain;
+  const std::string run_who = who + ": run " + std::to_string(r + 1);
+  if (run.joints() != n)
+    throw std::invalid_argument(run_who + " has " + std::to_string(run.joints()) +
+                                " joints, the model " + std::to_string(n));
+  if (run.size() < 4) throw std::invalid_argument(run_who + " needs at least 4 samples");
+  // Kinematics only: the currents are filtered below with the regressor.
+  ChainIdentifyOptions smoothing = o;
+  smoothing.filter_torque = false;
+  const ChainKinematics<double> k = smooth_chain_run(run, cutoff_hz, smoothing);
+  const std::vector<Eigen::Index> samples = gain_samples(run.t, o);
+  if (samples.size() < 2)
+    throw std::invalid_argument(run_who + " has too few samples left after the skips");
+  std::vector<Eigen::MatrixXd> columns = gain_columns(model, setup, run, k);
+  if (options.parallel_filtering) filter_gain_columns(run.t, cutoff_hz, columns);
+  const Eigen::VectorXd rest = gain_rest_levels(k, samples, o.rest_fraction);
+  return gain_run_equations(columns, k, samples, rest, loaded, setup, reach);
+}
+
+/// Refuses a motor whose load torque is at most reach_tolerance of the largest motor's.
+inline void check_payload_reach(const ChainModel& model, const Eigen::VectorXd& payload_torque_rms,
+                                double reach_tolerance) {
+  const std::string who = "sid::identify_drive_gains";
+  const int n = model.joints();
+  const auto joint_name = [&](int j) { return model.joint_names()[static_cast<std::size_t>(j)]; };
+  std::string unreached;
+  const double largest = payload_torque_rms.maxCoeff();
+  for (int m = 0; m < n; ++m)
+    if (!(payload_torque_rms[m] > reach_tolerance * largest))
+      unreached += (unreached.empty() ? "" : ", ") + joint_name(m);
+  if (!unreached.empty())
+    throw std::invalid_argument(
+        who + ": the payload's torque does not reach " + unreached +
+        " in the loaded run: the gain there cannot be found (its scale is free); move the "
+        "payload's centre of mass off that axis, give it inertia about it, or move the joints "
+        "that carry it");
+}
+
+/// Every run's equations, stacked in run order, with each row's joint.
+struct GainRows {
+  Eigen::MatrixXd x;
+  Eigen::VectorXd rhs;
   std::vector<int> row_joint;
-  row_joint.reserve(static_cast<std::size_t>(m_rows));
-  {
-    Eigen::Index at = 0;
-    for (const auto& e : equations) {
-      x.middleRows(at, e.y.size()) = e.x;
-      rhs.segment(at, e.y.size()) = e.y;
-      row_joint.insert(row_joint.end(), e.joint.begin(), e.joint.end());
-      at += e.y.size();
-    }
-  }
+};
 
-  // What the runs determine, the arm's columns before the gains (base_parameters_in_order's
-  // test: each unit-norm column's distance from those before it). An arm column they leave
-  // undetermined is dropped, which regroups it; a gain's column that the others explain is a
-  // gain these runs cannot find.
+inline GainRows stacked_gain_equations(const std::vector<GainEquations>& equations,
+                                       Eigen::Index m_rows, Eigen::Index columns) {
+  GainRows out{Eigen::MatrixXd(m_rows, columns), Eigen::VectorXd(m_rows), {}};
+  out.row_joint.reserve(static_cast<std::size_t>(m_rows));
+  Eigen::Index at = 0;
+  for (const auto& e : equations) {
+    out.x.middleRows(at, e.y.size()) = e.x;
+    out.rhs.segment(at, e.y.size()) = e.y;
+    out.row_joint.insert(out.row_joint.end(), e.joint.begin(), e.joint.end());
+    at += e.y.size();
+  }
+  return out;
+}
+
+/// What the runs determine, the arm's columns before the gains (base_parameters_in_order's
+/// test: each unit-norm column's distance from those before it). An arm column they leave
+/// undetermined is dropped, which regroups it; a gain's column that the others explain is a
+/// gain these runs cannot find.
+inline std::vector<Eigen::Index> determined_gain_columns(const ChainModel& model,
+                                                         const Eigen::MatrixXd& x, Eigen::Index b,
+                                                         double data_tolerance) {
+  const std::string who = "sid::identify_drive_gains";
+  const int n = model.joints();
+  const auto joint_name = [&](int j) { return model.joint_names()[static_cast<std::size_t>(j)]; };
   std::vector<Eigen::Index> kept;
-  {
-    Eigen::MatrixXd scaled = x;
-    for (Eigen::Index c = 0; c < scaled.cols(); ++c) {
-      const double norm = scaled.col(c).norm();
-      if (norm > 0.0) scaled.col(c) /= norm;
-    }
-    const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(scaled);
-    std::string undetermined;
-    for (Eigen::Index c = 0; c < b + n; ++c) {
-      const bool independent = std::abs(qr.matrixQR()(c, c)) > o.data_tolerance;
-      if (independent) kept.push_back(c);
-      if (!independent && c >= b)
-        undetermined += (undetermined.empty() ? "" : ", ") + joint_name(static_cast<int>(c - b));
-    }
-    if (!undetermined.empty())
-      throw std::invalid_argument(who + ": the gains of " + undetermined +
-                                  " cannot be found: these runs do not tell them apart from the "
-                                  "arm's parameters (rank deficient)");
+  Eigen::MatrixXd scaled = x;
+  for (Eigen::Index c = 0; c < scaled.cols(); ++c) {
+    const double norm = scaled.col(c).norm();
+    if (norm > 0.0) scaled.col(c) /= norm;
   }
-  result.arm_parameters = static_cast<Eigen::Index>(kept.size()) - n;
-  result.equations = m_rows;
-  const Eigen::MatrixXd xk = x(Eigen::all, kept);
-  x.resize(0, 0);
+  const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(scaled);
+  std::string undetermined;
+  for (Eigen::Index c = 0; c < b + n; ++c) {
+    const bool independent = std::abs(qr.matrixQR()(c, c)) > data_tolerance;
+    if (independent) kept.push_back(c);
+    if (!independent && c >= b)
+      undetermined += (undetermined.empty() ? "" : ", ") + joint_name(static_cast<int>(c - b));
+  }
+  if (!undetermined.empty())
+    throw std::invalid_argument(who + ": the gains of " + undetermined +
+                                " cannot be found: these runs do not tell them apart from the "
+                                "arm's parameters (rank deficient)");
+  return kept;
+}
 
+/// The fit and the weight of each row it used.
+struct GainFit {
+  LeastSquaresResult<double> fit;
+  Eigen::VectorXd weight;
+};
+
+/// Least squares, then Gautier's weighting of the joints when asked (see the file comment).
+inline GainFit weighted_gain_fit(const Eigen::MatrixXd& xk, const Eigen::VectorXd& rhs,
+                                 const std::vector<int>& row_joint, int n,
+                                 const DriveGainOptions& options) {
+  const ChainIdentifyOptions& o = options.chain;
+  const Eigen::Index m_rows = rhs.size();
   LeastSquaresResult<double> fit = least_squares(xk, rhs, 1, o.least_squares);
   Eigen::VectorXd weight = Eigen::VectorXd::Ones(m_rows);
   if (options.weighted && fit.ok()) {
@@ -386,12 +442,14 @@ inline DriveGainIdentification identify_drive_gains(
     }
     fit = weighted_least_squares(xk, rhs, weight, 1, o.least_squares);
   }
-  if (!fit.ok()) throw std::invalid_argument(who + ": the fit of the gains failed: " + fit.message);
-  result.gain = fit.theta.tail(n);
-  result.std_dev_uncorrelated = fit.std_dev.tail(n);
+  return {std::move(fit), std::move(weight)};
+}
 
-  // HAC as identify_chain's: scores summed per sample position, runs independent.
-  const Eigen::VectorXd weighted_residual = weight.cwiseProduct(fit.residual);
+/// The gains' HAC standard deviations as identify_chain's: scores summed per sample position,
+/// runs independent.
+inline Eigen::VectorXd gain_hac_std_dev(const std::vector<GainEquations>& equations,
+                                        const Eigen::MatrixXd& xk, const GainFit& g, int n) {
+  const Eigen::VectorXd weighted_residual = g.weight.cwiseProduct(g.fit.residual);
   std::vector<HacRun> per_run;
   Eigen::Index offset = 0;
   for (const auto& e : equations) {
@@ -399,9 +457,67 @@ inline DriveGainIdentification identify_drive_gains(
                        weighted_residual.segment(offset, e.y.size()), e.at, e.positions});
     offset += e.y.size();
   }
-  result.std_dev =
-      hac_sandwich(per_run, fit.inverse_gram()).diagonal().tail(n).cwiseMax(0.0).cwiseSqrt();
-  result.fit = std::move(fit);
+  return hac_sandwich(per_run, g.fit.inverse_gram()).diagonal().tail(n).cwiseMax(0.0).cwiseSqrt();
+}
+
+}  // namespace detail
+
+/// @brief Identifies the motors' current-to-torque gains from runs whose tau columns are motor
+/// currents [A] (angles joint-side), the runs marked `loaded` carrying `payload` on the chain's
+/// tip link (its mass [kg], centre of mass [m] and inertia about it [kg m^2] in the tip link's
+/// frame), together with the arm's base parameters (see the file comment).
+/// @param cutoff_hz the smoothing per joint [Hz], as identify_chain's cutoff_hz.
+/// @throws std::invalid_argument naming the problem: sizes, no loaded or no unloaded run, an
+///         inconsistent payload, a run too short for the skips, too few equations, or gains the
+///         runs cannot determine (a motor the load's torque does not reach, or a gain whose
+///         column the others explain), named by their joints.
+inline DriveGainIdentification identify_drive_gains(
+    const ChainModel& model, const std::vector<ChainTrajectory<double>>& runs,
+    const std::vector<bool>& loaded, const LinkInertia<double>& payload,
+    const Eigen::VectorXd& cutoff_hz, const DriveGainOptions& options = {}) {
+  const std::string who = "sid::identify_drive_gains";
+  const int n = model.joints();
+  const ChainIdentifyOptions& o = options.chain;
+  detail::check_drive_gain_inputs(model, runs, loaded, payload, cutoff_hz, options);
+
+  detail::GainSetup setup;
+  setup.structural = chain_base_parameters(model, o);
+  setup.b = setup.structural.rank();
+  setup.tip = model.rigid_body_parameters() - kLinkParameters;
+  setup.phi = standard_parameters(payload);
+  setup.ratio_inverse = model.transmission().ratio().inverse();
+  const Eigen::Index b = setup.b;
+
+  DriveGainIdentification result;
+  result.cutoff_hz = cutoff_hz;
+  std::vector<detail::GainEquations> equations;
+  detail::GainReach reach{Eigen::VectorXd::Zero(n), 0.0};
+  for (std::size_t r = 0; r < runs.size(); ++r)
+    equations.push_back(detail::drive_gain_run_equations(model, setup, runs[r], r, loaded[r],
+                                                         cutoff_hz, options, reach));
+  result.payload_torque_rms = (reach.sum / std::max(reach.count, 1.0)).cwiseSqrt();
+  detail::check_payload_reach(model, result.payload_torque_rms, options.reach_tolerance);
+
+  Eigen::Index m_rows = 0;
+  for (const auto& e : equations) m_rows += e.y.size();
+  if (m_rows <= b + n)
+    throw std::invalid_argument(who + ": " + std::to_string(m_rows) + " equations for " +
+                                std::to_string(b + n) + " parameters; give longer or more runs");
+  detail::GainRows rows = detail::stacked_gain_equations(equations, m_rows, b + n);
+  const std::vector<Eigen::Index> kept =
+      detail::determined_gain_columns(model, rows.x, b, o.data_tolerance);
+  result.arm_parameters = static_cast<Eigen::Index>(kept.size()) - n;
+  result.equations = m_rows;
+  const Eigen::MatrixXd xk = rows.x(Eigen::all, kept);
+  rows.x.resize(0, 0);
+
+  detail::GainFit g = detail::weighted_gain_fit(xk, rows.rhs, rows.row_joint, n, options);
+  if (!g.fit.ok())
+    throw std::invalid_argument(who + ": the fit of the gains failed: " + g.fit.message);
+  result.gain = g.fit.theta.tail(n);
+  result.std_dev_uncorrelated = g.fit.std_dev.tail(n);
+  result.std_dev = detail::gain_hac_std_dev(equations, xk, g, n);
+  result.fit = std::move(g.fit);
   return result;
 }
 
