@@ -372,6 +372,50 @@ class ExcitationProblem {
     last_gradient_ = gradient;
     ++evaluations_;
     const FourierTrajectory f = trajectory_of(x);
+    const Sampled sampled = sample(f);
+    const Eigen::MatrixXd c = evaluate_objective(sampled.wb, gradient);
+    const Eigen::MatrixXd weight = evaluate_constraints(sampled);
+    if (!gradient) return;
+
+    // d f / d state and d tau / d state per sample, from the regressor's differences.
+    objective_gradient_ = Eigen::VectorXd::Zero(nv);
+    constraint_gradient_ = Eigen::MatrixXd::Zero(constraints(), nv);
+    const StateGradients d = state_gradients(f, sampled.wb, c, weight);
+    apply_chain_rule(d);
+  }
+
+  double objective() const noexcept { return objective_; }
+  const Eigen::VectorXd& objective_gradient() const noexcept { return objective_gradient_; }
+  const Eigen::VectorXd& constraint_values() const noexcept { return constraint_; }
+  const Eigen::MatrixXd& constraint_gradient() const noexcept { return constraint_gradient_; }
+  int evaluations() const noexcept { return evaluations_; }
+  static constexpr double kRankDeficient = 1e3;
+  static constexpr double kSmallestEigenvalue = 1e-14;
+
+ private:
+  static constexpr double kPi = 3.14159265358979323846;
+  static constexpr double kStep = 1e-6;
+  static constexpr double kOffsetStep = 1e-4;
+
+  /// The trajectory on the grid: its states (rows 3k..3k+2 hold q - q0, qd, qdd at t_k; one
+  /// column per joint), the torque at theta and W_b.
+  struct Sampled {
+    Eigen::MatrixXd state, tau, wb;
+  };
+
+  /// The derivatives of f and of the constraints in the states: row 3k + s of df is d f /
+  /// d state (k, s) of each joint (a column each); dc has a block of constraints() columns per
+  /// joint.
+  struct StateGradients {
+    Eigen::MatrixXd df, dc;
+  };
+
+  /// What the derivatives of the regressor at one state take, kept between states.
+  struct DifferenceScratch {
+    Eigen::MatrixXd y_plus, y_minus, dy, scratch, slopes_plus, slopes_minus, dslopes;
+  };
+
+  Sampled sample(const FourierTrajectory& f) const {
     const auto regressor_columns = static_cast<Eigen::Index>(columns_.size());
     const auto offsets = static_cast<Eigen::Index>(options_.angle_offsets.size());
     const Eigen::Index k_count = t_.size(), p = regressor_columns + offsets;
@@ -393,6 +437,13 @@ class ExcitationProblem {
         wb.block(k * n_, regressor_columns, n_, offsets) = slopes;
       }
     }
+    return {std::move(state), std::move(tau), std::move(wb)};
+  }
+
+  /// Sets objective_ from W_b; with gradient returns c, d f / d W_b = W_b c (empty when the
+  /// columns are rank deficient).
+  Eigen::MatrixXd evaluate_objective(const Eigen::MatrixXd& wb, bool gradient) {
+    const Eigen::Index p = wb.cols();
     Eigen::MatrixXd g = Eigen::MatrixXd::Zero(p, p);
     g.selfadjointView<Eigen::Lower>().rankUpdate(wb.transpose());
     g.triangularView<Eigen::Upper>() = g.transpose();
@@ -424,6 +475,14 @@ class ExcitationProblem {
         }
       }
     }
+    return c;
+  }
+
+  /// Sets constraint_ from the sampled states and torques; returns d c / d v_k, one column per
+  /// constraint.
+  Eigen::MatrixXd evaluate_constraints(const Sampled& sampled) {
+    const Eigen::MatrixXd &state = sampled.state, &tau = sampled.tau;
+    const Eigen::Index k_count = t_.size();
     // Constraints: a smooth maximum over the grid of (v / limit)^2 - 1, per joint and quantity.
     const double rho = options_.aggregation;
     constraint_.resize(constraints());
@@ -446,16 +505,64 @@ class ExcitationProblem {
         constraint_[index] = top - 1.0 + std::log(total) / rho;
         weight.col(index) = (e / total * 2.0 * v.array() / (limit * limit)).matrix();
       }
-    if (!gradient) return;
+    return weight;
+  }
 
-    // d f / d state and d tau / d state per sample, from the regressor's differences.
-    objective_gradient_ = Eigen::VectorXd::Zero(nv);
-    constraint_gradient_ = Eigen::MatrixXd::Zero(constraints(), nv);
+  /// Into scratch.dy, d Y / d s[kind][i] at the state s (y = Y there); with offset_columns, into
+  /// scratch.dslopes the angle-offset columns' own derivative. Leaves s as it was.
+  void regressor_derivative(ChainModel::Vector (&s)[3], int kind, int i, const Eigen::MatrixXd& y,
+                            bool offset_columns, DifferenceScratch& scratch) const {
+    Eigen::MatrixXd &y_plus = scratch.y_plus, &y_minus = scratch.y_minus, &dy = scratch.dy;
+    Eigen::MatrixXd &slopes_plus = scratch.slopes_plus, &slopes_minus = scratch.slopes_minus,
+                    &dslopes = scratch.dslopes;
+    const double value = s[kind][i];
+    if (kind == 2) {  // affine in qdd: one exact difference
+      s[kind][i] = value + 1.0;
+      model_.regressor(s[0], s[1], s[2], y_plus);
+      dy = y_plus - y;
+    } else {
+      const double step = kStep * std::max(1.0, std::abs(value));
+      s[kind][i] = value + step;
+      model_.regressor(s[0], s[1], s[2], y_plus);
+      s[kind][i] = value - step;
+      model_.regressor(s[0], s[1], s[2], y_minus);
+      dy = (y_plus - y_minus) / (2.0 * step);
+    }
+    if (offset_columns) {
+      // The angle-offset columns' own differences: a larger step, since they are
+      // differences already (their rounding ~1e-12 |tau| over the step stays ~1e-8 |tau|).
+      const double step = kind == 2 ? 1.0 : kOffsetStep * std::max(1.0, std::abs(value));
+      s[kind][i] = value + step;
+      detail::angle_offset_columns(model_, theta_, options_.angle_offsets, s[0], s[1], s[2],
+                                   scratch.scratch, slopes_plus);
+      if (kind == 2) {
+        s[kind][i] = value;
+        detail::angle_offset_columns(model_, theta_, options_.angle_offsets, s[0], s[1], s[2],
+                                     scratch.scratch, slopes_minus);
+        dslopes = slopes_plus - slopes_minus;
+      } else {
+        s[kind][i] = value - step;
+        detail::angle_offset_columns(model_, theta_, options_.angle_offsets, s[0], s[1], s[2],
+                                     scratch.scratch, slopes_minus);
+        dslopes = (slopes_plus - slopes_minus) / (2.0 * step);
+      }
+    }
+    s[kind][i] = value;
+  }
+
+  /// d f / d state from c (see evaluate_objective) and d c / d state from the constraints'
+  /// weights, per sample.
+  StateGradients state_gradients(const FourierTrajectory& f, const Eigen::MatrixXd& wb,
+                                 const Eigen::MatrixXd& c, const Eigen::MatrixXd& weight) const {
+    const auto regressor_columns = static_cast<Eigen::Index>(columns_.size());
+    const auto offsets = static_cast<Eigen::Index>(options_.angle_offsets.size());
+    const Eigen::Index k_count = t_.size();
     Eigen::MatrixXd df_dstate = Eigen::MatrixXd::Zero(3 * k_count, n_);
     Eigen::MatrixXd dc_dstate = Eigen::MatrixXd::Zero(3 * k_count, n_ * constraints());
-    Eigen::MatrixXd y_plus(n_, model_.parameters()), y_minus(n_, model_.parameters()),
-        dy(n_, model_.parameters()), scratch(n_, model_.parameters()), slopes_plus, slopes_minus,
-        dslopes;
+    Eigen::MatrixXd y(n_, model_.parameters());
+    DifferenceScratch scratch{y, y, y, y, {}, {}, {}};
+    const Eigen::MatrixXd &dy = scratch.dy, &dslopes = scratch.dslopes;
+    ChainModel::Vector q(n_), qd(n_), qdd(n_);
     for (Eigen::Index k = 0; k < k_count; ++k) {
       ChainModel::Vector s[3] = {q, qd, qdd};
       f.evaluate(t_[k], s[0], s[1], s[2]);
@@ -464,39 +571,7 @@ class ExcitationProblem {
       if (c.size()) pk = wb.middleRows(k * n_, n_) * c;
       for (int kind = 0; kind < 3; ++kind)
         for (int i = 0; i < n_; ++i) {
-          const double value = s[kind][i];
-          if (kind == 2) {  // affine in qdd: one exact difference
-            s[kind][i] = value + 1.0;
-            model_.regressor(s[0], s[1], s[2], y_plus);
-            dy = y_plus - y;
-          } else {
-            const double step = kStep * std::max(1.0, std::abs(value));
-            s[kind][i] = value + step;
-            model_.regressor(s[0], s[1], s[2], y_plus);
-            s[kind][i] = value - step;
-            model_.regressor(s[0], s[1], s[2], y_minus);
-            dy = (y_plus - y_minus) / (2.0 * step);
-          }
-          if (pk.size() && offsets > 0) {
-            // The angle-offset columns' own differences: a larger step, since they are
-            // differences already (their rounding ~1e-12 |tau| over the step stays ~1e-8 |tau|).
-            const double step = kind == 2 ? 1.0 : kOffsetStep * std::max(1.0, std::abs(value));
-            s[kind][i] = value + step;
-            detail::angle_offset_columns(model_, theta_, options_.angle_offsets, s[0], s[1], s[2],
-                                         scratch, slopes_plus);
-            if (kind == 2) {
-              s[kind][i] = value;
-              detail::angle_offset_columns(model_, theta_, options_.angle_offsets, s[0], s[1], s[2],
-                                           scratch, slopes_minus);
-              dslopes = slopes_plus - slopes_minus;
-            } else {
-              s[kind][i] = value - step;
-              detail::angle_offset_columns(model_, theta_, options_.angle_offsets, s[0], s[1], s[2],
-                                           scratch, slopes_minus);
-              dslopes = (slopes_plus - slopes_minus) / (2.0 * step);
-            }
-          }
-          s[kind][i] = value;
+          regressor_derivative(s, kind, i, y, pk.size() && offsets > 0, scratch);
           if (pk.size()) {
             df_dstate(3 * k + kind, i) =
                 pk.leftCols(regressor_columns).cwiseProduct(dy(Eigen::all, columns_)).sum();
@@ -513,6 +588,12 @@ class ExcitationProblem {
           dc_dstate(3 * k + s_kind, j * constraints() + s_kind * n_ + j) +=
               weight(k, s_kind * n_ + j);
     }
+    return {std::move(df_dstate), std::move(dc_dstate)};
+  }
+
+  /// The state derivatives into objective_gradient_ and constraint_gradient_.
+  void apply_chain_rule(const StateGradients& d) {
+    const Eigen::MatrixXd &df_dstate = d.df, &dc_dstate = d.dc;
     // Chain rule to the variables of joint i: d / d x = sum_k sum_s d / d state(k, s, i) basis.
     const int m = h_ - 1;
     for (int i = 0; i < n_; ++i) {
@@ -524,19 +605,6 @@ class ExcitationProblem {
       constraint_gradient_.middleCols(2 * m * i + m, m) = dc.transpose() * basis_b_;
     }
   }
-
-  double objective() const noexcept { return objective_; }
-  const Eigen::VectorXd& objective_gradient() const noexcept { return objective_gradient_; }
-  const Eigen::VectorXd& constraint_values() const noexcept { return constraint_; }
-  const Eigen::MatrixXd& constraint_gradient() const noexcept { return constraint_gradient_; }
-  int evaluations() const noexcept { return evaluations_; }
-  static constexpr double kRankDeficient = 1e3;
-  static constexpr double kSmallestEigenvalue = 1e-14;
-
- private:
-  static constexpr double kPi = 3.14159265358979323846;
-  static constexpr double kStep = 1e-6;
-  static constexpr double kOffsetStep = 1e-4;
 
   const ChainModel& model_;
   Eigen::VectorXd theta_;
@@ -674,6 +742,71 @@ inline void check_excitation_inputs(const char* who, const ChainModel& model,
                                 "aggregation finite and > 0");
 }
 
+inline void check_excitation_start(const char* who, const ChainModel& model,
+                                   const FourierTrajectory& start,
+                                   const ExcitationDesignOptions& options) {
+  start.validate(who);
+  if (start.joints() != model.joints() || start.harmonics() != options.harmonics)
+    throw std::invalid_argument(
+        std::string(who) + ": the start has " + std::to_string(start.joints()) + " joints and " +
+        std::to_string(start.harmonics()) + " harmonics; expected " +
+        std::to_string(model.joints()) + " and " + std::to_string(options.harmonics));
+}
+
+/// The optimizer's bounds on the variables.
+struct ExcitationBounds {
+  std::vector<double> lower, upper;
+};
+
+inline ExcitationBounds excitation_bounds(int joints, std::size_t variables,
+                                          const ExcitationLimits& limits, int harmonics) {
+  // Each coefficient of a trigonometric polynomial is at most twice its largest value.
+  std::vector<double> lower(variables), upper(variables);
+  const int m = harmonics - 1;
+  for (int j = 0; j < joints; ++j)
+    for (int v = 0; v < 2 * m; ++v) {
+      upper[static_cast<std::size_t>(2 * m * j + v)] = 2.0 * limits.qd_max[j];
+      lower[static_cast<std::size_t>(2 * m * j + v)] = -2.0 * limits.qd_max[j];
+    }
+  return {std::move(lower), std::move(upper)};
+}
+
+/// Gives run's optimizer the bounds, the objective, the constraints and the stopping rules.
+inline void configure_excitation_run(const char* who, ExcitationRun& run,
+                                     const ExcitationBounds& bounds,
+                                     const ExcitationDesignOptions& options) {
+  const ExcitationProblem& problem = *run.problem;
+  const std::vector<double> tolerances(static_cast<std::size_t>(problem.constraints()), 1e-9);
+  if (nlopt_set_lower_bounds(run.opt, bounds.lower.data()) < 0 ||
+      nlopt_set_upper_bounds(run.opt, bounds.upper.data()) < 0 ||
+      nlopt_set_min_objective(run.opt, excitation_objective, &run) < 0 ||
+      nlopt_add_inequality_mconstraint(run.opt, static_cast<unsigned>(problem.constraints()),
+                                       excitation_constraints, &run, tolerances.data()) < 0 ||
+      nlopt_set_maxeval(run.opt, options.max_evaluations) < 0 ||
+      nlopt_set_ftol_rel(run.opt, options.relative_tolerance) < 0)
+    throw std::runtime_error(std::string(who) + ": NLopt refused the problem's settings");
+}
+
+/// SQP converges onto its active limits from outside: shrink its last point x onto them
+/// (exactly for q, qd and qdd, which scale with the coefficients; nearly so for the torque),
+/// keeping it in run as the best point if it is.
+inline void shrink_onto_limits(ExcitationProblem& problem, ExcitationRun& run,
+                               std::vector<double>& x) {
+  for (int i = 0; i < 30; ++i) {
+    problem.evaluate(x.data(), false);
+    const double violation = problem.constraint_values().maxCoeff();
+    if (violation <= ExcitationRun::kFeasible) {
+      if (problem.objective() < run.best) {
+        run.best = problem.objective();
+        run.best_x = x;
+      }
+      break;
+    }
+    if (violation > 0.1) break;
+    for (double& v : x) v *= 0.9999 / std::sqrt(1.0 + violation);
+  }
+}
+
 }  // namespace detail
 
 /// @brief A random excitation within the limits, at rest at t = k / f: coefficients uniform in
@@ -759,12 +892,7 @@ inline ExcitationDesign design_excitation(const ChainModel& model,
                                           const ExcitationDesignOptions& options = {}) {
   const char* who = "sid::design_excitation";
   detail::check_excitation_inputs(who, model, theta, columns, q0, limits, options);
-  start.validate(who);
-  if (start.joints() != model.joints() || start.harmonics() != options.harmonics)
-    throw std::invalid_argument(
-        std::string(who) + ": the start has " + std::to_string(start.joints()) + " joints and " +
-        std::to_string(start.harmonics()) + " harmonics; expected " +
-        std::to_string(model.joints()) + " and " + std::to_string(options.harmonics));
+  detail::check_excitation_start(who, model, start, options);
   detail::ExcitationProblem problem(model, theta, columns, q0, limits, options);
   const int nv = problem.variables();
   std::vector<double> x(static_cast<std::size_t>(nv));
@@ -790,44 +918,16 @@ inline ExcitationDesign design_excitation(const ChainModel& model,
     nlopt_opt opt;
     ~Destroy() { nlopt_destroy(opt); }
   } destroy{run.opt};
-  // Each coefficient of a trigonometric polynomial is at most twice its largest value.
-  std::vector<double> lower(x.size()), upper(x.size());
-  const int m = options.harmonics - 1;
-  for (int j = 0; j < model.joints(); ++j)
-    for (int v = 0; v < 2 * m; ++v) {
-      upper[static_cast<std::size_t>(2 * m * j + v)] = 2.0 * limits.qd_max[j];
-      lower[static_cast<std::size_t>(2 * m * j + v)] = -2.0 * limits.qd_max[j];
-    }
-  for (std::size_t i = 0; i < x.size(); ++i) x[i] = std::clamp(x[i], lower[i], upper[i]);
-  const std::vector<double> tolerances(static_cast<std::size_t>(problem.constraints()), 1e-9);
-  if (nlopt_set_lower_bounds(run.opt, lower.data()) < 0 ||
-      nlopt_set_upper_bounds(run.opt, upper.data()) < 0 ||
-      nlopt_set_min_objective(run.opt, detail::excitation_objective, &run) < 0 ||
-      nlopt_add_inequality_mconstraint(run.opt, static_cast<unsigned>(problem.constraints()),
-                                       detail::excitation_constraints, &run,
-                                       tolerances.data()) < 0 ||
-      nlopt_set_maxeval(run.opt, options.max_evaluations) < 0 ||
-      nlopt_set_ftol_rel(run.opt, options.relative_tolerance) < 0)
-    throw std::runtime_error(std::string(who) + ": NLopt refused the problem's settings");
+  const detail::ExcitationBounds bounds =
+      detail::excitation_bounds(model.joints(), x.size(), limits, options.harmonics);
+  for (std::size_t i = 0; i < x.size(); ++i)
+    x[i] = std::clamp(x[i], bounds.lower[i], bounds.upper[i]);
+  detail::configure_excitation_run(who, run, bounds, options);
   double value = 0.0;
   const nlopt_result result = nlopt_optimize(run.opt, x.data(), &value);
   if (run.error) std::rethrow_exception(run.error);
   design.stop_reason = detail::nlopt_result_text(result);
-  // SQP converges onto its active limits from outside: shrink its last point onto them (exactly
-  // for q, qd and qdd, which scale with the coefficients; nearly so for the torque).
-  for (int i = 0; i < 30; ++i) {
-    problem.evaluate(x.data(), false);
-    const double violation = problem.constraint_values().maxCoeff();
-    if (violation <= detail::ExcitationRun::kFeasible) {
-      if (problem.objective() < run.best) {
-        run.best = problem.objective();
-        run.best_x = x;
-      }
-      break;
-    }
-    if (violation > 0.1) break;
-    for (double& v : x) v *= 0.9999 / std::sqrt(1.0 + violation);
-  }
+  detail::shrink_onto_limits(problem, run, x);
   design.evaluations = problem.evaluations();
   if (run.best_x.empty()) {  // nothing feasible seen: the start as it was
     design.trajectory = problem.trajectory_of(problem.variables_of(start).data());
