@@ -149,6 +149,48 @@ inline void check_external_torque_input(const ChainModel& model, const Eigen::Ve
       throw std::invalid_argument(who + "cutoff_hz values must be > 0 Hz");
 }
 
+/// τ_ext = ID(q, q̇, q̈) − τ on the smoothed motion.
+inline Eigen::MatrixXd inverse_dynamics_residual(const ArmDynamics& dynamics,
+                                                 const ChainKinematics<double>& k,
+                                                 const ChainTrajectory<double>& log) {
+  const Eigen::Index samples = log.size(), n = log.joints();
+  Eigen::MatrixXd external(samples, n);
+  ArmDynamics::Vector q(n), qd(n), qdd(n), id(n);
+  for (Eigen::Index i = 0; i < samples; ++i) {
+    q = k.q.row(i).transpose();
+    qd = k.qd.row(i).transpose();
+    qdd = k.qdd.row(i).transpose();
+    dynamics.inverse_dynamics(q, qd, qdd, id);
+    external.row(i) = (id - log.tau.row(i).transpose()).transpose();
+  }
+  return external;
+}
+
+/// The momentum observer of rate gain run forwards, then the same first-order lag backwards.
+inline Eigen::MatrixXd observed_external_torque(const ArmDynamics& dynamics,
+                                                const ChainKinematics<double>& k,
+                                                const ChainTrajectory<double>& log, double gain) {
+  const Eigen::Index samples = log.size(), n = log.joints();
+  Eigen::MatrixXd external(samples, n);
+  ArmDynamics::Vector q(n), qd(n), tau(n);
+  MomentumObserver observer(dynamics, Eigen::VectorXd::Constant(n, gain));
+  for (Eigen::Index i = 0; i < samples; ++i) {
+    q = k.q.row(i).transpose();
+    qd = k.qd.row(i).transpose();
+    tau = log.tau.row(i).transpose();
+    const double step = i > 0 ? log.t[i] - log.t[i - 1] : 0.0;
+    external.row(i) = observer.update(q, qd, tau, step).transpose();
+  }
+  // The observer lags the external torque by 1 / K; with the whole log at hand, the same
+  // first-order lag run backwards in time cancels that phase (a ramp comes out where it was),
+  // and halves the noise's bandwidth again.
+  for (Eigen::Index i = samples - 2; i >= 0; --i) {
+    const double decay = std::exp(-gain * (log.t[i + 1] - log.t[i]));
+    external.row(i) += decay * (external.row(i + 1) - external.row(i));
+  }
+  return external;
+}
+
 }  // namespace detail
 
 SID_INLINE ExternalTorque estimate_external_torque(const ChainModel& model,
@@ -167,36 +209,13 @@ SID_INLINE ExternalTorque estimate_external_torque(const ChainModel& model,
   smoothing.filter_torque = false;
   const ChainKinematics<double> k = smooth_chain_run(log, r.rate_cutoff_hz, smoothing);
   r.t = log.t;
-  r.external.resize(samples, n);
   const ArmDynamics dynamics(model, theta);
-  using Vector = ArmDynamics::Vector;
-  Vector q(n), qd(n), qdd(n), tau(n), id(n);
   if (o.method == ExternalTorqueMethod::InverseDynamicsResidual) {
-    for (Eigen::Index i = 0; i < samples; ++i) {
-      q = k.q.row(i).transpose();
-      qd = k.qd.row(i).transpose();
-      qdd = k.qdd.row(i).transpose();
-      dynamics.inverse_dynamics(q, qd, qdd, id);
-      r.external.row(i) = (id - log.tau.row(i).transpose()).transpose();
-    }
+    r.external = detail::inverse_dynamics_residual(dynamics, k, log);
   } else {
     const double dt = (log.t[samples - 1] - log.t[0]) / static_cast<double>(samples - 1);
     r.gain = o.gain > 0.0 ? o.gain : std::min(300.0, 0.5 / dt);
-    MomentumObserver observer(dynamics, Eigen::VectorXd::Constant(n, r.gain));
-    for (Eigen::Index i = 0; i < samples; ++i) {
-      q = k.q.row(i).transpose();
-      qd = k.qd.row(i).transpose();
-      tau = log.tau.row(i).transpose();
-      const double step = i > 0 ? log.t[i] - log.t[i - 1] : 0.0;
-      r.external.row(i) = observer.update(q, qd, tau, step).transpose();
-    }
-    // The observer lags the external torque by 1 / K; with the whole log at hand, the same
-    // first-order lag run backwards in time cancels that phase (a ramp comes out where it was),
-    // and halves the noise's bandwidth again.
-    for (Eigen::Index i = samples - 2; i >= 0; --i) {
-      const double decay = std::exp(-r.gain * (log.t[i + 1] - log.t[i]));
-      r.external.row(i) += decay * (r.external.row(i + 1) - r.external.row(i));
-    }
+    r.external = detail::observed_external_torque(dynamics, k, log, r.gain);
   }
   // The model's own error sets what counts as a contact; where this log's estimate is noisier
   // still (coarse encoders: the momentum's rate noise), its robust spread does, so that noise is
