@@ -147,6 +147,183 @@ inline MotionSimulation fit_and_simulate(
   return out;
 }
 
+inline void check_motion_inputs(const ChainModel& nominal, const ChainDiagnosis& diagnosis,
+                                const std::vector<ChainTrajectory<double>>& runs,
+                                const ChainMotionCheckOptions& options) {
+  const std::string who = "sid::check_chain_motion: ";
+  const int n = nominal.joints();
+  if (options.replicates < 1 || !(options.margin >= 1.0) || !(options.compare_rate_hz > 0.0))
+    throw std::invalid_argument(who + "needs replicates >= 1, margin >= 1, compare_rate_hz > 0");
+  if (runs.empty() || runs.size() != diagnosis.kinematics.size() ||
+      diagnosis.cutoff_hz.size() != n || diagnosis.angle_offset.size() != n ||
+      diagnosis.noise_floor.size() != n)
+    throw std::invalid_argument(who + "the diagnosis does not belong to these runs and model");
+  for (std::size_t r = 0; r < runs.size(); ++r)
+    if (runs[r].size() != diagnosis.kinematics[r].size() || runs[r].joints() != n)
+      throw std::invalid_argument(who + "run " + std::to_string(r + 1) +
+                                  " is not the one diagnosed");
+}
+
+/// The runs and their kinematics at the true angles: the measured ones plus the named offsets.
+struct CorrectedRuns {
+  std::vector<ChainTrajectory<double>> runs;
+  std::vector<ChainKinematics<double>> kinematics;
+};
+
+inline CorrectedRuns corrected_runs(const std::vector<ChainTrajectory<double>>& runs,
+                                    const ChainDiagnosis& diagnosis) {
+  CorrectedRuns out;
+  std::vector<ChainTrajectory<double>>& corrected = out.runs;
+  std::vector<ChainKinematics<double>>& corrected_kinematics = out.kinematics;
+  corrected = runs;
+  for (auto& run : corrected) run.q.rowwise() += diagnosis.angle_offset.transpose();
+  for (auto k : diagnosis.kinematics) {
+    k.q.rowwise() += diagnosis.angle_offset.transpose();
+    corrected_kinematics.push_back(std::move(k));
+  }
+  return out;
+}
+
+/// σ of the angle noise per joint: the measured angles' RMS distance from their smoothing.
+inline Eigen::VectorXd motion_angle_noise(const std::vector<ChainTrajectory<double>>& runs,
+                                          const ChainDiagnosis& diagnosis, int n) {
+  Eigen::VectorXd angle_noise = Eigen::VectorXd::Zero(n);
+  Eigen::Index samples = 0;
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    angle_noise += (runs[r].q - diagnosis.kinematics[r].q).colwise().squaredNorm().transpose();
+    samples += runs[r].size();
+  }
+  return (angle_noise / static_cast<double>(samples)).cwiseSqrt();
+}
+
+/// The nominal and the final model's fits and simulations, and the final model's
+/// identification (the replicates refit its base parameters).
+struct NominalAndFinal {
+  MotionSimulation nominal_fit, final_fit;
+  ChainIdentification final_identification;
+};
+
+inline NominalAndFinal fit_nominal_and_final(
+    const ChainModel& nominal, const ChainModel& final_model, const ChainDiagnosis& diagnosis,
+    const std::vector<ChainTrajectory<double>>& runs, const CorrectedRuns& true_angles,
+    const ChainIdentifyOptions& identify, const Eigen::VectorXd& prior,
+    const ChainMotionCheckOptions& options, int threads) {
+  const std::vector<ChainTrajectory<double>>& corrected = true_angles.runs;
+  const std::vector<ChainKinematics<double>>& corrected_kinematics = true_angles.kinematics;
+  // Where the diagnosis named nothing the final model is the nominal one: fitted once.
+  const bool same = diagnosis.final_terms.size() == nominal.terms().size() &&
+                    (diagnosis.angle_offset.array() == 0.0).all();
+  std::vector<MotionSimulation> models(2);
+  ChainIdentification final_identification;
+  for_each_index(same ? 1 : 2, threads, [&](Eigen::Index task, int) {
+    const Eigen::Index m = same ? 1 : task;
+    models[static_cast<std::size_t>(m)] =
+        m == 0 ? fit_and_simulate(nominal, runs, diagnosis.kinematics, identify,
+                                  prior.size() ? Eigen::VectorXd(prior.head(nominal.parameters()))
+                                               : Eigen::VectorXd(),
+                                  options)
+               : fit_and_simulate(final_model, corrected, corrected_kinematics, identify, prior,
+                                  options, nullptr, &final_identification);
+  });
+  if (same) models[0] = models[1];
+  return {std::move(models[0]), std::move(models[1]), std::move(final_identification)};
+}
+
+/// What every replicate's noise is added to: the smoothed motion and the final model's torque
+/// along it.
+inline std::vector<ChainTrajectory<double>> exact_logs(
+    const ChainModel& final_model, const Eigen::VectorXd& theta,
+    const std::vector<ChainKinematics<double>>& corrected_kinematics, int threads) {
+  const int n = final_model.joints();
+  std::vector<ChainTrajectory<double>> exact;
+  for (const ChainKinematics<double>& k : corrected_kinematics) {
+    ChainTrajectory<double> log{k.t, k.q, k.tau};
+    for_each_index(threads, threads, [&](Eigen::Index block, int) {
+      Eigen::MatrixXd y(n, final_model.parameters());
+      for (Eigen::Index i = k.size() * block / threads; i < k.size() * (block + 1) / threads; ++i) {
+        final_model.regressor(k.q.row(i), k.qd.row(i), k.qdd.row(i), y);
+        log.tau.row(i) = (y * theta).transpose();
+      }
+    });
+    exact.push_back(std::move(log));
+  }
+  return exact;
+}
+
+/// Replicate b's logs: the exact ones with white noise of the log's levels on angles and
+/// torques, from std::mt19937_64(seed + b).
+inline std::vector<ChainTrajectory<double>> replicate_logs(
+    const std::vector<ChainTrajectory<double>>& exact,
+    const std::vector<ChainKinematics<double>>& corrected_kinematics,
+    const Eigen::VectorXd& angle_noise, const ChainDiagnosis& diagnosis, std::uint64_t seed,
+    Eigen::Index b) {
+  const auto n = static_cast<int>(angle_noise.size());
+  std::mt19937_64 rng(seed + static_cast<std::uint64_t>(b));
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<ChainTrajectory<double>> logs;
+  for (std::size_t r = 0; r < corrected_kinematics.size(); ++r) {
+    const ChainKinematics<double>& k = corrected_kinematics[r];
+    ChainTrajectory<double> log = exact[r];
+    for (Eigen::Index i = 0; i < k.size(); ++i)
+      for (int j = 0; j < n; ++j) {
+        log.q(i, j) += angle_noise[j] * normal(rng);
+        log.tau(i, j) += diagnosis.noise_floor[j] * normal(rng);
+      }
+    logs.push_back(std::move(log));
+  }
+  // A named encoder offset is known only to its standard deviation: the replicate's angles
+  // carry an error of that size, as the log's corrected angles do.
+  for (const ChainEffectTest& e : diagnosis.named)
+    if (e.angle_offset) {
+      const double error = e.std * normal(rng);
+      for (auto& log : logs) log.q.col(e.term.index).array() += error;
+    }
+  return logs;
+}
+
+/// Every replicate identified, made consistent and freely simulated as the measured log is.
+inline std::vector<MotionSimulation> replicate_simulations(
+    const ChainModel& final_model, const ChainDiagnosis& diagnosis,
+    const std::vector<ChainTrajectory<double>>& exact,
+    const std::vector<ChainKinematics<double>>& corrected_kinematics,
+    const Eigen::VectorXd& angle_noise, const ChainIdentifyOptions& identify,
+    const Eigen::VectorXd& prior, const ChainMotionCheckOptions& options,
+    const ChainIdentification& final_identification, int threads) {
+  std::vector<MotionSimulation> replicates(static_cast<std::size_t>(options.replicates));
+  for_each_index(options.replicates, threads, [&](Eigen::Index b, int) {
+    const std::vector<ChainTrajectory<double>> logs =
+        replicate_logs(exact, corrected_kinematics, angle_noise, diagnosis, options.seed, b);
+    std::vector<ChainKinematics<double>> smoothed;
+    for (const auto& log : logs)
+      smoothed.push_back(smooth_chain_run(log, diagnosis.cutoff_hz, identify));
+    replicates[static_cast<std::size_t>(b)] = fit_and_simulate(
+        final_model, logs, smoothed, identify, prior, options, &final_identification);
+  });
+  return replicates;
+}
+
+/// The replicates' errors into out, each joint's threshold (margin times its largest
+/// replicate error) and the joints whose final error exceeds it.
+inline void judge_motion(ChainMotionCheck& out, const std::vector<MotionSimulation>& replicates,
+                         const ChainMotionCheckOptions& options) {
+  const auto n = static_cast<int>(out.final_error.size());
+  const auto nan = std::numeric_limits<double>::quiet_NaN();
+  for (int b = 0; b < options.replicates; ++b) {
+    const MotionSimulation& s = replicates[static_cast<std::size_t>(b)];
+    out.failed_replicates += s.failed;
+    if (s.theta.size()) out.replicate_error.row(b) = s.error_rms().transpose();
+  }
+  for (int j = 0; j < n; ++j) {
+    double largest = nan;
+    for (int b = 0; b < options.replicates; ++b)
+      if (std::isfinite(out.replicate_error(b, j)))
+        largest = std::isfinite(largest) ? std::max(largest, out.replicate_error(b, j))
+                                         : out.replicate_error(b, j);
+    out.threshold[j] = options.margin * largest;
+    if (out.final_error[j] > out.threshold[j]) out.beyond.push_back(j);
+  }
+}
+
 }  // namespace detail
 
 /// @brief Free simulations of the nominal and the final model of a diagnosis, and the final
@@ -166,16 +343,7 @@ inline ChainMotionCheck check_chain_motion(const ChainModel& nominal,
                                            const ChainMotionCheckOptions& options = {}) {
   const std::string who = "sid::check_chain_motion: ";
   const int n = nominal.joints();
-  if (options.replicates < 1 || !(options.margin >= 1.0) || !(options.compare_rate_hz > 0.0))
-    throw std::invalid_argument(who + "needs replicates >= 1, margin >= 1, compare_rate_hz > 0");
-  if (runs.empty() || runs.size() != diagnosis.kinematics.size() ||
-      diagnosis.cutoff_hz.size() != n || diagnosis.angle_offset.size() != n ||
-      diagnosis.noise_floor.size() != n)
-    throw std::invalid_argument(who + "the diagnosis does not belong to these runs and model");
-  for (std::size_t r = 0; r < runs.size(); ++r)
-    if (runs[r].size() != diagnosis.kinematics[r].size() || runs[r].joints() != n)
-      throw std::invalid_argument(who + "run " + std::to_string(r + 1) +
-                                  " is not the one diagnosed");
+  detail::check_motion_inputs(nominal, diagnosis, runs, options);
   const ChainModel final_model(nominal.chain(), nominal.joint_names(), diagnosis.final_terms,
                                nominal.transmission(), nominal.coulomb_epsilon());
   if (prior.size() != 0 && prior.size() != final_model.parameters())
@@ -186,42 +354,15 @@ inline ChainMotionCheck check_chain_motion(const ChainModel& nominal,
   identify.statistics = false;  // the fits' standard deviations serve nothing here
 
   // The final model lives at the true angles: the measured ones plus the named offsets.
-  std::vector<ChainTrajectory<double>> corrected = runs;
-  std::vector<ChainKinematics<double>> corrected_kinematics;
-  for (auto& run : corrected) run.q.rowwise() += diagnosis.angle_offset.transpose();
-  for (auto k : diagnosis.kinematics) {
-    k.q.rowwise() += diagnosis.angle_offset.transpose();
-    corrected_kinematics.push_back(std::move(k));
-  }
+  const detail::CorrectedRuns corrected = detail::corrected_runs(runs, diagnosis);
   ChainMotionCheck out;
-  out.angle_noise = Eigen::VectorXd::Zero(n);
-  Eigen::Index samples = 0;
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    out.angle_noise += (runs[r].q - diagnosis.kinematics[r].q).colwise().squaredNorm().transpose();
-    samples += runs[r].size();
-  }
-  out.angle_noise = (out.angle_noise / static_cast<double>(samples)).cwiseSqrt();
+  out.angle_noise = detail::motion_angle_noise(runs, diagnosis, n);
 
   const int threads = detail::thread_count(options.threads);
-  // Where the diagnosis named nothing the final model is the nominal one: fitted once.
-  const bool same = diagnosis.final_terms.size() == nominal.terms().size() &&
-                    (diagnosis.angle_offset.array() == 0.0).all();
-  std::vector<detail::MotionSimulation> models(2);
-  ChainIdentification final_identification;
-  detail::for_each_index(same ? 1 : 2, threads, [&](Eigen::Index task, int) {
-    const Eigen::Index m = same ? 1 : task;
-    models[static_cast<std::size_t>(m)] =
-        m == 0 ? detail::fit_and_simulate(nominal, runs, diagnosis.kinematics, identify,
-                                          prior.size()
-                                              ? Eigen::VectorXd(prior.head(nominal.parameters()))
-                                              : Eigen::VectorXd(),
-                                          options)
-               : detail::fit_and_simulate(final_model, corrected, corrected_kinematics, identify,
-                                          prior, options, nullptr, &final_identification);
-  });
-  if (same) models[0] = models[1];
-  const detail::MotionSimulation& nominal_sim = models[0];
-  const detail::MotionSimulation& final_sim = models[1];
+  const detail::NominalAndFinal fits = detail::fit_nominal_and_final(
+      nominal, final_model, diagnosis, runs, corrected, identify, prior, options, threads);
+  const detail::MotionSimulation& nominal_sim = fits.nominal_fit;
+  const detail::MotionSimulation& final_sim = fits.final_fit;
   out.nominal_error = nominal_sim.error_rms();
   out.final_error = final_sim.error_rms();
   out.segments = final_sim.segments;
@@ -237,62 +378,12 @@ inline ChainMotionCheck check_chain_motion(const ChainModel& nominal,
   out.threshold = Eigen::VectorXd::Constant(n, nan);
   if (final_sim.theta.size() == 0) return out;
 
-  // What every replicate's noise is added to: the smoothed motion and the final model's torque
-  // along it.
-  std::vector<ChainTrajectory<double>> exact;
-  for (const ChainKinematics<double>& k : corrected_kinematics) {
-    ChainTrajectory<double> log{k.t, k.q, k.tau};
-    detail::for_each_index(threads, threads, [&](Eigen::Index block, int) {
-      Eigen::MatrixXd y(n, final_model.parameters());
-      for (Eigen::Index i = k.size() * block / threads; i < k.size() * (block + 1) / threads; ++i) {
-        final_model.regressor(k.q.row(i), k.qd.row(i), k.qdd.row(i), y);
-        log.tau.row(i) = (y * final_sim.theta).transpose();
-      }
-    });
-    exact.push_back(std::move(log));
-  }
-  std::vector<detail::MotionSimulation> replicates(static_cast<std::size_t>(options.replicates));
-  detail::for_each_index(options.replicates, threads, [&](Eigen::Index b, int) {
-    std::mt19937_64 rng(options.seed + static_cast<std::uint64_t>(b));
-    std::normal_distribution<double> normal(0.0, 1.0);
-    std::vector<ChainTrajectory<double>> logs;
-    for (std::size_t r = 0; r < runs.size(); ++r) {
-      const ChainKinematics<double>& k = corrected_kinematics[r];
-      ChainTrajectory<double> log = exact[r];
-      for (Eigen::Index i = 0; i < k.size(); ++i)
-        for (int j = 0; j < n; ++j) {
-          log.q(i, j) += out.angle_noise[j] * normal(rng);
-          log.tau(i, j) += diagnosis.noise_floor[j] * normal(rng);
-        }
-      logs.push_back(std::move(log));
-    }
-    // A named encoder offset is known only to its standard deviation: the replicate's angles
-    // carry an error of that size, as the log's corrected angles do.
-    for (const ChainEffectTest& e : diagnosis.named)
-      if (e.angle_offset) {
-        const double error = e.std * normal(rng);
-        for (auto& log : logs) log.q.col(e.term.index).array() += error;
-      }
-    std::vector<ChainKinematics<double>> smoothed;
-    for (const auto& log : logs)
-      smoothed.push_back(smooth_chain_run(log, diagnosis.cutoff_hz, identify));
-    replicates[static_cast<std::size_t>(b)] = detail::fit_and_simulate(
-        final_model, logs, smoothed, identify, prior, options, &final_identification);
-  });
-  for (int b = 0; b < options.replicates; ++b) {
-    const detail::MotionSimulation& s = replicates[static_cast<std::size_t>(b)];
-    out.failed_replicates += s.failed;
-    if (s.theta.size()) out.replicate_error.row(b) = s.error_rms().transpose();
-  }
-  for (int j = 0; j < n; ++j) {
-    double largest = nan;
-    for (int b = 0; b < options.replicates; ++b)
-      if (std::isfinite(out.replicate_error(b, j)))
-        largest = std::isfinite(largest) ? std::max(largest, out.replicate_error(b, j))
-                                         : out.replicate_error(b, j);
-    out.threshold[j] = options.margin * largest;
-    if (out.final_error[j] > out.threshold[j]) out.beyond.push_back(j);
-  }
+  const std::vector<ChainTrajectory<double>> exact =
+      detail::exact_logs(final_model, final_sim.theta, corrected.kinematics, threads);
+  const std::vector<detail::MotionSimulation> replicates = detail::replicate_simulations(
+      final_model, diagnosis, exact, corrected.kinematics, out.angle_noise, identify, prior,
+      options, fits.final_identification, threads);
+  detail::judge_motion(out, replicates, options);
   return out;
 }
 
