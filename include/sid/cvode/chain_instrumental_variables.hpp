@@ -97,6 +97,20 @@ inline void check_chain_iv_inputs(const ChainModel& model, const BaseParameters<
                                 ": max_iterations must be >= 1, tolerance and segment > 0");
 }
 
+/// check_chain_iv_inputs for every run, with one sample list per run.
+inline void check_chain_iv_runs(const ChainModel& model, const BaseParameters<double>& base,
+                                const std::vector<ChainKinematics<double>>& runs,
+                                const std::vector<std::vector<Eigen::Index>>& samples,
+                                const LeastSquaresResult<double>& first,
+                                const ChainInstrumentalVariableOptions& options, const char* who) {
+  if (runs.empty() || runs.size() != samples.size())
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(runs.size()) +
+                                " runs but " + std::to_string(samples.size()) +
+                                " sample lists; give one list per run, and at least one run");
+  for (std::size_t r = 0; r < runs.size(); ++r)
+    check_chain_iv_inputs(model, base, runs[r], samples[r], first, options, who);
+}
+
 /// The states of the chain at theta (every parameter, a real arm), at the times of `samples`,
 /// driven by `drive`; each segment starts from k's state. False, with the failure in result, if
 /// a simulation failed.
@@ -160,6 +174,42 @@ inline ChainRegression stacked_chain_regression(
   return all;
 }
 
+/// What the instrument simulations of the runs need: each run's drive (its measured torque
+/// smoothed by GCV), the simulated states at its samples (times and drive filled in) and the
+/// samples' positions in them.
+struct ChainIvSimulations {
+  std::vector<JointSamples<double, Eigen::Dynamic>> drives;
+  std::vector<ChainKinematics<double>> simulated;
+  std::vector<std::vector<Eigen::Index>> every;
+};
+
+inline ChainIvSimulations chain_iv_simulations(
+    const std::vector<ChainKinematics<double>>& runs,
+    const std::vector<std::vector<Eigen::Index>>& samples, int joints) {
+  ChainIvSimulations out;
+  std::vector<JointSamples<double, Eigen::Dynamic>>& drives = out.drives;
+  std::vector<ChainKinematics<double>>& simulated = out.simulated;
+  std::vector<std::vector<Eigen::Index>>& every = out.every;
+  simulated.resize(runs.size());
+  every.resize(runs.size());
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    drives.push_back(smoothed_torque(runs[r]));
+    const auto count = static_cast<Eigen::Index>(samples[r].size());
+    ChainKinematics<double>& s = simulated[r];
+    s.t.resize(count);
+    s.tau.resize(count, joints);
+    for (Eigen::Index a = 0; a < count; ++a) {
+      s.t[a] = runs[r].t[samples[r][static_cast<std::size_t>(a)]];
+      s.tau.row(a) = drives[r].row(samples[r][static_cast<std::size_t>(a)]);
+      every[r].push_back(a);
+    }
+    s.q.resize(count, joints);
+    s.qd.resize(count, joints);
+    s.qdd.resize(count, joints);
+  }
+  return out;
+}
+
 }  // namespace detail
 
 /// @brief Refines a first base-parameter estimate of `model` on the runs' kinematics (each the
@@ -183,12 +233,7 @@ inline InstrumentalVariableResult refine_chain_instrumental_variables(
     const std::vector<std::vector<Eigen::Index>>& samples, const LeastSquaresResult<double>& first,
     const ChainInstrumentalVariableOptions& options = {}) {
   const char* who = "sid::refine_chain_instrumental_variables";
-  if (runs.empty() || runs.size() != samples.size())
-    throw std::invalid_argument(std::string(who) + ": " + std::to_string(runs.size()) +
-                                " runs but " + std::to_string(samples.size()) +
-                                " sample lists; give one list per run, and at least one run");
-  for (std::size_t r = 0; r < runs.size(); ++r)
-    detail::check_chain_iv_inputs(model, base, runs[r], samples[r], first, options, who);
+  detail::check_chain_iv_runs(model, base, runs, samples, first, options, who);
   const int joints = model.joints();
   const std::vector<Eigen::Index>& columns = base.independent;
   const ChainRegression measured = detail::stacked_chain_regression(model, columns, runs, samples);
@@ -199,24 +244,10 @@ inline InstrumentalVariableResult refine_chain_instrumental_variables(
   const Eigen::VectorXd scale = measured.x.colwise().norm().cwiseMax(1e-300).transpose();
   const Eigen::MatrixXd x_scaled = measured.x * scale.cwiseInverse().asDiagonal();
 
-  std::vector<JointSamples<double, Eigen::Dynamic>> drives;
-  std::vector<ChainKinematics<double>> simulated(runs.size());
-  std::vector<std::vector<Eigen::Index>> every(runs.size());
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    drives.push_back(detail::smoothed_torque(runs[r]));
-    const auto count = static_cast<Eigen::Index>(samples[r].size());
-    ChainKinematics<double>& s = simulated[r];
-    s.t.resize(count);
-    s.tau.resize(count, joints);
-    for (Eigen::Index a = 0; a < count; ++a) {
-      s.t[a] = runs[r].t[samples[r][static_cast<std::size_t>(a)]];
-      s.tau.row(a) = drives[r].row(samples[r][static_cast<std::size_t>(a)]);
-      every[r].push_back(a);
-    }
-    s.q.resize(count, joints);
-    s.qd.resize(count, joints);
-    s.qdd.resize(count, joints);
-  }
+  detail::ChainIvSimulations sims = detail::chain_iv_simulations(runs, samples, joints);
+  const std::vector<JointSamples<double, Eigen::Dynamic>>& drives = sims.drives;
+  std::vector<ChainKinematics<double>>& simulated = sims.simulated;
+  const std::vector<std::vector<Eigen::Index>>& every = sims.every;
 
   // The consistent model of each estimate is measured by the growth of the least-squares
   // fit's residual (its triangular factor), whatever the estimate.
