@@ -634,40 +634,41 @@ inline std::string percent(double fraction) {
   return s;
 }
 
-}  // namespace detail
-
-SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
-                                         const std::vector<ChainTrajectory<double>>& runs,
-                                         const ChainDiagnoseOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  const int n = nominal.joints();
-  detail::check_chain_diagnose_options(options, n);
-  if (runs.empty()) throw std::invalid_argument("sid::diagnose_chain: no runs given");
-  ChainIdentifyOptions given = options.identify;
-  const int threads = detail::thread_count(options.threads);
+/// The nominal model's identification at the diagnosis's cutoffs (options.smoothing's choice),
+/// the identification options with those cutoffs, and how they were chosen.
+struct NominalDiagnosisFit {
+  ChainIdentifyOptions given;
+  ChainIdentification id;
   std::string smoothing;
-  std::tie(given.cutoff_hz, smoothing) = detail::diagnosis_cutoffs(nominal, runs, options, threads);
-  given.statistics = false;
-  const ChainIdentification id = identify_chain(nominal, runs, given);
-  if (!id.fit.ok())
-    throw std::invalid_argument("sid::diagnose_chain: the nominal model's fit failed: " +
-                                id.fit.message);
+};
 
-  ChainDiagnosis result;
-  result.cutoff_hz = id.cutoff_hz;
-  result.smoothing = std::move(smoothing);
-  const std::vector<DriveTerm> candidates =
-      detail::chain_candidates(nominal, options.candidate_kinds, options.stribeck_velocities);
-  // Every candidate as its test starts: the drive terms, then the angle offsets.
+inline NominalDiagnosisFit fit_nominal_for_diagnosis(
+    const ChainModel& nominal, const std::vector<ChainTrajectory<double>>& runs,
+    const ChainDiagnoseOptions& options, int threads) {
+  NominalDiagnosisFit out;
+  ChainIdentifyOptions& given = out.given;
+  given = options.identify;
+  std::tie(given.cutoff_hz, out.smoothing) = diagnosis_cutoffs(nominal, runs, options, threads);
+  given.statistics = false;
+  out.id = identify_chain(nominal, runs, given);
+  if (!out.id.fit.ok())
+    throw std::invalid_argument("sid::diagnose_chain: the nominal model's fit failed: " +
+                                out.id.fit.message);
+  return out;
+}
+
+/// Every candidate as its test starts: the drive terms, then the angle offsets.
+inline std::vector<ChainEffectTest> candidate_prototypes(const std::vector<DriveTerm>& candidates,
+                                                         int n, bool angle_offsets) {
   std::vector<ChainEffectTest> prototypes;
   for (const DriveTerm& term : candidates) {
     ChainEffectTest t;
     t.term = term;
     t.id = drive_term_id(term);
-    t.unit = detail::drive_term_unit(term.kind);
+    t.unit = drive_term_unit(term.kind);
     prototypes.push_back(std::move(t));
   }
-  for (int j = 0; options.angle_offsets && j < n; ++j) {
+  for (int j = 0; angle_offsets && j < n; ++j) {
     ChainEffectTest t;
     t.term.index = j;
     t.angle_offset = true;
@@ -676,263 +677,384 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     prototypes.push_back(std::move(t));
   }
   for (ChainEffectTest& t : prototypes) t.practical_size = Eigen::VectorXd::Zero(n);
+  return prototypes;
+}
+
+/// What every round of the selection works on: the candidates as their tests start, the nominal
+/// model with every drive term candidate, the runs smoothed at the diagnosis's cutoffs, and their
+/// equations on the nominal model's base columns, then the drive term candidates' columns, then
+/// the angle offsets' (which each round sets anew).
+struct ChainDiagnosisSetup {
+  explicit ChainDiagnosisSetup(ChainModel with_candidates) : full(std::move(with_candidates)) {}
+
+  ChainModel full;
+  std::vector<ChainEffectTest> prototypes;
+  std::vector<Eigen::Index> base_parameters;  ///< the nominal model's parameter of each base column
+  std::vector<SmoothedChainRun> smoothed;
+  ChainDiagnosisEquations d;
+  Eigen::Index base_count = 0, angle_columns = 0, first_angle_column = 0;
+  double log_rows = 0;
+  Eigen::VectorXd joint_rows;  ///< how many equations each joint has
+  int threads = 1;
+
+  ChainEffectTest make_test(Eigen::Index c) const {
+    return prototypes[static_cast<std::size_t>(c)];
+  }
+};
+
+/// Sets result's cutoffs, smoothing and equation count.
+inline ChainDiagnosisSetup chain_diagnosis_setup(const ChainModel& nominal,
+                                                 const std::vector<ChainTrajectory<double>>& runs,
+                                                 const ChainDiagnoseOptions& options, int threads,
+                                                 ChainDiagnosis& result) {
+  const int n = nominal.joints();
+  NominalDiagnosisFit nominal_fit = fit_nominal_for_diagnosis(nominal, runs, options, threads);
+  const ChainIdentifyOptions& given = nominal_fit.given;
+  const ChainIdentification& id = nominal_fit.id;
+  result.cutoff_hz = id.cutoff_hz;
+  result.smoothing = std::move(nominal_fit.smoothing);
+  const std::vector<DriveTerm> candidates =
+      chain_candidates(nominal, options.candidate_kinds, options.stribeck_velocities);
+  std::vector<ChainEffectTest> prototypes =
+      candidate_prototypes(candidates, n, options.angle_offsets);
   std::vector<DriveTerm> all_terms = nominal.terms();
   all_terms.insert(all_terms.end(), candidates.begin(), candidates.end());
-  const ChainModel full(nominal.chain(), nominal.joint_names(), all_terms, nominal.transmission(),
-                        nominal.coulomb_epsilon());
+  ChainDiagnosisSetup setup(ChainModel(nominal.chain(), nominal.joint_names(), all_terms,
+                                       nominal.transmission(), nominal.coulomb_epsilon()));
+  setup.prototypes = std::move(prototypes);
+  setup.base_parameters = id.base.independent;
+  setup.threads = threads;
 
-  std::vector<detail::SmoothedChainRun> smoothed =
-      detail::smoothed_runs(full, runs, given, "sid::diagnose_chain");
+  std::vector<SmoothedChainRun>& smoothed = setup.smoothed;
+  smoothed = smoothed_runs(setup.full, runs, given, "sid::diagnose_chain");
   for (auto& s : smoothed)
     for (int j = 0; j < n; ++j) s.smooth_joint(j, id.cutoff_hz[j], given.filter_torque);
   std::vector<Eigen::Index> columns = id.base.independent;
-  const auto base_count = static_cast<Eigen::Index>(columns.size());
+  setup.base_count = static_cast<Eigen::Index>(columns.size());
   for (std::size_t c = 0; c < candidates.size(); ++c)
     columns.push_back(nominal.parameters() + static_cast<Eigen::Index>(c));
-  std::vector<detail::ChainEquations> equations =
-      detail::all_equations(full, smoothed, columns, given.rest_fraction);
-  // The angle offsets' columns depend on the fit: each round sets them (below).
-  const auto angle_columns = static_cast<Eigen::Index>(prototypes.size() - candidates.size());
-  for (detail::ChainEquations& e : equations) {
+  std::vector<ChainEquations> equations =
+      all_equations(setup.full, smoothed, columns, given.rest_fraction);
+  // The angle offsets' columns depend on the fit: each round sets them.
+  const auto angle_columns = static_cast<Eigen::Index>(setup.prototypes.size() - candidates.size());
+  setup.angle_columns = angle_columns;
+  for (ChainEquations& e : equations) {
     e.x.conservativeResize(Eigen::NoChange, e.x.cols() + angle_columns);
     e.x.rightCols(angle_columns).setZero();
   }
-  detail::ChainDiagnosisEquations d =
-      detail::chain_diagnosis_equations(equations, n, options.cv_blocks, threads);
-  const auto first_angle_column = static_cast<Eigen::Index>(base_count + candidates.size());
-  result.equations = d.y.size();
-  const auto log_rows = std::log(static_cast<double>(d.y.size()));
-  Eigen::VectorXd joint_rows = Eigen::VectorXd::Zero(n);
-  for (const int j : d.joint) joint_rows[j] += 1.0;
+  setup.d = chain_diagnosis_equations(equations, n, options.cv_blocks, threads);
+  setup.first_angle_column = static_cast<Eigen::Index>(setup.base_count + candidates.size());
+  result.equations = setup.d.y.size();
+  setup.log_rows = std::log(static_cast<double>(setup.d.y.size()));
+  setup.joint_rows = Eigen::VectorXd::Zero(n);
+  for (const int j : setup.d.joint) setup.joint_rows[j] += 1.0;
+  return setup;
+}
 
-  // Practical sizes are judged against the torque noise: the fits use filtered torques, whose
-  // residual is far below it.
+/// σ of each joint's measured torque noise (RMS over the runs). Practical sizes are judged
+/// against it: the fits use filtered torques, whose residual is far below it.
+inline Eigen::VectorXd torque_noise_floor(const std::vector<ChainTrajectory<double>>& runs, int n,
+                                          int threads) {
   Eigen::MatrixXd sigma(n, static_cast<Eigen::Index>(runs.size()));
-  detail::for_each_index(sigma.size(), threads, [&](Eigen::Index k, int) {
+  for_each_index(sigma.size(), threads, [&](Eigen::Index k, int) {
     const auto& run = runs[static_cast<std::size_t>(k / n)];
     sigma(k % n, k / n) = noise_sigma_gcv(run.t, run.tau.col(k % n));
   });
-  result.noise_floor = Eigen::VectorXd::Zero(n);
+  Eigen::VectorXd noise_floor = Eigen::VectorXd::Zero(n);
   for (Eigen::Index r = 0; r < sigma.cols(); ++r)
     for (int j = 0; j < n; ++j)
-      result.noise_floor[j] += sigma(j, r) * sigma(j, r) / static_cast<double>(runs.size());
-  result.noise_floor = result.noise_floor.cwiseSqrt().cwiseMax(1e-300);
-  // The residual against the measured torque, per joint: the figure the report compares.
-  const auto measured_rms = [&](const detail::ChainRound& round) {
-    const Eigen::VectorXd e = d.y_measured - d.x(Eigen::all, round.columns) * round.theta;
-    return Eigen::VectorXd(
-        (detail::per_joint_squares(d, e).array() / joint_rows.array().max(1.0)).sqrt());
-  };
-  std::vector<Eigen::Index> selected(static_cast<std::size_t>(base_count));
-  for (Eigen::Index c = 0; c < base_count; ++c) selected[static_cast<std::size_t>(c)] = c;
-  std::vector<Eigen::Index> remaining;  // positions in `candidates`
-  for (std::size_t c = 0; c < prototypes.size(); ++c)
-    remaining.push_back(static_cast<Eigen::Index>(c));
-  const auto make_test = [&](Eigen::Index c) { return prototypes[static_cast<std::size_t>(c)]; };
+      noise_floor[j] += sigma(j, r) * sigma(j, r) / static_cast<double>(runs.size());
+  return noise_floor.cwiseSqrt().cwiseMax(1e-300);
+}
 
+/// The residual against the measured torque, per joint: the figure the report compares.
+inline Eigen::VectorXd measured_rms(const ChainDiagnosisSetup& setup, const ChainRound& round) {
+  const ChainDiagnosisEquations& d = setup.d;
+  const Eigen::VectorXd e = d.y_measured - d.x(Eigen::all, round.columns) * round.theta;
+  return Eigen::VectorXd(
+      (per_joint_squares(d, e).array() / setup.joint_rows.array().max(1.0)).sqrt());
+}
+
+/// The forward selection as it goes. Each round's fit grows from the last one's by the column
+/// named, and so does each candidate's column less its part in the model's columns
+/// (`unexplained`, zr), by one step per column named; the angle offsets' columns, which change
+/// each round, are projected anew.
+struct ChainSelection {
+  std::vector<Eigen::Index> selected;   ///< columns of the equations in the model
+  std::vector<Eigen::Index> remaining;  ///< positions in the prototypes
   std::vector<ChainEffectTest> last_round;
   std::vector<Eigen::Index> last_tested, inseparable, named_positions;
-  Eigen::MatrixXd nominal_q;  // orthonormal basis of the nominal model's columns
-  bool angle_columns_stale = angle_columns > 0;
-  // Each round's fit grows from the last one's by the column named, and so does each
-  // candidate's column less its part in the model's columns (zr), by one step per column named;
-  // the angle offsets' columns, which change each round, are projected anew.
-  std::optional<detail::ChainRound> fit;
-  Eigen::MatrixXd unexplained(d.y.size(), static_cast<Eigen::Index>(prototypes.size()));
-  const auto project_anew = [&](const std::vector<Eigen::Index>& positions) {
-    if (positions.empty()) return;
-    Eigen::MatrixXd z(d.y.size(), static_cast<Eigen::Index>(positions.size()));
-    for (std::size_t i = 0; i < positions.size(); ++i)
-      z.col(static_cast<Eigen::Index>(i)) = d.x.col(base_count + positions[i]);
-    z = fit->unexplained(z, threads);
-    for (std::size_t i = 0; i < positions.size(); ++i)
-      unexplained.col(positions[i]) = z.col(static_cast<Eigen::Index>(i));
-  };
-  while (!remaining.empty()) {
-    if (!fit) {
-      fit.emplace(d, selected, threads);
-      std::vector<Eigen::Index> drive;
-      for (const Eigen::Index c : remaining)
-        if (base_count + c < first_angle_column) drive.push_back(c);
-      project_anew(drive);
-    } else {
-      fit->add(d, selected.back());
-      // The column added, less its part in the others, is the basis's last: each candidate
-      // loses its part along it.
-      const auto added = fit->q.col(fit->q.cols() - 1);
-      for (const Eigen::Index c : remaining)
-        if (base_count + c < first_angle_column)
-          unexplained.col(c) -= added.dot(unexplained.col(c)) * added;
-    }
-    const detail::ChainRound& round = *fit;
-    // The first round fits the nominal model alone.
-    if (result.nominal_residual_rms.size() == 0) {
-      result.nominal_residual_rms = measured_rms(round);
-      nominal_q = round.q;
-    }
-    // An angle offset is the current model's torque linearised in the angle: at the nominal fit
-    // a missing term elsewhere bends the link parameters (a spring on joint 5 hides an offset of
-    // 0.3 rad on joint 4), so each round takes the model fitted so far, named terms included.
-    if (angle_columns_stale) {
-      Eigen::VectorXd theta = Eigen::VectorXd::Zero(full.parameters());
-      for (std::size_t k = 0; k < selected.size(); ++k) {
-        const Eigen::Index column = selected[k];
-        const double value = round.theta[static_cast<Eigen::Index>(k)] / d.scale[column];
-        if (column < base_count)
-          theta[id.base.independent[static_cast<std::size_t>(column)]] = value;
-        else if (column < first_angle_column)
-          theta[nominal.parameters() + column - base_count] = value;
-      }
-      const Eigen::MatrixXd slopes = detail::angle_offset_slopes(full, smoothed, d, theta, threads);
-      std::vector<Eigen::Index> angles;
-      for (const Eigen::Index c : remaining) {
-        const Eigen::Index column = base_count + c;
-        if (column >= first_angle_column) {
-          detail::set_column(d, column, slopes.col(column - first_angle_column));
-          angles.push_back(c);
-        }
-      }
-      project_anew(angles);
-      angle_columns_stale = false;
-    }
-    std::vector<ChainEffectTest> tests;
-    std::vector<Eigen::Index> tested;
-    std::vector<double> p_raw, gain;
-    for (auto it = remaining.begin(); it != remaining.end();) {
-      const Eigen::Index column = base_count + *it;
-      ChainEffectTest t = make_test(*it);
-      const auto z = d.x.col(column);
-      const auto zr = unexplained.col(*it);
-      const double zz = zr.squaredNorm();
-      if (!(zz > (1.0 - options.separability_r2) * z.squaredNorm())) {
-        t.reason =
-            "not separable: the model's columns explain its column (R^2 > " +
-            detail::significant(options.separability_r2, 6) + ")" +
-            (t.angle_offset ? ": the link parameters absorb it, the torques cannot tell it" : "");
-        result.not_named.push_back(std::move(t));
-        inseparable.push_back(*it);
-        it = remaining.erase(it);
-        continue;
-      }
-      const double gamma = zr.dot(round.residual) / zz;
-      const Eigen::VectorXd change = gamma * zr;
-      const Eigen::VectorXd e = round.residual - change;
-      const double variance = detail::chain_long_run(d, zr, e)(0, 0) / (zz * zz);
-      t.value = gamma / d.scale[column];
-      t.std = std::sqrt(std::max(variance, 0.0)) / d.scale[column];
-      t.wald = variance > 0.0 ? gamma * gamma / variance : 0.0;
-      p_raw.push_back(chi_square_tail(t.wald, 1.0));
-      const Eigen::VectorXd rss = detail::per_joint_squares(d, e);
-      t.bic_drop = -log_rows;
-      for (int j = 0; j < n; ++j)
-        if (joint_rows[j] > 0.0 && rss[j] > 0.0)
-          t.bic_drop += joint_rows[j] * std::log(round.rss[j] / rss[j]);
-      std::vector<Eigen::Index> with = selected;
-      with.push_back(column);
-      t.cv_drop = (round.cv_error - detail::chain_cv_error(d, with)) / round.cv_error;
-      const Eigen::VectorXd changed = detail::per_joint_squares(d, change);
-      for (int j = 0; j < n; ++j)
-        t.practical_size[j] = joint_rows[j] > 0.0
-                                  ? std::sqrt(changed[j] / joint_rows[j]) / result.noise_floor[j]
-                                  : 0.0;
-      tests.push_back(std::move(t));
-      tested.push_back(*it);
-      gain.push_back(gamma * gamma * zz);
-      ++it;
-    }
-    detail::keep_best_stribeck_width(tests, tested, p_raw, gain);
-    last_tested = tested;
-    if (tests.empty()) break;
-    const std::vector<double> p = holm_adjusted(p_raw);
-    const double critical_z = std::sqrt(
-        chi_square_critical(options.family_alpha / static_cast<double>(tests.size()), 1.0));
-    int best = -1;
-    for (std::size_t i = 0; i < tests.size(); ++i) {
-      ChainEffectTest& t = tests[i];
-      t.p_value = p[i];
-      t.detection_limit = critical_z * t.std;
-      const bool positive = t.angle_offset || t.term.kind == DriveTermKind::Offset || t.value > 0.0;
-      if (!(t.p_value < options.family_alpha))
-        t.reason =
-            "not significant (HAC Wald p = " + detail::significant(t.p_value, 2) + " after Holm)";
-      else if (!(t.bic_drop > 0.0))
-        t.reason = "no BIC drop";
-      else if (!(t.cv_drop > options.min_cv_gain))
-        t.reason = "blocked-CV error drops by " + detail::percent(t.cv_drop) +
-                   " %, not more than " + detail::percent(options.min_cv_gain) + " %";
-      else if (!positive)
-        t.reason = "not admissible: the value is not positive";
-      else if (t.practical_size.maxCoeff() < options.negligible_size)
-        t.reason = "significant but negligible: it would change the torque prediction by " +
-                   detail::percent(t.practical_size.maxCoeff()) +
-                   " % of the torque noise at most (below " +
-                   detail::percent(options.negligible_size) + " %)";
-      if (t.reason.empty() &&
-          (best < 0 || t.bic_drop > tests[static_cast<std::size_t>(best)].bic_drop))
-        best = static_cast<int>(i);
-    }
-    if (best < 0) {
-      last_round = std::move(tests);
-      break;
-    }
-    const Eigen::Index chosen = tested[static_cast<std::size_t>(best)];
-    ChainEffectTest named = std::move(tests[static_cast<std::size_t>(best)]);
-    named.reason.clear();
-    named.detection_limit = std::numeric_limits<double>::quiet_NaN();
-    const DriveTerm chosen_term = named.term;
-    const bool chosen_stribeck = !named.angle_offset && chosen_term.kind == DriveTermKind::Stribeck;
-    result.named.push_back(std::move(named));
-    // A named Stribeck curve's width is fitted before the next round: the grid only chose among
-    // its widths, and a curve between them leaves a residual that looks like Coulomb friction
-    // (a curve of 0.4 rad/s, tried at 0.3, was named with a Coulomb term that the fitted width
-    // makes zero).
-    if (chosen_stribeck) {
-      const auto column_at = [&](double vs) {
-        DriveTerm curve = chosen_term;
-        curve.velocity = vs;
-        const ChainModel one(nominal.chain(), nominal.joint_names(), {curve},
-                             nominal.transmission(), nominal.coulomb_epsilon());
-        return detail::last_drive_column(one, smoothed, d);
-      };
-      const auto [lo, hi] = std::minmax_element(options.stribeck_velocities.begin(),
-                                                options.stribeck_velocities.end());
-      const double width =
-          detail::fitted_stribeck_width(d, round.q, 0.5 * *lo, 2.0 * *hi, column_at);
-      result.named.back().term.velocity = width;
-      detail::set_column(d, base_count + chosen, column_at(width));
-    }
-    named_positions.push_back(chosen);
-    selected.push_back(base_count + chosen);
-    angle_columns_stale = angle_columns > 0;
-    remaining.erase(std::find(remaining.begin(), remaining.end(), chosen));
-    // One Stribeck curve per joint: the other widths there are not another effect.
-    for (auto it = remaining.begin(); it != remaining.end();) {
-      const ChainEffectTest& other = prototypes[static_cast<std::size_t>(*it)];
-      if (!chosen_stribeck || other.angle_offset || !detail::same_place(other.term, chosen_term)) {
-        ++it;
-        continue;
-      }
-      ChainEffectTest t = make_test(*it);
-      t.reason = "the Stribeck curve named on this joint, tried at width " +
-                 detail::significant(chosen_term.velocity, 3) + " and fitted to " +
-                 detail::significant(result.named.back().term.velocity, 3) + ", fits it better";
-      result.not_named.push_back(std::move(t));
-      it = remaining.erase(it);
+  Eigen::MatrixXd nominal_q;  ///< orthonormal basis of the nominal model's columns
+  bool angle_columns_stale = false;
+  std::optional<ChainRound> fit;
+  Eigen::MatrixXd unexplained;
+};
+
+inline ChainSelection start_selection(const ChainDiagnosisSetup& setup) {
+  const Eigen::Index base_count = setup.base_count;
+  ChainSelection s;
+  s.selected.resize(static_cast<std::size_t>(base_count));
+  for (Eigen::Index c = 0; c < base_count; ++c) s.selected[static_cast<std::size_t>(c)] = c;
+  for (std::size_t c = 0; c < setup.prototypes.size(); ++c)
+    s.remaining.push_back(static_cast<Eigen::Index>(c));
+  s.angle_columns_stale = setup.angle_columns > 0;
+  s.unexplained.resize(setup.d.y.size(), static_cast<Eigen::Index>(setup.prototypes.size()));
+  return s;
+}
+
+/// The candidates at `positions` (in the prototypes) less their part in the current fit's columns.
+inline void project_anew(const ChainDiagnosisSetup& setup, ChainSelection& selection,
+                         const std::vector<Eigen::Index>& positions) {
+  if (positions.empty()) return;
+  const ChainDiagnosisEquations& d = setup.d;
+  Eigen::MatrixXd z(d.y.size(), static_cast<Eigen::Index>(positions.size()));
+  for (std::size_t i = 0; i < positions.size(); ++i)
+    z.col(static_cast<Eigen::Index>(i)) = d.x.col(setup.base_count + positions[i]);
+  z = selection.fit->unexplained(z, setup.threads);
+  for (std::size_t i = 0; i < positions.size(); ++i)
+    selection.unexplained.col(positions[i]) = z.col(static_cast<Eigen::Index>(i));
+}
+
+/// An angle offset is the current model's torque linearised in the angle: at the nominal fit a
+/// missing term elsewhere bends the link parameters (a spring on joint 5 hides an offset of
+/// 0.3 rad on joint 4), so each round takes the model fitted so far, named terms included.
+inline void linearise_angle_offsets(const ChainModel& nominal, ChainDiagnosisSetup& setup,
+                                    ChainSelection& selection, const ChainRound& round) {
+  ChainDiagnosisEquations& d = setup.d;
+  const std::vector<Eigen::Index>& selected = selection.selected;
+  const Eigen::Index base_count = setup.base_count, first_angle_column = setup.first_angle_column;
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(setup.full.parameters());
+  for (std::size_t k = 0; k < selected.size(); ++k) {
+    const Eigen::Index column = selected[k];
+    const double value = round.theta[static_cast<Eigen::Index>(k)] / d.scale[column];
+    if (column < base_count)
+      theta[setup.base_parameters[static_cast<std::size_t>(column)]] = value;
+    else if (column < first_angle_column)
+      theta[nominal.parameters() + column - base_count] = value;
+  }
+  const Eigen::MatrixXd slopes =
+      angle_offset_slopes(setup.full, setup.smoothed, d, theta, setup.threads);
+  std::vector<Eigen::Index> angles;
+  for (const Eigen::Index c : selection.remaining) {
+    const Eigen::Index column = base_count + c;
+    if (column >= first_angle_column) {
+      set_column(d, column, slopes.col(column - first_angle_column));
+      angles.push_back(c);
     }
   }
+  project_anew(setup, selection, angles);
+  selection.angle_columns_stale = false;
+}
+
+/// The round's fit (the first round's is the nominal model's, whose residual it reports) and the
+/// remaining candidates' columns less their part in it.
+inline const ChainRound& fit_round(const ChainModel& nominal, ChainDiagnosisSetup& setup,
+                                   ChainSelection& selection, ChainDiagnosis& result) {
+  const Eigen::Index base_count = setup.base_count, first_angle_column = setup.first_angle_column;
+  std::optional<ChainRound>& fit = selection.fit;
+  if (!fit) {
+    fit.emplace(setup.d, selection.selected, setup.threads);
+    std::vector<Eigen::Index> drive;
+    for (const Eigen::Index c : selection.remaining)
+      if (base_count + c < first_angle_column) drive.push_back(c);
+    project_anew(setup, selection, drive);
+  } else {
+    fit->add(setup.d, selection.selected.back());
+    // The column added, less its part in the others, is the basis's last: each candidate
+    // loses its part along it.
+    const auto added = fit->q.col(fit->q.cols() - 1);
+    for (const Eigen::Index c : selection.remaining)
+      if (base_count + c < first_angle_column)
+        selection.unexplained.col(c) -= added.dot(selection.unexplained.col(c)) * added;
+  }
+  const ChainRound& round = *fit;
+  if (result.nominal_residual_rms.size() == 0) {
+    result.nominal_residual_rms = measured_rms(setup, round);
+    selection.nominal_q = round.q;
+  }
+  if (selection.angle_columns_stale) linearise_angle_offsets(nominal, setup, selection, round);
+  return round;
+}
+
+/// A round's tests of the candidates that are separable from the model, and in step with them
+/// their positions in the prototypes, raw p-values and the residual each explains.
+struct RoundTests {
+  std::vector<ChainEffectTest> tests;
+  std::vector<Eigen::Index> tested;
+  std::vector<double> p_raw, gain;
+};
+
+/// Tests every remaining candidate against the round's residual (Frisch–Waugh–Lovell); one the
+/// model's columns explain leaves the selection as not separable.
+inline RoundTests test_candidates(const ChainDiagnoseOptions& options,
+                                  const ChainDiagnosisSetup& setup, ChainSelection& selection,
+                                  const ChainRound& round, ChainDiagnosis& result) {
+  const ChainDiagnosisEquations& d = setup.d;
+  const int n = d.joints;
+  const Eigen::VectorXd& joint_rows = setup.joint_rows;
+  std::vector<Eigen::Index>& remaining = selection.remaining;
+  RoundTests out;
+  for (auto it = remaining.begin(); it != remaining.end();) {
+    const Eigen::Index column = setup.base_count + *it;
+    ChainEffectTest t = setup.make_test(*it);
+    const auto z = d.x.col(column);
+    const auto zr = selection.unexplained.col(*it);
+    const double zz = zr.squaredNorm();
+    if (!(zz > (1.0 - options.separability_r2) * z.squaredNorm())) {
+      t.reason =
+          "not separable: the model's columns explain its column (R^2 > " +
+          significant(options.separability_r2, 6) + ")" +
+          (t.angle_offset ? ": the link parameters absorb it, the torques cannot tell it" : "");
+      result.not_named.push_back(std::move(t));
+      selection.inseparable.push_back(*it);
+      it = remaining.erase(it);
+      continue;
+    }
+    const double gamma = zr.dot(round.residual) / zz;
+    const Eigen::VectorXd change = gamma * zr;
+    const Eigen::VectorXd e = round.residual - change;
+    const double variance = chain_long_run(d, zr, e)(0, 0) / (zz * zz);
+    t.value = gamma / d.scale[column];
+    t.std = std::sqrt(std::max(variance, 0.0)) / d.scale[column];
+    t.wald = variance > 0.0 ? gamma * gamma / variance : 0.0;
+    out.p_raw.push_back(chi_square_tail(t.wald, 1.0));
+    const Eigen::VectorXd rss = per_joint_squares(d, e);
+    t.bic_drop = -setup.log_rows;
+    for (int j = 0; j < n; ++j)
+      if (joint_rows[j] > 0.0 && rss[j] > 0.0)
+        t.bic_drop += joint_rows[j] * std::log(round.rss[j] / rss[j]);
+    std::vector<Eigen::Index> with = selection.selected;
+    with.push_back(column);
+    t.cv_drop = (round.cv_error - chain_cv_error(d, with)) / round.cv_error;
+    const Eigen::VectorXd changed = per_joint_squares(d, change);
+    for (int j = 0; j < n; ++j)
+      t.practical_size[j] =
+          joint_rows[j] > 0.0 ? std::sqrt(changed[j] / joint_rows[j]) / result.noise_floor[j] : 0.0;
+    out.tests.push_back(std::move(t));
+    out.tested.push_back(*it);
+    out.gain.push_back(gamma * gamma * zz);
+    ++it;
+  }
+  keep_best_stribeck_width(out.tests, out.tested, out.p_raw, out.gain);
+  selection.last_tested = out.tested;
+  return out;
+}
+
+/// Holm's adjustment over the round, each test's detection limit and why it is not named; the
+/// test to name (of those that pass, the largest BIC drop), -1 for none.
+inline int judge_round(const ChainDiagnoseOptions& options, RoundTests& round_tests) {
+  std::vector<ChainEffectTest>& tests = round_tests.tests;
+  const std::vector<double> p = holm_adjusted(round_tests.p_raw);
+  const double critical_z =
+      std::sqrt(chi_square_critical(options.family_alpha / static_cast<double>(tests.size()), 1.0));
+  int best = -1;
+  for (std::size_t i = 0; i < tests.size(); ++i) {
+    ChainEffectTest& t = tests[i];
+    t.p_value = p[i];
+    t.detection_limit = critical_z * t.std;
+    const bool positive = t.angle_offset || t.term.kind == DriveTermKind::Offset || t.value > 0.0;
+    if (!(t.p_value < options.family_alpha))
+      t.reason = "not significant (HAC Wald p = " + significant(t.p_value, 2) + " after Holm)";
+    else if (!(t.bic_drop > 0.0))
+      t.reason = "no BIC drop";
+    else if (!(t.cv_drop > options.min_cv_gain))
+      t.reason = "blocked-CV error drops by " + percent(t.cv_drop) + " %, not more than " +
+                 percent(options.min_cv_gain) + " %";
+    else if (!positive)
+      t.reason = "not admissible: the value is not positive";
+    else if (t.practical_size.maxCoeff() < options.negligible_size)
+      t.reason = "significant but negligible: it would change the torque prediction by " +
+                 percent(t.practical_size.maxCoeff()) + " % of the torque noise at most (below " +
+                 percent(options.negligible_size) + " %)";
+    if (t.reason.empty() &&
+        (best < 0 || t.bic_drop > tests[static_cast<std::size_t>(best)].bic_drop))
+      best = static_cast<int>(i);
+  }
+  return best;
+}
+
+/// A named Stribeck curve's width is fitted before the next round: the grid only chose among its
+/// widths, and a curve between them leaves a residual that looks like Coulomb friction (a curve
+/// of 0.4 rad/s, tried at 0.3, was named with a Coulomb term that the fitted width makes zero).
+inline void fit_named_stribeck_width(const ChainModel& nominal, const ChainDiagnoseOptions& options,
+                                     ChainDiagnosisSetup& setup, const ChainRound& round,
+                                     Eigen::Index chosen, ChainEffectTest& named) {
+  const DriveTerm chosen_term = named.term;
+  const auto column_at = [&](double vs) {
+    DriveTerm curve = chosen_term;
+    curve.velocity = vs;
+    const ChainModel one(nominal.chain(), nominal.joint_names(), {curve}, nominal.transmission(),
+                         nominal.coulomb_epsilon());
+    return last_drive_column(one, setup.smoothed, setup.d);
+  };
+  const auto [lo, hi] =
+      std::minmax_element(options.stribeck_velocities.begin(), options.stribeck_velocities.end());
+  const double width = fitted_stribeck_width(setup.d, round.q, 0.5 * *lo, 2.0 * *hi, column_at);
+  named.term.velocity = width;
+  set_column(setup.d, setup.base_count + chosen, column_at(width));
+}
+
+/// Names the round's test `best`: the model takes its column, and the selection drops it and,
+/// for a Stribeck curve, the other widths on its joint.
+inline void name_best(const ChainModel& nominal, const ChainDiagnoseOptions& options,
+                      ChainDiagnosisSetup& setup, ChainSelection& selection,
+                      const ChainRound& round, RoundTests& tests, int best,
+                      ChainDiagnosis& result) {
+  std::vector<Eigen::Index>& remaining = selection.remaining;
+  const Eigen::Index chosen = tests.tested[static_cast<std::size_t>(best)];
+  ChainEffectTest named = std::move(tests.tests[static_cast<std::size_t>(best)]);
+  named.reason.clear();
+  named.detection_limit = std::numeric_limits<double>::quiet_NaN();
+  const DriveTerm chosen_term = named.term;
+  const bool chosen_stribeck = !named.angle_offset && chosen_term.kind == DriveTermKind::Stribeck;
+  result.named.push_back(std::move(named));
+  if (chosen_stribeck)
+    fit_named_stribeck_width(nominal, options, setup, round, chosen, result.named.back());
+  selection.named_positions.push_back(chosen);
+  selection.selected.push_back(setup.base_count + chosen);
+  selection.angle_columns_stale = setup.angle_columns > 0;
+  remaining.erase(std::find(remaining.begin(), remaining.end(), chosen));
+  // One Stribeck curve per joint: the other widths there are not another effect.
+  for (auto it = remaining.begin(); it != remaining.end();) {
+    const ChainEffectTest& other = setup.prototypes[static_cast<std::size_t>(*it)];
+    if (!chosen_stribeck || other.angle_offset || !same_place(other.term, chosen_term)) {
+      ++it;
+      continue;
+    }
+    ChainEffectTest t = setup.make_test(*it);
+    t.reason = "the Stribeck curve named on this joint, tried at width " +
+               significant(chosen_term.velocity, 3) + " and fitted to " +
+               significant(result.named.back().term.velocity, 3) + ", fits it better";
+    result.not_named.push_back(std::move(t));
+    it = remaining.erase(it);
+  }
+}
+
+/// The last round's tests, and the candidates it did not test: Stribeck widths where another
+/// width of theirs fitted better.
+inline void report_last_round(const ChainDiagnosisSetup& setup, const ChainSelection& selection,
+                              ChainDiagnosis& result) {
+  const std::vector<ChainEffectTest>& last_round = selection.last_round;
+  const std::vector<Eigen::Index>& last_tested = selection.last_tested;
   result.not_named.insert(result.not_named.end(), last_round.begin(), last_round.end());
-  // Stribeck widths the last round did not test: another width of theirs fitted better.
-  for (const Eigen::Index c : remaining)
+  for (const Eigen::Index c : selection.remaining)
     if (std::find(last_tested.begin(), last_tested.end(), c) == last_tested.end()) {
-      ChainEffectTest t = make_test(c);
+      ChainEffectTest t = setup.make_test(c);
       t.reason = "another Stribeck width fits this joint better";
       result.not_named.push_back(std::move(t));
     }
+}
 
-  // The final fit: values and HAC standard deviations of the named terms.
-  if (!fit) fit.emplace(d, selected, threads);
+/// The final fit: values and HAC standard deviations of the named terms, and the final model's
+/// terms and angle offsets.
+inline const ChainRound& fit_final(const ChainModel& nominal, const ChainDiagnosisSetup& setup,
+                                   ChainSelection& selection, ChainDiagnosis& result) {
+  const ChainDiagnosisEquations& d = setup.d;
+  const std::vector<Eigen::Index>& selected = selection.selected;
+  std::optional<ChainRound>& fit = selection.fit;
+  if (!fit) fit.emplace(d, selected, setup.threads);
   while (fit->columns.size() < selected.size()) fit->add(d, selected[fit->columns.size()]);
-  const detail::ChainRound& final_round = *fit;
+  const ChainRound& final_round = *fit;
   // Only the named terms' variances are reported: the rows of (XᵀX)⁻¹ that give them.
   const auto named_count = static_cast<Eigen::Index>(result.named.size());
   const Eigen::MatrixXd bread =
@@ -942,11 +1064,11 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
                                            static_cast<Eigen::Index>(selected.size())))
           .rightCols(named_count);
   const Eigen::VectorXd variance =
-      detail::chain_long_run_quadratic(d, selected, final_round.residual, bread);
+      chain_long_run_quadratic(d, selected, final_round.residual, bread);
   result.final_terms = nominal.terms();
-  result.angle_offset = Eigen::VectorXd::Zero(n);
+  result.angle_offset = Eigen::VectorXd::Zero(nominal.joints());
   for (std::size_t i = 0; i < result.named.size(); ++i) {
-    const std::size_t k = static_cast<std::size_t>(base_count) + i;
+    const std::size_t k = static_cast<std::size_t>(setup.base_count) + i;
     const Eigen::Index column = selected[k];
     ChainEffectTest& t = result.named[i];
     t.value = final_round.theta[static_cast<Eigen::Index>(k)] / d.scale[column];
@@ -956,85 +1078,138 @@ SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
     else
       result.final_terms.push_back(t.term);
   }
+  return final_round;
+}
 
-  // A named term may stand for a candidate, on any joint, that this motion cannot separate: such
-  // a term, hidden, leaves in the residual the part b of its column that the nominal model does
-  // not explain, and named terms whose own parts a look like it (correlation above look_alike)
-  // take that trace up, one or several. The hidden term would then have had the value v that
-  // gives them their values in the final fit (least squares over them), and would have left in
-  // its residual what the final model cannot explain of v times its column: where the residual
-  // lacks that (HAC z beyond the Wald tests' level) the data refute the look-alike. On the
-  // simulated TX40 every pair above a correlation of 0.1 but the spring's on joint 2 was refuted
-  // so, at z > 13. Neither can a candidate stand behind named terms that would have to be
-  // inadmissible, nor one the model explains exactly (it leaves no trace).
-  if (!inseparable.empty() && !named_positions.empty()) {
-    // 1 - R^2 of 1e-10: an angle offset's column by forward differences is good to about 1e-7.
-    constexpr double kExplainedExactly = 1e-5;
-    const auto given_nominal = [&](Eigen::Index c) {
-      const Eigen::VectorXd z = d.x.col(base_count + c);
-      return Eigen::VectorXd(z - nominal_q * (nominal_q.transpose() * z));
-    };
-    const Eigen::LDLT<Eigen::MatrixXd> final_gram(d.gram_total(selected, selected));
-    std::vector<Eigen::VectorXd> parts;  // of the named terms
-    for (const Eigen::Index c : named_positions) parts.push_back(given_nominal(c));
-    for (const Eigen::Index c : inseparable) {
-      const ChainEffectTest& other = prototypes[static_cast<std::size_t>(c)];
-      const Eigen::VectorXd b = given_nominal(c);
-      if (!(b.norm() > kExplainedExactly)) continue;
-      // Columns are scaled to unit norm: values in scaled units, then in the other's own.
-      const Eigen::VectorXd z = d.x.col(base_count + c);
-      // Per unit of the other: its least squares on the final columns.
-      const Eigen::VectorXd share = final_gram.solve(d.x(Eigen::all, selected).transpose() * z);
-      std::vector<std::size_t> takers;
-      std::vector<double> correlations;
-      double along = 0.0, squares = 0.0;
-      for (std::size_t i = 0; i < parts.size(); ++i) {
-        const Eigen::VectorXd& a = parts[i];
-        const double correlation = std::abs(a.dot(b)) / std::max(a.norm() * b.norm(), 1e-300);
-        const auto k = static_cast<Eigen::Index>(static_cast<std::size_t>(base_count) + i);
-        if (!(correlation > options.look_alike) || share[k] == 0.0) continue;
-        takers.push_back(i);
-        correlations.push_back(correlation);
-        along += share[k] * final_round.theta[k];
-        squares += share[k] * share[k];
-      }
-      if (takers.empty()) continue;
-      const double v = along / squares;
-      const double implied = v / d.scale[base_count + c];
-      const bool positive = other.angle_offset || other.term.kind == DriveTermKind::Offset;
-      if (!positive && !(implied > 0.0)) continue;
-      const Eigen::VectorXd left = v * (z - final_round.q * (final_round.q.transpose() * z));
-      const double expected = left.norm();
-      if (expected > 0.0) {
-        const Eigen::VectorXd e = left / expected;
-        const double variance = detail::chain_long_run(d, e, final_round.residual)(0, 0);
-        const double missing =
-            (expected - e.dot(final_round.residual)) / std::sqrt(std::max(variance, 1e-300));
-        if (missing > 0.0 && chi_square_tail(missing * missing, 1.0) < options.family_alpha)
-          continue;
-      }
-      for (std::size_t n_taker = 0; n_taker < takers.size(); ++n_taker) {
-        ChainEffectTest& t = result.named[takers[n_taker]];
-        t.look_alikes.push_back(other.id);
-        t.caveat += (t.caveat.empty() ? "" : "; ") + other.id + " (not separable on this motion) " +
-                    "may stand behind it: hidden at about " + detail::significant(implied, 2) +
-                    " " + other.unit + " it would leave " +
-                    (takers.size() > 1 ? "the named terms' traces" : "this term's trace") +
-                    " (what the nominal model leaves of the two columns correlates at " +
-                    detail::significant(correlations[n_taker], 2) +
-                    "), and the residual does not refute it";
-      }
-    }
+/// Adds `other` to the caveats of the named terms `takers` (positions in result.named), which
+/// would take its trace up with the correlations given if it stood hidden at `implied`.
+inline void add_look_alike(const ChainEffectTest& other, double implied,
+                           const std::vector<std::size_t>& takers,
+                           const std::vector<double>& correlations, ChainDiagnosis& result) {
+  for (std::size_t n_taker = 0; n_taker < takers.size(); ++n_taker) {
+    ChainEffectTest& t = result.named[takers[n_taker]];
+    t.look_alikes.push_back(other.id);
+    t.caveat += (t.caveat.empty() ? "" : "; ") + other.id + " (not separable on this motion) " +
+                "may stand behind it: hidden at about " + significant(implied, 2) + " " +
+                other.unit + " it would leave " +
+                (takers.size() > 1 ? "the named terms' traces" : "this term's trace") +
+                " (what the nominal model leaves of the two columns correlates at " +
+                significant(correlations[n_taker], 2) + "), and the residual does not refute it";
   }
+}
 
+/// A named term may stand for a candidate, on any joint, that this motion cannot separate: such
+/// a term, hidden, leaves in the residual the part b of its column that the nominal model does
+/// not explain, and named terms whose own parts a look like it (correlation above look_alike)
+/// take that trace up, one or several. The hidden term would then have had the value v that
+/// gives them their values in the final fit (least squares over them), and would have left in
+/// its residual what the final model cannot explain of v times its column: where the residual
+/// lacks that (HAC z beyond the Wald tests' level) the data refute the look-alike. On the
+/// simulated TX40 every pair above a correlation of 0.1 but the spring's on joint 2 was refuted
+/// so, at z > 13. Neither can a candidate stand behind named terms that would have to be
+/// inadmissible, nor one the model explains exactly (it leaves no trace).
+inline void add_look_alike_caveats(const ChainDiagnoseOptions& options,
+                                   const ChainDiagnosisSetup& setup,
+                                   const ChainSelection& selection, const ChainRound& final_round,
+                                   ChainDiagnosis& result) {
+  if (selection.inseparable.empty() || selection.named_positions.empty()) return;
+  const ChainDiagnosisEquations& d = setup.d;
+  const Eigen::Index base_count = setup.base_count;
+  const std::vector<Eigen::Index>& selected = selection.selected;
+  // 1 - R^2 of 1e-10: an angle offset's column by forward differences is good to about 1e-7.
+  constexpr double kExplainedExactly = 1e-5;
+  const auto given_nominal = [&](Eigen::Index c) {
+    const Eigen::VectorXd z = d.x.col(base_count + c);
+    return Eigen::VectorXd(z - selection.nominal_q * (selection.nominal_q.transpose() * z));
+  };
+  const Eigen::LDLT<Eigen::MatrixXd> final_gram(d.gram_total(selected, selected));
+  std::vector<Eigen::VectorXd> parts;  // of the named terms
+  for (const Eigen::Index c : selection.named_positions) parts.push_back(given_nominal(c));
+  for (const Eigen::Index c : selection.inseparable) {
+    const ChainEffectTest& other = setup.prototypes[static_cast<std::size_t>(c)];
+    const Eigen::VectorXd b = given_nominal(c);
+    if (!(b.norm() > kExplainedExactly)) continue;
+    // Columns are scaled to unit norm: values in scaled units, then in the other's own.
+    const Eigen::VectorXd z = d.x.col(base_count + c);
+    // Per unit of the other: its least squares on the final columns.
+    const Eigen::VectorXd share = final_gram.solve(d.x(Eigen::all, selected).transpose() * z);
+    std::vector<std::size_t> takers;
+    std::vector<double> correlations;
+    double along = 0.0, squares = 0.0;
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      const Eigen::VectorXd& a = parts[i];
+      const double correlation = std::abs(a.dot(b)) / std::max(a.norm() * b.norm(), 1e-300);
+      const auto k = static_cast<Eigen::Index>(static_cast<std::size_t>(base_count) + i);
+      if (!(correlation > options.look_alike) || share[k] == 0.0) continue;
+      takers.push_back(i);
+      correlations.push_back(correlation);
+      along += share[k] * final_round.theta[k];
+      squares += share[k] * share[k];
+    }
+    if (takers.empty()) continue;
+    const double v = along / squares;
+    const double implied = v / d.scale[base_count + c];
+    const bool positive = other.angle_offset || other.term.kind == DriveTermKind::Offset;
+    if (!positive && !(implied > 0.0)) continue;
+    const Eigen::VectorXd left = v * (z - final_round.q * (final_round.q.transpose() * z));
+    const double expected = left.norm();
+    if (expected > 0.0) {
+      const Eigen::VectorXd e = left / expected;
+      const double variance = chain_long_run(d, e, final_round.residual)(0, 0);
+      const double missing =
+          (expected - e.dot(final_round.residual)) / std::sqrt(std::max(variance, 1e-300));
+      if (missing > 0.0 && chi_square_tail(missing * missing, 1.0) < options.family_alpha) continue;
+    }
+    add_look_alike(other, implied, takers, correlations, result);
+  }
+}
+
+/// The nominal and the final model's residuals against the measured torque, what the final
+/// model leaves beyond the noise, and the smoothed runs.
+inline void report_residuals(ChainDiagnosisSetup& setup, const ChainRound& final_round,
+                             ChainDiagnosis& result) {
   if (result.nominal_residual_rms.size() == 0)  // no candidate was tried: nothing was named
-    result.nominal_residual_rms = measured_rms(final_round);
-  result.final_residual_rms = measured_rms(final_round);
+    result.nominal_residual_rms = measured_rms(setup, final_round);
+  result.final_residual_rms = measured_rms(setup, final_round);
   result.unexplained_rms =
       (result.final_residual_rms.array().square() - result.noise_floor.array().square())
           .max(0.0)
           .sqrt();
-  for (auto& run : smoothed) result.kinematics.push_back(std::move(run.k));
+  for (auto& run : setup.smoothed) result.kinematics.push_back(std::move(run.k));
+}
+
+}  // namespace detail
+
+SID_INLINE ChainDiagnosis diagnose_chain(const ChainModel& nominal,
+                                         const std::vector<ChainTrajectory<double>>& runs,
+                                         const ChainDiagnoseOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  const int n = nominal.joints();
+  detail::check_chain_diagnose_options(options, n);
+  if (runs.empty()) throw std::invalid_argument("sid::diagnose_chain: no runs given");
+  const int threads = detail::thread_count(options.threads);
+  ChainDiagnosis result;
+  detail::ChainDiagnosisSetup setup =
+      detail::chain_diagnosis_setup(nominal, runs, options, threads, result);
+  result.noise_floor = detail::torque_noise_floor(runs, n, threads);
+
+  detail::ChainSelection selection = detail::start_selection(setup);
+  while (!selection.remaining.empty()) {
+    const detail::ChainRound& round = detail::fit_round(nominal, setup, selection, result);
+    detail::RoundTests tests = detail::test_candidates(options, setup, selection, round, result);
+    if (tests.tests.empty()) break;
+    const int best = detail::judge_round(options, tests);
+    if (best < 0) {
+      selection.last_round = std::move(tests.tests);
+      break;
+    }
+    detail::name_best(nominal, options, setup, selection, round, tests, best, result);
+  }
+  detail::report_last_round(setup, selection, result);
+
+  const detail::ChainRound& final_round = detail::fit_final(nominal, setup, selection, result);
+  detail::add_look_alike_caveats(options, setup, selection, final_round, result);
+  detail::report_residuals(setup, final_round, result);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
