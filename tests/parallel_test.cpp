@@ -3,8 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <mutex>
+#include <set>
 #include <stdexcept>
+#include <thread>
 #include <vector>
+
+#if defined(__linux__)
+#include <sched.h>
+#endif
 
 TEST(Parallel, EveryIndexRunsOnceForAnyThreadCount) {
   for (int threads : {1, 2, 3, 8}) {
@@ -36,4 +43,35 @@ TEST(Parallel, ThreadCountIsTheRequestOrEveryCore) {
   EXPECT_EQ(sid::detail::thread_count(3), 3);
   EXPECT_GE(sid::detail::thread_count(0), 1);
   EXPECT_EQ(sid::detail::thread_count(-1), sid::detail::thread_count(0));
+}
+
+#if defined(__linux__)
+TEST(Parallel, EveryCoreMeansTheCoresThisProcessMayRunOn) {
+  cpu_set_t all;
+  ASSERT_EQ(sched_getaffinity(0, sizeof(all), &all), 0);
+  EXPECT_EQ(sid::detail::thread_count(0), CPU_COUNT(&all));
+  // Pinned to one core, the process is offered one thread, whatever the machine has.
+  int first = 0;
+  while (!CPU_ISSET(first, &all)) ++first;
+  cpu_set_t one;
+  CPU_ZERO(&one);
+  CPU_SET(first, &one);
+  ASSERT_EQ(sched_setaffinity(0, sizeof(one), &one), 0);
+  const int pinned = sid::detail::thread_count(0);
+  ASSERT_EQ(sched_setaffinity(0, sizeof(all), &all), 0);
+  EXPECT_EQ(pinned, 1);
+}
+#endif
+
+TEST(Parallel, NoMoreThreadsStartThanThereAreTasks) {
+  std::mutex mutex;
+  std::set<std::thread::id> ids;
+  std::set<int> workers;
+  sid::detail::for_each_index(2, 16, [&](Eigen::Index, int worker) {
+    const std::lock_guard<std::mutex> lock(mutex);
+    ids.insert(std::this_thread::get_id());
+    workers.insert(worker);
+  });
+  EXPECT_LE(ids.size(), 2u);
+  for (int w : workers) EXPECT_LT(w, 2);
 }
