@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "small_arm.hpp"
+
 #include <Eigen/Core>
 #include <Eigen/SVD>
 
@@ -17,6 +19,10 @@
 #include <vector>
 
 namespace {
+
+using sid_test::small_arm;
+using sid_test::small_options;
+using sid_test::SmallArm;
 
 constexpr double kPi = 3.14159265358979323846;
 // Rest at t = 0 and t = 1 / f: sums of at most 2H terms of size ~1 cancel to round-off.
@@ -30,50 +36,6 @@ constexpr double kLimitTol = 1e-9;
 // Coulomb columns' tanh(qd / 0.01) bends sharply where a joint turns, so both differences carry
 // truncation errors of ~1e-5 relative there; a wrong term would be off by O(1).
 constexpr double kGradientTol = 1e-4;
-
-// A three-joint arm (standard DH, a shoulder with a vertical axis and two pitch joints) with
-// links of plausible mass and inertia, and the drive terms sid_identify fits.
-struct SmallArm {
-  sid::ChainModel model;
-  Eigen::VectorXd theta;
-  std::vector<Eigen::Index> columns;
-  Eigen::VectorXd q0;
-  sid::ExcitationLimits limits;
-};
-
-SmallArm small_arm() {
-  const sid::SerialChain<double> chain(
-      sid::DhConvention::Standard,
-      {{0.0, kPi / 2, 0.3, 0.0}, {0.4, 0.0, 0.0, 0.0}, {0.3, 0.0, 0.0, 0.0}});
-  const sid::Transmission direct(3);
-  sid::ChainModel model(chain, {}, sid::drive_terms(sid::default_drive_term_kinds(), direct),
-                        direct);
-  Eigen::VectorXd theta = Eigen::VectorXd::Zero(model.parameters());
-  const double mass[] = {3.0, 2.0, 1.0};
-  const Eigen::Vector3d com[] = {{0.0, -0.1, 0.0}, {-0.2, 0.0, 0.02}, {-0.15, 0.01, 0.0}};
-  for (int i = 0; i < 3; ++i) {
-    sid::LinkInertia<double> link;
-    link.mass = mass[i];
-    link.com = com[i];
-    link.inertia_com = Eigen::Vector3d(0.02, 0.03, 0.025).asDiagonal() * mass[i] * 0.5;
-    theta.segment<10>(10 * i) = sid::standard_parameters(link);
-  }
-  std::vector<Eigen::Index> columns = sid::chain_base_parameters(model).independent;
-  SmallArm arm{std::move(model), theta, std::move(columns), Eigen::Vector3d(0.0, 0.3, -0.2), {}};
-  arm.limits.q_range = Eigen::Vector3d(1.5, 1.0, 1.2);
-  arm.limits.qd_max = Eigen::Vector3d(1.5, 1.5, 2.0);
-  arm.limits.qdd_max = Eigen::Vector3d(3.0, 3.0, 4.0);
-  arm.limits.tau_max = Eigen::Vector3d(12.0, 18.0, 6.0);
-  return arm;
-}
-
-sid::ExcitationDesignOptions small_options() {
-  sid::ExcitationDesignOptions o;
-  o.harmonics = 4;
-  o.base_frequency = 0.2;
-  o.samples = 100;
-  return o;
-}
 
 sid::FourierTrajectory random_coefficients(int joints, int harmonics, unsigned seed) {
   std::mt19937_64 rng(seed);
