@@ -166,20 +166,37 @@ inline std::vector<DriveTerm> terms_with_candidates(
   return terms;
 }
 
+/// Each candidate's column in the conditioned regressor (the base columns, then the angle
+/// offsets'), from its place among the model's terms; -1 for a drive term whose column is not a
+/// base column.
+inline std::vector<Eigen::Index> regressor_positions(
+    const RobotExcitation& e, const std::vector<ExcitationCandidate>& separate,
+    const std::vector<std::ptrdiff_t>& term_positions) {
+  std::vector<Eigen::Index> out;
+  auto offset = static_cast<Eigen::Index>(e.columns.size());
+  for (std::size_t i = 0; i < separate.size(); ++i) {
+    if (separate[i].angle_offset) {
+      out.push_back(offset++);
+      continue;
+    }
+    const auto at = std::find(e.columns.begin(), e.columns.end(),
+                              e.model.rigid_body_parameters() + term_positions[i]);
+    out.push_back(at == e.columns.end() ? -1 : at - e.columns.begin());
+  }
+  return out;
+}
+
 /// Refuses a candidate no excitation separates: a drive term whose column is not a base column,
 /// an angle offset the link parameters absorb on every motion, alone or with the others given.
 inline void check_separable(const RobotExcitation& e,
                             const std::vector<ExcitationCandidate>& separate,
-                            const std::vector<std::ptrdiff_t>& positions) {
-  for (std::size_t i = 0; i < separate.size(); ++i) {
-    if (separate[i].angle_offset) continue;
-    const Eigen::Index column = e.model.rigid_body_parameters() + positions[i];
-    if (std::find(e.columns.begin(), e.columns.end(), column) == e.columns.end())
+                            const std::vector<Eigen::Index>& positions) {
+  for (std::size_t i = 0; i < separate.size(); ++i)
+    if (positions[i] < 0)
       throw InseparableCandidate(
           separate[i].id +
           " is a combination of the other parameters on every motion (e.g. a rotor about a "
           "vertical first axis is that link's inertia): no excitation separates it");
-  }
   const Eigen::VectorXd together =
       angle_offset_unexplained(e.model, e.theta, e.columns, e.angle_offsets);
   for (std::size_t i = 0, k = 0; i < separate.size(); ++i) {
@@ -200,20 +217,14 @@ inline void check_separable(const RobotExcitation& e,
   }
 }
 
-/// Each candidate's share given all the other columns of the conditioned regressor w (the base
-/// columns, then the angle offsets'): its column moved last in turn.
-inline Eigen::VectorXd candidate_shares(const RobotExcitation& e, const Eigen::MatrixXd& w,
-                                        const std::vector<ExcitationCandidate>& separate,
-                                        const std::vector<std::ptrdiff_t>& positions) {
+/// Each candidate's share given all the other columns of the conditioned regressor w: its column
+/// moved last in turn.
+inline Eigen::VectorXd candidate_shares(const Eigen::MatrixXd& w,
+                                        const std::vector<Eigen::Index>& positions) {
   Eigen::MatrixXd reordered(w.rows(), w.cols());
-  Eigen::VectorXd out(static_cast<Eigen::Index>(separate.size()));
-  for (std::size_t i = 0, offset = 0; i < separate.size(); ++i) {
-    const Eigen::Index c =
-        separate[i].angle_offset
-            ? static_cast<Eigen::Index>(e.columns.size() + offset++)
-            : static_cast<Eigen::Index>(std::find(e.columns.begin(), e.columns.end(),
-                                                  e.model.rigid_body_parameters() + positions[i]) -
-                                        e.columns.begin());
+  Eigen::VectorXd out(static_cast<Eigen::Index>(positions.size()));
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    const Eigen::Index c = positions[i];
     reordered << w.leftCols(c), w.rightCols(w.cols() - c - 1), w.col(c);
     out[static_cast<Eigen::Index>(i)] = unexplained_shares(reordered, 1)[0];
   }
@@ -239,15 +250,17 @@ inline RobotExcitation excite_robot(const ChainModel& nominal,
     throw std::invalid_argument(
         "sid::excite_robot: the description has no link inertias to compute torques with (a DH "
         "table); give a URDF's");
-  std::vector<std::ptrdiff_t> positions;
+  std::vector<std::ptrdiff_t> term_positions;
   const std::vector<DriveTerm> terms =
-      detail::terms_with_candidates(nominal, options.separate, positions);
+      detail::terms_with_candidates(nominal, options.separate, term_positions);
   RobotExcitation e(ChainModel(nominal.chain(), nominal.joint_names(), terms,
                                nominal.transmission(), nominal.coulomb_epsilon()));
   e.theta = description_prior(e.model, description);
   e.columns = chain_base_parameters(e.model).independent;
   for (const ExcitationCandidate& c : options.separate)
     if (c.angle_offset) e.angle_offsets.push_back(c.term.index);
+  const std::vector<Eigen::Index> positions =
+      detail::regressor_positions(e, options.separate, term_positions);
   detail::check_separable(e, options.separate, positions);
   e.separable_share = 1.0 - ChainDiagnoseOptions().separability_r2;
 
@@ -262,8 +275,7 @@ inline RobotExcitation excite_robot(const ChainModel& nominal,
                            scaled_condition_number(w),
                            excitation_use(e.model, e.theta, f, limits, check_samples),
                            {}};
-    if (!options.separate.empty())
-      a.separate_shares = detail::candidate_shares(e, w, options.separate, positions);
+    if (!options.separate.empty()) a.separate_shares = detail::candidate_shares(w, positions);
     return a;
   };
   const auto started = std::chrono::steady_clock::now();
