@@ -6,7 +6,6 @@
 #include <mutex>
 #include <set>
 #include <stdexcept>
-#include <thread>
 #include <vector>
 
 #if defined(__linux__)
@@ -64,14 +63,14 @@ TEST(Parallel, EveryCoreMeansTheCoresThisProcessMayRunOn) {
 #endif
 
 TEST(Parallel, NoMoreThreadsStartThanThereAreTasks) {
+  // Two tasks on sixteen threads asked for: only workers 0 and 1 may exist. Repeated, since a
+  // thread too many takes a task only when it is quicker than the others.
   std::mutex mutex;
-  std::set<std::thread::id> ids;
   std::set<int> workers;
-  sid::detail::for_each_index(2, 16, [&](Eigen::Index, int worker) {
-    const std::lock_guard<std::mutex> lock(mutex);
-    ids.insert(std::this_thread::get_id());
-    workers.insert(worker);
-  });
-  EXPECT_LE(ids.size(), 2u);
+  for (int repeat = 0; repeat < 50; ++repeat)
+    sid::detail::for_each_index(2, 16, [&](Eigen::Index, int worker) {
+      const std::lock_guard<std::mutex> lock(mutex);
+      workers.insert(worker);
+    });
   for (int w : workers) EXPECT_LT(w, 2);
 }
