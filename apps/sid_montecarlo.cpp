@@ -290,7 +290,7 @@ int chain_study(const Options& o) {
                                         o.force);
     });
   const sid::app::ChainStudyTruth truth = sid::app::chain_study_truth(chain_options(o), checked);
-  const sid::app::SimulatedRobot& sim = truth.simulated;
+  const sid::SimulatedRobot& sim = truth.simulated;
   const sid::app::ChainStudySetup& setup = truth.setup;
   if (!o.plots.empty())
     for_option("--plots", [&] {
@@ -327,7 +327,7 @@ int chain_study(const Options& o) {
   }
   if (!o.plots.empty())
     report_plots(o, sid::app::write_chain_montecarlo_plots(o.plots, sim.truth, result, options,
-                                                           sim.robot.joint_names));
+                                                           setup.joint_names));
   return sid::app::kExitOk;
 }
 

@@ -300,10 +300,6 @@ std::vector<sid::DriveTermKind> identify_drive_term_kinds(const std::string& eff
   return listed;
 }
 
-sid::DescriptionDynamics description_dynamics(const RobotDescription& robot) {
-  return {robot.link_parameters, robot.damping, robot.friction};
-}
-
 Eigen::VectorXd description_prior(const RobotDescription& robot, const sid::ChainModel& model) {
   return sid::description_prior(model, description_dynamics(robot));
 }

@@ -82,10 +82,6 @@ LoadedChain load_identify_chain(const ChainIdentifyAppOptions& options);
 std::vector<sid::DriveTermKind> identify_drive_term_kinds(const std::string& effects,
                                                           bool no_default_effects);
 
-/// @brief What the description gives of the arm's dynamics: a URDF's links and joints'
-/// <dynamics>; nothing for a DH table.
-sid::DescriptionDynamics description_dynamics(const RobotDescription& robot);
-
 /// @brief What the description says of model's parameters: its links, and its joints'
 /// <dynamics> damping and friction for the viscous and Coulomb terms (0 elsewhere); empty for a
 /// DH table, which has no inertias. The prior a physically consistent fit stays near.

@@ -1,9 +1,8 @@
 #pragma once
-// sid_simulate --robot: an identification experiment on any serial chain of a URDF, simulated
-// with CVODE under a random Fourier excitation or a given torque, written as the log
-// sid_identify --robot reads.
+// sid_simulate --robot: the options of sid::simulate_robot read from the command line and its
+// files, the log written as sid_identify --robot reads it.
 
-#include <sid/model/chain_model.hpp>
+#include <sid/cvode/simulate_robot.hpp>
 #include <sid/trajectory.hpp>
 
 #include <Eigen/Core>
@@ -47,46 +46,32 @@ struct ChainSimulateOptions {
   std::string push_point;  ///< "X,Y,Z" [m] in the tip link's frame; empty: its origin
 };
 
-/// @brief Where an excitation of the robot may go: q0 about the middle of each joint's <limit>,
-/// |q - q0| at most q_range and 90 % of its half width, |qd| at most qd_max and 90 % of its
-/// velocity limit (q_range and qd_max alone where the URDF gives no limit).
-struct ExcitationRoom {
-  Eigen::VectorXd q0, q_range, qd_max;
-};
-
-/// @throws InputError when a joint's <limit> range is empty (source names the file).
+/// @brief sid::excitation_room, its refusal naming the description's file (source).
+/// @throws InputError when a joint's <limit> range is empty.
 ExcitationRoom excitation_room(const RobotDescription& robot, const std::string& source,
                                double q_range, double qd_max);
 
-/// The experiment before any noise: the description, the model simulated (viscous, Coulomb and
-/// armature terms on every joint, springs and Stribeck terms where asked), its true parameters,
-/// the sensor faults of the effects (torque offsets added to the sensed torque, angle offsets
-/// subtracted from the sensed angle; not part of the model) and the true samples.
-struct SimulatedRobot {
-  RobotDescription robot;
-  ChainModel model;
-  Eigen::VectorXd theta;
-  Eigen::VectorXd torque_offset;
-  Eigen::VectorXd angle_offset;
-  ChainKinematics<double> truth;
-  Eigen::MatrixXd external;  ///< the pushes' joint torques per sample; empty without pushes
-};
+/// @brief Checks the excitation's options and reads the description of options.robot.
+/// @throws InputError naming the problem (options out of range, a DH table, which has no inertias).
+RobotDescription read_simulated_robot(const ChainSimulateOptions& options);
 
-/// Reads the description and simulates it under the random Fourier excitation drawn from rng
-/// (the options' seed is not used here), the trajectory file or the torque file. Noise, columns
-/// and output are ignored.
-/// @throws InputError naming the problem (a DH table, an unknown effect, a failed simulation).
-SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& options, std::mt19937_64& rng);
+/// The experiment of the options on robot (read_simulated_robot) without noise
+/// (sid::simulate_robot_truth), the random excitation drawn from rng (the options' seed is not
+/// used here).
+/// @throws InputError naming the problem (an unknown effect, a failed simulation).
+SimulatedRobot simulate_robot_truth(const ChainSimulateOptions& options,
+                                    const RobotDescription& robot, std::mt19937_64& rng);
 
-/// The simulated experiment and its log: the sensors' faults and noise added to the truth.
+/// The simulated experiment and its log (sid::simulate_robot, the options' seed).
 struct SimulatedLog {
+  RobotDescription robot;
   SimulatedRobot simulated;
   ChainTrajectory<double> measured;
   std::vector<std::string> warnings;  ///< torques above <limit effort>, motion beyond <limit>
 };
 
-/// Simulates and adds the sensors' faults and noise (the options' seed drives both).
-/// @throws InputError as simulate_robot_truth.
+/// Reads the description and simulates the log.
+/// @throws InputError as read_simulated_robot and simulate_robot_truth.
 SimulatedLog simulate_robot_log(const ChainSimulateOptions& options);
 
 /// Simulates, adds noise and writes the CSV (t, q1..qn, tau1..taun; with truth the true q, qd,

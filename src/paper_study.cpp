@@ -113,12 +113,13 @@ ChainStudyTruth chain_study_truth(const ChainStudyOptions& o,
   c.q_range = o.q_range;
   c.qd_max = o.qd_max;
   std::mt19937_64 rng(options.seed);
-  SimulatedRobot simulated = simulate_robot_truth(c, rng);
+  const RobotDescription robot = read_simulated_robot(c);
+  SimulatedRobot simulated = simulate_robot_truth(c, robot, rng);
   ChainStudySetup setup;
   setup.robot = o.robot;
   setup.base = o.base;
   setup.tip = o.tip;
-  setup.joint_names = simulated.robot.joint_names;
+  setup.joint_names = robot.joint_names;
   setup.samples = simulated.truth.size();
   setup.duration = o.duration;
   setup.sample_time = c.sample_time;

@@ -236,17 +236,7 @@ RobotDescription read_robot_description(const std::string& path, const std::stri
                          " end links (" + join(leaves) + "); name the chain's last with --tip");
       to = leaves.front();
     }
-    sid::UrdfChain urdf = sid::chain_from_urdf(text, from, to, held);
-    const Eigen::Index n = urdf.chain.joints();
-    Eigen::VectorXd damping = Eigen::VectorXd::Zero(n), friction = Eigen::VectorXd::Zero(n);
-    std::vector<sid::UrdfJointLimits> limits(static_cast<std::size_t>(n));
-    for (Eigen::Index j = 0; j < n && j < static_cast<Eigen::Index>(urdf.joints.size()); ++j) {
-      damping[j] = urdf.joints[static_cast<std::size_t>(j)].damping;
-      friction[j] = urdf.joints[static_cast<std::size_t>(j)].friction;
-      limits[static_cast<std::size_t>(j)] = urdf.joints[static_cast<std::size_t>(j)].limit;
-    }
-    return {urdf.chain,      urdf.joint_names,        from,    to,       text,
-            urdf.link_names, urdf.theta.head(10 * n), damping, friction, limits};
+    return sid::robot_description_from_urdf(text, from, to, held);
   } catch (const std::invalid_argument& e) {
     throw InputError(path + ": " + e.what());
   }

@@ -4,6 +4,7 @@
 /// table gives the chain and its joint names, a YAML file or a URDF's <transmission> elements the
 /// drives' gear ratios and coupling.
 
+#include <sid/model/robot_description.hpp>
 #include <sid/model/serial_chain.hpp>
 #include <sid/model/transmission.hpp>
 #include <sid/model/urdf.hpp>
@@ -16,20 +17,6 @@
 #include <vector>
 
 namespace sid::app {
-
-/// @brief The chain of a robot description and what the reports call its parts.
-struct RobotDescription {
-  sid::SerialChain<double> chain;
-  std::vector<std::string> joint_names;
-  std::string base, tip;  ///< the links the chain runs between (URDF), or "" for a DH table
-  std::string urdf;       ///< the URDF's text ("" for a DH table)
-  std::vector<std::string> link_names;  ///< the link each joint moves (URDF)
-  Eigen::VectorXd link_parameters;      ///< the description's ten per link (URDF), else empty
-  /// Per joint, the URDF's <dynamics> damping and friction (0 where absent or for a DH table).
-  Eigen::VectorXd damping, friction;
-  /// Per joint, the URDF's <limit> (NaN where absent); empty for a DH table.
-  std::vector<sid::UrdfJointLimits> limits;
-};
 
 /// @brief Reads a URDF (a file whose first element is <robot>) or a DH table (see
 /// docs/serial-arms.md). base and tip name the URDF links the chain runs between; empty: the

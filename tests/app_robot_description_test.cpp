@@ -36,7 +36,7 @@ TEST_F(RobotDescriptionFiles, DhRowsMayBePrismatic) {
                                  "turn 0 0 0.1 0\n"
                                  "lift 0.2 0 0.3 0.5 prismatic  # slides by q + 0.3 m\n"
                                  "roll 0 0 0 0 revolute\n");
-  const sid::app::RobotDescription robot = sid::app::read_robot_description(path, "", "");
+  const sid::RobotDescription robot = sid::app::read_robot_description(path, "", "");
   ASSERT_EQ(robot.chain.joints(), 3);
   EXPECT_EQ(robot.chain.joint_type(0), sid::JointType::Revolute);
   EXPECT_EQ(robot.chain.joint_type(1), sid::JointType::Prismatic);
@@ -119,7 +119,7 @@ TEST_F(RobotDescriptionFiles, FixedLinkPoseComposesTheFixedJointsBelowTheLastMov
 )";
   constexpr double kTolerance = 1e-15;
   const std::string path = write("arm.urdf", urdf);
-  const sid::app::RobotDescription robot = sid::app::read_robot_description(path, "base", "tool");
+  const sid::RobotDescription robot = sid::app::read_robot_description(path, "base", "tool");
   ASSERT_EQ(robot.link_names.back(), "l1");
   const sid::FramePose<double> l1 = sid::app::fixed_link_pose(robot, "l1", "--payload-frame");
   EXPECT_EQ(l1.rotation, Eigen::Matrix3d::Identity());
@@ -148,7 +148,7 @@ TEST_F(RobotDescriptionFiles, FixedLinkPoseComposesTheFixedJointsBelowTheLastMov
   // The frame's name: the tip link unless another is given; a DH table names none.
   EXPECT_EQ(sid::app::payload_frame_name(robot, "", "--payload-frame"), "tool");
   EXPECT_EQ(sid::app::payload_frame_name(robot, "flange", "--payload-frame"), "flange");
-  const sid::app::RobotDescription dh = sid::app::read_robot_description(
+  const sid::RobotDescription dh = sid::app::read_robot_description(
       write("arm.dh", "convention standard\nj1 0 0 0.3 0\n"), "", "");
   EXPECT_EQ(sid::app::payload_frame_name(dh, "", "--payload-frame"), "");
   EXPECT_NE(message_of([&] {

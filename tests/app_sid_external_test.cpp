@@ -172,7 +172,7 @@ TEST_F(SidExternal, TheLibraryCallGivesTheToolsNumbers) {
   const sid_test::AppRun r = external("--json ext.json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(read(file("ext.json")));
-  const sid::app::RobotDescription robot =
+  const sid::RobotDescription robot =
       sid::app::read_robot_description(SID_TEST_DATA_DIR "/urdf/real/ur5_robot.urdf", "", "tool0");
   const sid::app::IdentifiedArm arm = sid::app::read_identified_arm(
       (shared_ / "arm.json").string(), robot, sid::Transmission(robot.chain.joints()));

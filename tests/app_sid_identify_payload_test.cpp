@@ -46,7 +46,7 @@ std::string ur5_path() { return SID_TEST_DATA_DIR "/urdf/real/ur5_robot.urdf"; }
 /// The UR5 to tool0 with the drive terms sid_identify fits by default (viscous, Coulomb, offset,
 /// armature), and a true arm a little off its description (a CAD model is never exact).
 struct Ur5 {
-  sid::app::RobotDescription robot = sid::app::read_robot_description(ur5_path(), "", "tool0");
+  sid::RobotDescription robot = sid::app::read_robot_description(ur5_path(), "", "tool0");
   sid::Transmission transmission{6};
   sid::ChainModel model{robot.chain, robot.joint_names,
                         sid::drive_terms({sid::DriveTermKind::Viscous, sid::DriveTermKind::Coulomb,

@@ -24,6 +24,7 @@
 #include <sid/model/link_inertia.hpp>
 #include <sid/model/model.hpp>
 #include <sid/model/regressor.hpp>
+#include <sid/model/robot_description.hpp>
 #include <sid/model/serial_chain.hpp>
 #include <sid/model/terms.hpp>
 #include <sid/model/two_link_arm.hpp>
