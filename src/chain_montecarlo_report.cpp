@@ -72,10 +72,6 @@ std::string fixed(double v, int width, int digits) {
   return text.size() >= static_cast<std::size_t>(width) ? " " + text : text;
 }
 
-nlohmann::json number_or_null(double v) {
-  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
-}
-
 }  // namespace
 
 std::string chain_montecarlo_header(const sid::ChainMonteCarloOptions& options,
@@ -188,23 +184,15 @@ nlohmann::json chain_montecarlo_json(const sid::ChainMonteCarloResult& result,
     nlohmann::json ms = nlohmann::json::object();
     for (const auto& s : level.methods) {
       const MethodFigures f = figures_of(s, result.parameter_names);
-      nlohmann::json m;
-      m["mean"] = to_json_array(s.mean);
-      m["var"] = to_json_array(s.variance);
-      m["bias_pct"] = to_json_array(s.bias_pct);
-      m["std_pct"] = to_json_array(s.std_pct);
+      nlohmann::json m = method_summary_json(s);
       m["median_abs_bias_pct"] = number_or_null(f.median_bias);
       m["max_abs_bias_pct"] = number_or_null(f.max_bias);
       m["max_abs_bias_parameter"] = f.max_bias_name;
       m["median_std_pct"] = number_or_null(f.median_std);
       m["max_std_pct"] = number_or_null(f.max_std);
-      m["rms_rel_error_pct"] = number_or_null(s.rms_rel_error_pct);
-      m["standard_error"] = to_json_array(s.standard_error);
       m["torque_error_pct"] = to_json_array(s.torque_error_pct);
       m["mean_torque_error_pct"] = number_or_null(f.mean_torque);
       m["max_torque_error_pct"] = number_or_null(f.max_torque);
-      m["failed_runs"] = s.failed_runs;
-      m["failures"] = s.failures;
       ms[sid::study_method_name(s.method)] = m;
     }
     l["methods"] = ms;

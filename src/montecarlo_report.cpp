@@ -231,10 +231,6 @@ std::string failures(const sid::LevelSummary& level, int runs) {
   return text.empty() ? text : "Failed runs:\n" + text;
 }
 
-nlohmann::json number_or_null(double v) {
-  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
-}
-
 const char* parameter_unit(int p) { return p < 3 ? "kg m^2" : p < 5 ? "kg m" : "N m s/rad"; }
 
 }  // namespace
@@ -325,6 +321,23 @@ std::string montecarlo_wall_line(const sid::MonteCarloResult& result) {
          "; the numbers do not depend on the thread count)\n";
 }
 
+nlohmann::json number_or_null(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
+
+nlohmann::json method_summary_json(const sid::MethodSummary& s) {
+  nlohmann::json m;
+  m["mean"] = to_json_array(s.mean);
+  m["var"] = to_json_array(s.variance);
+  m["bias_pct"] = to_json_array(s.bias_pct);
+  m["std_pct"] = to_json_array(s.std_pct);
+  m["rms_rel_error_pct"] = number_or_null(s.rms_rel_error_pct);
+  m["standard_error"] = to_json_array(s.standard_error);
+  m["failed_runs"] = s.failed_runs;
+  m["failures"] = s.failures;
+  return m;
+}
+
 nlohmann::json montecarlo_json(const sid::MonteCarloResult& result,
                                const sid::MonteCarloOptions& options, Eigen::Index samples) {
   nlohmann::json j;
@@ -346,16 +359,8 @@ nlohmann::json montecarlo_json(const sid::MonteCarloResult& result,
     l["sigma_q2"] = level.sigma_q2;
     nlohmann::json ms = nlohmann::json::object();
     for (const auto& s : level.methods) {
-      nlohmann::json m;
-      m["mean"] = to_json_array(s.mean);
-      m["var"] = to_json_array(s.variance);
-      m["bias_pct"] = to_json_array(s.bias_pct);
-      m["std_pct"] = to_json_array(s.std_pct);
-      m["rms_rel_error_pct"] = number_or_null(s.rms_rel_error_pct);
+      nlohmann::json m = method_summary_json(s);
       m["worst_abs_bias_pct"] = number_or_null(s.worst_abs_bias_pct);
-      m["standard_error"] = to_json_array(s.standard_error);
-      m["failed_runs"] = s.failed_runs;
-      m["failures"] = s.failures;
       const int column = paper_column(s.method);
       if (paper && column >= 0) {
         nlohmann::json pm = nlohmann::json::array(), pv = nlohmann::json::array(),

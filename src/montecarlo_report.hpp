@@ -37,6 +37,13 @@ std::string montecarlo_tables(const sid::MonteCarloResult& result);
 /// @brief "wall time 12.3 s (2 threads)": the one line that depends on the machine.
 std::string montecarlo_wall_line(const sid::MonteCarloResult& result);
 
+/// @brief A number, or null for NaN and infinities (which JSON has not).
+nlohmann::json number_or_null(double v);
+
+/// @brief What both studies' JSON say of one method at one level: the estimates' mean,
+/// variance, bias and std (in % of the truth), standard error, RMS relative error and failures.
+nlohmann::json method_summary_json(const sid::MethodSummary& summary);
+
 /// @brief The JSON summary: {"runs", "seed", "true_theta", "levels": [{"sigma_q2", "methods":
 /// {"raw": {"mean", "var", "bias_pct", "std_pct", "rms_rel_error_pct", ...}, ...}}],
 /// "wall_seconds"} plus extras (sigma_tau2, threads, methods, samples, paper values).
