@@ -50,10 +50,6 @@ inline const char* drive_term_unit(DriveTermKind kind) {
   return "";
 }
 
-inline bool same_place(const DriveTerm& a, const DriveTerm& b) {
-  return a.kind == b.kind && a.index == b.index && a.on_motor == b.on_motor;
-}
-
 /// The candidates: every kind on every joint and coupled motor the nominal model lacks, a
 /// Stribeck term at each of the widths.
 inline std::vector<DriveTerm> chain_candidates(const ChainModel& nominal,

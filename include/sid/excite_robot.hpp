@@ -148,10 +148,6 @@ inline std::vector<DriveTerm> terms_with_candidates(
     const ChainModel& nominal, const std::vector<ExcitationCandidate>& separate,
     std::vector<std::ptrdiff_t>& positions) {
   std::vector<DriveTerm> terms = nominal.terms();
-  const auto same = [](const DriveTerm& a, const DriveTerm& b) {
-    return a.kind == b.kind && a.index == b.index && a.on_motor == b.on_motor &&
-           (a.kind != DriveTermKind::Stribeck || a.velocity == b.velocity);
-  };
   positions.clear();
   for (const ExcitationCandidate& c : separate) {
     if (c.angle_offset) {
@@ -159,7 +155,7 @@ inline std::vector<DriveTerm> terms_with_candidates(
       continue;
     }
     auto at = std::find_if(terms.begin(), terms.end(),
-                           [&](const DriveTerm& t) { return same(t, c.term); });
+                           [&](const DriveTerm& t) { return same_term(t, c.term); });
     if (at == terms.end()) at = terms.insert(terms.end(), c.term);
     positions.push_back(at - terms.begin());
   }

@@ -35,9 +35,7 @@ SID_INLINE ChainModel::ChainModel(SerialChain<double> chain, std::vector<std::st
       throw std::invalid_argument(who + "a " + drive_term_keyword(t.kind) + " term is on joint " +
                                   std::to_string(t.index + 1) + " of " + std::to_string(n));
     for (std::size_t b = 0; b < a; ++b)
-      if (terms_[b].kind == t.kind && terms_[b].index == t.index &&
-          terms_[b].on_motor == t.on_motor &&
-          (t.kind != DriveTermKind::Stribeck || terms_[b].velocity == t.velocity))
+      if (same_term(terms_[b], t))
         throw std::invalid_argument(who + "the " + drive_term_keyword(t.kind) + " term of " +
                                     term_place(t) + " is given twice");
   }

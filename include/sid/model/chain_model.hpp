@@ -54,6 +54,16 @@ struct DriveTerm {
   double velocity = 0.1;  ///< vs of a Stribeck term [rad/s or m/s], > 0; unused by the others
 };
 
+/// @brief The same kind on the same joint or motor (Stribeck terms of any widths).
+inline bool same_place(const DriveTerm& a, const DriveTerm& b) noexcept {
+  return a.kind == b.kind && a.index == b.index && a.on_motor == b.on_motor;
+}
+
+/// @brief The same term: the same place and, for a Stribeck term, the same width.
+inline bool same_term(const DriveTerm& a, const DriveTerm& b) noexcept {
+  return same_place(a, b) && (a.kind != DriveTermKind::Stribeck || a.velocity == b.velocity);
+}
+
 /// @brief The keyword of a kind, as --effects takes it.
 inline const char* drive_term_keyword(DriveTermKind kind) {
   switch (kind) {
@@ -225,9 +235,8 @@ class ChainModel {
     static const char* const prefix[] = {"fv_", "fc_", "fa_", "off_", "Ia_", "k_", "fs_"};
     std::string name = prefix[static_cast<int>(t.kind)] + std::string(t.on_motor ? "m" : "") +
                        std::to_string(t.index + 1);
-    const bool widths = std::count_if(terms_.begin(), terms_.end(), [&](const DriveTerm& o) {
-                          return o.kind == t.kind && o.index == t.index && o.on_motor == t.on_motor;
-                        }) > 1;
+    const bool widths = std::count_if(terms_.begin(), terms_.end(),
+                                      [&](const DriveTerm& o) { return same_place(o, t); }) > 1;
     if (t.kind == DriveTermKind::Stribeck && widths) {
       std::ostringstream width;
       width << t.velocity;
