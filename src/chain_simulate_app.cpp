@@ -29,12 +29,9 @@ std::string joined(const Eigen::RowVectorXd& values) {
 
 /// The kinds of --effect, by their ids' stems.
 const std::pair<const char*, RobotEffectKind> kEffectStems[] = {
-    {"viscous", RobotEffectKind::Viscous},
-    {"coulomb", RobotEffectKind::Coulomb},
-    {"armature", RobotEffectKind::Armature},
-    {"spring", RobotEffectKind::Spring},
-    {"stribeck", RobotEffectKind::Stribeck},
-    {"torque_offset", RobotEffectKind::TorqueOffset},
+    {"viscous", RobotEffectKind::Viscous},         {"coulomb", RobotEffectKind::Coulomb},
+    {"armature", RobotEffectKind::Armature},       {"spring", RobotEffectKind::Spring},
+    {"stribeck", RobotEffectKind::Stribeck},       {"torque_offset", RobotEffectKind::TorqueOffset},
     {"angle_offset", RobotEffectKind::AngleOffset}};
 
 /// Parses --effect KIND_jN:VALUE (angle_offset_qN:VALUE, stribeck_jN:Fc,Fs,vs).
@@ -175,8 +172,8 @@ auto in_options_words(const ChainSimulateOptions& o, const Simulation& simulatio
                      std::to_string(e.joint + 1) + ":0.01");
   } catch (const RobotSimulationFailed& e) {
     if (!o.torque.empty())
-      throw InputError("the simulation under the torque of " + o.torque + " stopped at t = " +
-                       shortest_number(e.stopped_at) + " s (" + e.message +
+      throw InputError("the simulation under the torque of " + o.torque +
+                       " stopped at t = " + shortest_number(e.stopped_at) + " s (" + e.message +
                        "); the torque does not hold the arm (gravity?) or spins it away");
     throw InputError(std::string(e.what()) +
                      "; check the description's inertias or the tolerances --rtol/--atol");
@@ -223,8 +220,7 @@ SimulatedLog simulate_robot_log(const ChainSimulateOptions& o) {
   std::vector<std::string> warnings;
   for (const JointLimitExcess& e : log.beyond_limits)
     warnings.push_back(beyond_limit_warning(robot, e));
-  return {std::move(robot), std::move(log.simulated), std::move(log.measured),
-          std::move(warnings)};
+  return {std::move(robot), std::move(log.simulated), std::move(log.measured), std::move(warnings)};
 }
 
 long simulate_robot(const ChainSimulateOptions& o) {

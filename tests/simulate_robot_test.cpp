@@ -172,17 +172,17 @@ TEST(SimulateRobot, RefusesWhatCannotBeSimulated) {
   sid::RobotDescription dh = ur5();
   dh.link_parameters.resize(0);
   EXPECT_THROW(sid::simulated_robot_model(dh, {}, 0.01), std::invalid_argument);
-  EXPECT_THROW(sid::simulated_robot_model(ur5(), {effect(sid::RobotEffectKind::Coulomb, 6, 0.1)},
-                                          0.01),
-               std::invalid_argument);
+  EXPECT_THROW(
+      sid::simulated_robot_model(ur5(), {effect(sid::RobotEffectKind::Coulomb, 6, 0.1)}, 0.01),
+      std::invalid_argument);
   EXPECT_THROW(sid::simulated_robot_model(ur5(),
                                           {effect(sid::RobotEffectKind::Coulomb, 1, 0.1),
                                            effect(sid::RobotEffectKind::Coulomb, 1, 0.2)},
                                           0.01),
                std::invalid_argument);
-  EXPECT_THROW(sid::simulated_robot_model(ur5(), {effect(sid::RobotEffectKind::Armature, 1, -1.0)},
-                                          0.01),
-               std::invalid_argument);
+  EXPECT_THROW(
+      sid::simulated_robot_model(ur5(), {effect(sid::RobotEffectKind::Armature, 1, -1.0)}, 0.01),
+      std::invalid_argument);
 
   // The TX40's last link has no inertia about its axis until a rotor is added.
   const sid::RobotDescription tx40 = sid::robot_description_from_urdf(

@@ -35,8 +35,9 @@ inline void check_robot_effects(const std::vector<RobotEffect>& effects, int joi
   for (std::size_t k = 0; k < effects.size(); ++k) {
     check_robot_effect(effects[k], joints);
     for (std::size_t i = 0; i < k; ++i)
-      require_simulable(effects[i].kind != effects[k].kind || effects[i].joint != effects[k].joint,
-                        "an effect is given twice on joint " + std::to_string(effects[k].joint + 1));
+      require_simulable(
+          effects[i].kind != effects[k].kind || effects[i].joint != effects[k].joint,
+          "an effect is given twice on joint " + std::to_string(effects[k].joint + 1));
   }
 }
 
@@ -53,9 +54,9 @@ inline void check_robot_simulation_options(const RobotSimulationOptions& o) {
   require_simulable(r.harmonics >= 1 && r.harmonics <= 50, "harmonics must be 1..50");
   require_simulable(std::isfinite(r.base_frequency) && r.base_frequency > 0.0,
                     "the base frequency must be finite and > 0 [Hz]");
-  require_simulable(std::isfinite(r.q_range) && r.q_range > 0.0 && std::isfinite(r.qd_max) &&
-                        r.qd_max > 0.0,
-                    "q_range and qd_max must be finite and > 0");
+  require_simulable(
+      std::isfinite(r.q_range) && r.q_range > 0.0 && std::isfinite(r.qd_max) && r.qd_max > 0.0,
+      "q_range and qd_max must be finite and > 0");
   require_simulable(!(o.trajectory && o.torque), "a trajectory and a torque are two inputs");
   require_simulable(!(o.torque && !o.pushes.pushes.empty()),
                     "pushes apply to a tracked excitation, not to a driving torque");
@@ -166,7 +167,11 @@ SID_INLINE SimulatedRobot simulated_robot_model(const RobotDescription& robot,
       stribeck_excess.push_back(e.stribeck_static - e.value);
     }
   SimulatedRobot arm{ChainModel(robot.chain, robot.joint_names, terms, direct, coulomb_epsilon),
-                     {}, Eigen::VectorXd::Zero(n), Eigen::VectorXd::Zero(n), {}, {}};
+                     {},
+                     Eigen::VectorXd::Zero(n),
+                     Eigen::VectorXd::Zero(n),
+                     {},
+                     {}};
   // theta: the description's links, its <dynamics> damping and friction, the effects on top.
   arm.theta = Eigen::VectorXd::Zero(arm.model.parameters());
   arm.theta.head(arm.model.rigid_body_parameters()) = robot.link_parameters;

@@ -86,7 +86,7 @@ struct RobotSimulationOptions {
   std::optional<FourierTrajectory> trajectory;  ///< a trajectory to track instead
   std::optional<DrivingTorque> torque;          ///< or a torque to drive the arm with
   ToolPushes pushes;                            ///< the outside's, tracked runs only
-  double duration = 10.0;      ///< of a tracked run [s]
+  double duration = 10.0;                       ///< of a tracked run [s]
   double sample_time = 0.0025;  ///< of a tracked run [s]; a driven run has the torque's times
   SimulatorOptions simulator = SimulatorOptions{1e-9, 1e-9};
   MeasurementNoise<double> noise{1e-6, 1e-2};  ///< the sensors' (angle, torque) variances

@@ -37,10 +37,9 @@ struct RobotDescription {
 /// @brief The chain of the URDF `text` from link base to link tip (sid::chain_from_urdf), the
 /// joints off it held at `held` (by name; the others at 0).
 /// @throws std::invalid_argument as chain_from_urdf.
-inline RobotDescription robot_description_from_urdf(const std::string& text,
-                                                    const std::string& base,
-                                                    const std::string& tip,
-                                                    const std::map<std::string, double>& held = {}) {
+inline RobotDescription robot_description_from_urdf(
+    const std::string& text, const std::string& base, const std::string& tip,
+    const std::map<std::string, double>& held = {}) {
   UrdfChain urdf = chain_from_urdf(text, base, tip, held);
   const Eigen::Index n = urdf.chain.joints();
   Eigen::VectorXd damping = Eigen::VectorXd::Zero(n), friction = Eigen::VectorXd::Zero(n);
@@ -50,9 +49,9 @@ inline RobotDescription robot_description_from_urdf(const std::string& text,
     friction[j] = urdf.joints[static_cast<std::size_t>(j)].friction;
     limits[static_cast<std::size_t>(j)] = urdf.joints[static_cast<std::size_t>(j)].limit;
   }
-  return {std::move(urdf.chain), std::move(urdf.joint_names), base,     tip,     text,
-          std::move(urdf.link_names), urdf.theta.head(kLinkParameters * n), damping, friction,
-          limits};
+  return {
+      std::move(urdf.chain),      std::move(urdf.joint_names),          base,    tip,      text,
+      std::move(urdf.link_names), urdf.theta.head(kLinkParameters * n), damping, friction, limits};
 }
 
 /// @brief What the description gives of the arm's dynamics: a URDF's links and joints'
