@@ -5,6 +5,7 @@
 /// domain and the Monte Carlo study. The simulator and what is built on it (free simulation,
 /// output error, instrumental variables) need SUNDIALS and are included from sid/cvode/.
 
+#include <sid/arm.hpp>
 #include <sid/banded.hpp>
 #include <sid/base_parameters.hpp>
 #include <sid/butterworth.hpp>

@@ -111,105 +111,6 @@ inline void check_chain_iv_runs(const ChainModel& model, const BaseParameters<do
     check_chain_iv_inputs(model, base, runs[r], samples[r], first, options, who);
 }
 
-/// The states of the chain at theta (every parameter, a real arm), at the times of `samples`,
-/// driven by `drive`; each segment starts from k's state. False, with the failure in result, if
-/// a simulation failed.
-inline bool simulate_chain_states(const ChainModel& model, const Eigen::VectorXd& theta,
-                                  const ChainKinematics<double>& k,
-                                  const JointSamples<double, Eigen::Dynamic>& drive,
-                                  const std::vector<Eigen::Index>& samples,
-                                  const ChainInstrumentalVariableOptions& options, const char* who,
-                                  int it, ChainKinematics<double>& simulated,
-                                  InstrumentalVariableResult& result) {
-  using Vector = ChainModel::Vector;
-  const int n = model.joints();
-  const auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
-                       Eigen::Map<Eigen::VectorXd>& xdot) {
-    const Vector q = x.head(n), qd = x.tail(n);
-    xdot.head(n) = qd;
-    xdot.tail(n) = model.forward_dynamics(theta, q, qd, drive_at(k.t, drive, time));
-  };
-  const bool simulated_ok = simulate_segments(
-      rhs,
-      [&](Eigen::Index begin) {
-        const Eigen::Index at = samples[static_cast<std::size_t>(begin)];
-        Eigen::VectorXd start(2 * n);
-        start << k.q.row(at).transpose(), k.qd.row(at).transpose();
-        return start;
-      },
-      options.segment, options.simulator, who, it, simulated, result);
-  if (!simulated_ok) return false;
-  const auto count = static_cast<Eigen::Index>(samples.size());
-  for (Eigen::Index a = 0; a < count; ++a) {
-    const Vector q = simulated.q.row(a).transpose(), qd = simulated.qd.row(a).transpose(),
-                 tau = simulated.tau.row(a).transpose();
-    simulated.qdd.row(a) = model.forward_dynamics(theta, q, qd, tau).transpose();
-  }
-  return true;
-}
-
-/// chain_regression() of several runs, stacked joint by joint as it lays out one run (the
-/// per-joint statistics of the fits need that).
-inline ChainRegression stacked_chain_regression(
-    const ChainModel& model, const std::vector<Eigen::Index>& columns,
-    const std::vector<ChainKinematics<double>>& runs,
-    const std::vector<std::vector<Eigen::Index>>& samples) {
-  const int joints = model.joints();
-  std::vector<ChainRegression> parts;
-  Eigen::Index rows = 0;
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    parts.push_back(chain_regression(model, columns, runs[r], samples[r]));
-    rows += parts.back().y.size();
-  }
-  ChainRegression all{Eigen::MatrixXd(rows, static_cast<Eigen::Index>(columns.size())),
-                      Eigen::VectorXd(rows)};
-  Eigen::Index at = 0;
-  for (int j = 0; j < joints; ++j)
-    for (const ChainRegression& part : parts) {
-      const Eigen::Index m = part.y.size() / joints;
-      all.x.middleRows(at, m) = part.x.middleRows(j * m, m);
-      all.y.segment(at, m) = part.y.segment(j * m, m);
-      at += m;
-    }
-  return all;
-}
-
-/// What the instrument simulations of the runs need: each run's drive (its measured torque
-/// smoothed by GCV), the simulated states at its samples (times and drive filled in) and the
-/// samples' positions in them.
-struct ChainIvSimulations {
-  std::vector<JointSamples<double, Eigen::Dynamic>> drives;
-  std::vector<ChainKinematics<double>> simulated;
-  std::vector<std::vector<Eigen::Index>> every;
-};
-
-inline ChainIvSimulations chain_iv_simulations(
-    const std::vector<ChainKinematics<double>>& runs,
-    const std::vector<std::vector<Eigen::Index>>& samples, int joints) {
-  ChainIvSimulations out;
-  std::vector<JointSamples<double, Eigen::Dynamic>>& drives = out.drives;
-  std::vector<ChainKinematics<double>>& simulated = out.simulated;
-  std::vector<std::vector<Eigen::Index>>& every = out.every;
-  simulated.resize(runs.size());
-  every.resize(runs.size());
-  for (std::size_t r = 0; r < runs.size(); ++r) {
-    drives.push_back(smoothed_torque(runs[r]));
-    const auto count = static_cast<Eigen::Index>(samples[r].size());
-    ChainKinematics<double>& s = simulated[r];
-    s.t.resize(count);
-    s.tau.resize(count, joints);
-    for (Eigen::Index a = 0; a < count; ++a) {
-      s.t[a] = runs[r].t[samples[r][static_cast<std::size_t>(a)]];
-      s.tau.row(a) = drives[r].row(samples[r][static_cast<std::size_t>(a)]);
-      every[r].push_back(a);
-    }
-    s.q.resize(count, joints);
-    s.qd.resize(count, joints);
-    s.qdd.resize(count, joints);
-  }
-  return out;
-}
-
 }  // namespace detail
 
 /// @brief Refines a first base-parameter estimate of `model` on the runs' kinematics (each the
@@ -234,60 +135,12 @@ inline InstrumentalVariableResult refine_chain_instrumental_variables(
     const ChainInstrumentalVariableOptions& options = {}) {
   const char* who = "sid::refine_chain_instrumental_variables";
   detail::check_chain_iv_runs(model, base, runs, samples, first, options, who);
-  const int joints = model.joints();
-  const std::vector<Eigen::Index>& columns = base.independent;
-  const ChainRegression measured = detail::stacked_chain_regression(model, columns, runs, samples);
-  if (measured.x.rows() <= measured.x.cols())
-    throw std::invalid_argument(std::string(who) + ": " + std::to_string(measured.x.rows()) +
-                                " equations for " + std::to_string(measured.x.cols()) +
-                                " base parameters");
-  const Eigen::VectorXd scale = measured.x.colwise().norm().cwiseMax(1e-300).transpose();
-  const Eigen::MatrixXd x_scaled = measured.x * scale.cwiseInverse().asDiagonal();
-
-  detail::ChainIvSimulations sims = detail::chain_iv_simulations(runs, samples, joints);
-  const std::vector<JointSamples<double, Eigen::Dynamic>>& drives = sims.drives;
-  std::vector<ChainKinematics<double>>& simulated = sims.simulated;
-  const std::vector<std::vector<Eigen::Index>>& every = sims.every;
-
-  // The consistent model of each estimate is measured by the growth of the least-squares
-  // fit's residual (its triangular factor), whatever the estimate.
-  ChainIdentification estimate;
-  estimate.base = base;
-  estimate.fit = first;
-  estimate.fitted.relative_residual = first.residual.norm() / std::max(measured.y.norm(), 1e-300);
-
-  InstrumentalVariableResult result;
-  result.fit = first;
-  for (int it = 1; it <= options.max_iterations; ++it) {
-    estimate.fit.theta = result.fit.theta;
-    const ChainConsistentFit physical =
-        consistent_chain_parameters(model, estimate, options.prior, options.consistency);
-    for (std::size_t r = 0; r < runs.size(); ++r)
-      if (!detail::simulate_chain_states(model, physical.theta, runs[r], drives[r], samples[r],
-                                         options, who, it, simulated[r], result))
-        return result;
-    const ChainRegression instruments =
-        detail::stacked_chain_regression(model, columns, simulated, every);
-    Eigen::VectorXd next;
-    if (!detail::solve_iv(instruments.x, x_scaled, measured.y, scale, who, it, next, result))
-      return result;
-    const Eigen::VectorXd scaled_next = next.cwiseProduct(scale);
-    const double change =
-        (scaled_next - result.fit.theta.cwiseProduct(scale)).cwiseAbs().maxCoeff() /
-        std::max(scaled_next.cwiseAbs().maxCoeff(), 1e-300);
-    detail::fill_iv_statistics(measured.x, measured.y, instruments.x, scale, next, result.fit,
-                               joints);
-    result.fit.message.clear();
-    result.fit.ill_conditioned = false;
-    result.iterations = it;
-    if (change < options.tolerance) {
-      result.converged = true;
-      return result;
-    }
-  }
-  result.message = std::string(who) + ": the estimate still changed by more than the tolerance " +
-                   "after " + std::to_string(options.max_iterations) + " iterations";
-  return result;
+  const detail::IvSettings settings{
+      options.max_iterations, options.tolerance, detail::IvConvergence::ScaledColumns,
+      options.segment,        options.simulator, options.prior,
+      options.consistency};
+  return detail::iterate_instrumental_variables(chain_arm(model, base), runs, samples, first,
+                                                settings, who);
 }
 
 /// @brief The same on one run's kinematics k.
@@ -346,8 +199,7 @@ inline ChainIvIdentification identify_chain_iv(const ChainModel& model,
     out.samples.push_back(
         chain_regression_samples(out.kinematics.back().t, options.regression_rate_hz));
   }
-  const ChainRegression r =
-      detail::stacked_chain_regression(model, base.independent, out.kinematics, out.samples);
+  const ChainRegression r = stacked_regression(chain_arm(model, base), out.kinematics, out.samples);
   if (r.x.rows() <= r.x.cols())
     throw std::invalid_argument(std::string(who) + ": " + std::to_string(r.x.rows()) +
                                 " equations for " + std::to_string(r.x.cols()) +

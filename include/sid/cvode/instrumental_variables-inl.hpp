@@ -3,6 +3,8 @@
 
 #include <sid/cvode/instrumental_variables.hpp>
 
+#include <cstddef>
+
 namespace sid {
 
 namespace detail {
@@ -63,55 +65,6 @@ SID_INLINE void check_iv_inputs(const Kinematics<double>& k,
     throw std::invalid_argument(std::string(who) + ": tolerance must be > 0");
 }
 
-/// Kinematics at k's times, driven by `drive`, with room for the simulated states.
-SID_INLINE Kinematics<double> instrument_kinematics(const Kinematics<double>& k,
-                                                    const MatrixX2<double>& drive) {
-  const Eigen::Index n = k.size();
-  Kinematics<double> simulated;
-  simulated.t = k.t;
-  simulated.q.resize(n, 2);
-  simulated.qd.resize(n, 2);
-  simulated.qdd.resize(n, 2);
-  simulated.tau = drive;
-  return simulated;
-}
-
-/// Simulates the arm at θ, driven by `drive`, into simulated.q and qd. False, with the failure
-/// in result (`it` numbers the iteration), if a simulation failed.
-SID_INLINE bool simulate_states(const Kinematics<double>& k, const MatrixX2<double>& drive,
-                                const TwoLinkParameters<double>& theta,
-                                const InstrumentalVariableOptions& options, const char* who, int it,
-                                Kinematics<double>& simulated, InstrumentalVariableResult& result) {
-  auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
-                 Eigen::Map<Eigen::VectorXd>& xdot) {
-    const Vector2<double> q = x.head<2>(), qd = x.tail<2>();
-    xdot.head<2>() = qd;
-    xdot.tail<2>() =
-        two_link_forward_dynamics(theta, q, qd, drive_at(k.t, drive, time), options.gravity);
-  };
-  // Each segment starts from the smoothed state.
-  return simulate_segments(
-      rhs,
-      [&](Eigen::Index begin) {
-        Eigen::VectorXd start(4);
-        start << k.q.row(begin).transpose(), k.qd.row(begin).transpose();
-        return start;
-      },
-      options.segment, options.simulator, who, it, simulated, result);
-}
-
-/// simulated.qdd from the model at θ in the simulated states, driven by `drive` at the samples.
-SID_INLINE void fill_simulated_accelerations(const TwoLinkParameters<double>& theta,
-                                             const MatrixX2<double>& drive, double gravity,
-                                             Kinematics<double>& simulated) {
-  for (Eigen::Index i = 0; i < simulated.size(); ++i)
-    simulated.qdd.row(i) =
-        two_link_forward_dynamics(theta, Vector2<double>(simulated.q.row(i).transpose()),
-                                  Vector2<double>(simulated.qd.row(i).transpose()),
-                                  Vector2<double>(drive.row(i).transpose()), gravity)
-            .transpose();
-}
-
 SID_INLINE bool solve_iv(const Eigen::MatrixXd& w, const Eigen::MatrixXd& x_scaled,
                          const Eigen::VectorXd& y, const Eigen::VectorXd& scale, const char* who,
                          int it, Eigen::VectorXd& next, InstrumentalVariableResult& result) {
@@ -133,6 +86,132 @@ SID_INLINE bool solve_iv(const Eigen::MatrixXd& w, const Eigen::MatrixXd& x_scal
   return true;
 }
 
+/// What the instrument simulations of the runs need: each run's drive (its measured torque
+/// smoothed by GCV), the simulated states at its samples (times and drive filled in) and the
+/// samples' positions in them.
+struct IvSimulations {
+  std::vector<JointSamples<double, Eigen::Dynamic>> drives;
+  std::vector<ChainKinematics<double>> simulated;
+  std::vector<std::vector<Eigen::Index>> every;
+};
+
+SID_INLINE IvSimulations iv_simulations(const std::vector<ChainKinematics<double>>& runs,
+                                        const std::vector<std::vector<Eigen::Index>>& samples,
+                                        int joints) {
+  IvSimulations out;
+  out.simulated.resize(runs.size());
+  out.every.resize(runs.size());
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    out.drives.push_back(smoothed_torque(runs[r]));
+    const auto count = static_cast<Eigen::Index>(samples[r].size());
+    ChainKinematics<double>& s = out.simulated[r];
+    s.t.resize(count);
+    s.tau.resize(count, joints);
+    for (Eigen::Index a = 0; a < count; ++a) {
+      s.t[a] = runs[r].t[samples[r][static_cast<std::size_t>(a)]];
+      s.tau.row(a) = out.drives[r].row(samples[r][static_cast<std::size_t>(a)]);
+      out.every[r].push_back(a);
+    }
+    s.q.resize(count, joints);
+    s.qd.resize(count, joints);
+    s.qdd.resize(count, joints);
+  }
+  return out;
+}
+
+/// The states of the arm's `body` at the times of `samples`, driven by `drive`, and their
+/// accelerations; each segment starts from k's state. False, with the failure in result, if a
+/// simulation failed.
+SID_INLINE bool simulate_iv_states(const Arm& arm, const Eigen::VectorXd& body,
+                                   const ChainKinematics<double>& k,
+                                   const JointSamples<double, Eigen::Dynamic>& drive,
+                                   const std::vector<Eigen::Index>& samples,
+                                   const IvSettings& settings, const char* who, int it,
+                                   ChainKinematics<double>& simulated,
+                                   InstrumentalVariableResult& result) {
+  using Vector = Arm::Vector;
+  const int n = arm.joints();
+  const auto rhs = [&](double time, const Eigen::Map<const Eigen::VectorXd>& x,
+                       Eigen::Map<Eigen::VectorXd>& xdot) {
+    const Vector q = x.head(n), qd = x.tail(n);
+    xdot.head(n) = qd;
+    xdot.tail(n) = arm.forward_dynamics(body, q, qd, drive_at(k.t, drive, time));
+  };
+  const bool simulated_ok = simulate_segments(
+      rhs,
+      [&](Eigen::Index begin) {
+        const Eigen::Index at = samples[static_cast<std::size_t>(begin)];
+        Eigen::VectorXd start(2 * n);
+        start << k.q.row(at).transpose(), k.qd.row(at).transpose();
+        return start;
+      },
+      settings.segment, settings.simulator, who, it, simulated, result);
+  if (!simulated_ok) return false;
+  for (Eigen::Index a = 0; a < simulated.size(); ++a) {
+    const Vector q = simulated.q.row(a).transpose(), qd = simulated.qd.row(a).transpose(),
+                 tau = simulated.tau.row(a).transpose();
+    simulated.qdd.row(a) = arm.forward_dynamics(body, q, qd, tau).transpose();
+  }
+  return true;
+}
+
+/// The change from theta to next that the convergence test compares with the tolerance.
+SID_INLINE double iv_change(const Eigen::VectorXd& theta, const Eigen::VectorXd& next,
+                            const Eigen::VectorXd& scale, IvConvergence convergence) {
+  if (convergence == IvConvergence::Relative)
+    return (next - theta).cwiseQuotient(theta).cwiseAbs().maxCoeff();
+  const Eigen::VectorXd scaled_next = next.cwiseProduct(scale);
+  return (scaled_next - theta.cwiseProduct(scale)).cwiseAbs().maxCoeff() /
+         std::max(scaled_next.cwiseAbs().maxCoeff(), 1e-300);
+}
+
+SID_INLINE InstrumentalVariableResult iterate_instrumental_variables(
+    const Arm& arm, const std::vector<ChainKinematics<double>>& runs,
+    const std::vector<std::vector<Eigen::Index>>& samples, const LeastSquaresResult<double>& first,
+    const IvSettings& settings, const char* who) {
+  const ChainRegression measured = stacked_regression(arm, runs, samples);
+  if (measured.x.rows() <= measured.x.cols())
+    throw std::invalid_argument(std::string(who) + ": " + std::to_string(measured.x.rows()) +
+                                " equations for " + std::to_string(measured.x.cols()) +
+                                " parameters");
+  const Eigen::VectorXd scale = measured.x.colwise().norm().cwiseMax(1e-300).transpose();
+  const Eigen::MatrixXd x_scaled = measured.x * scale.cwiseInverse().asDiagonal();
+  IvSimulations sims = iv_simulations(runs, samples, arm.joints());
+
+  // The body of each estimate is weighed by the first fit's residual (its triangular factor),
+  // whatever the estimate.
+  LeastSquaresResult<double> estimate = first;
+  const double relative_residual = first.residual.norm() / std::max(measured.y.norm(), 1e-300);
+
+  InstrumentalVariableResult result;
+  result.fit = first;
+  for (int it = 1; it <= settings.max_iterations; ++it) {
+    estimate.theta = result.fit.theta;
+    const Eigen::VectorXd body =
+        arm.simulatable(estimate, relative_residual, settings.prior, settings.consistency);
+    for (std::size_t r = 0; r < runs.size(); ++r)
+      if (!simulate_iv_states(arm, body, runs[r], sims.drives[r], samples[r], settings, who, it,
+                              sims.simulated[r], result))
+        return result;
+    const ChainRegression instruments = stacked_regression(arm, sims.simulated, sims.every);
+    Eigen::VectorXd next;
+    if (!solve_iv(instruments.x, x_scaled, measured.y, scale, who, it, next, result)) return result;
+    const double change = iv_change(result.fit.theta, next, scale, settings.convergence);
+    fill_iv_statistics(measured.x, measured.y, instruments.x, scale, next, result.fit,
+                       arm.joints());
+    result.fit.message.clear();
+    result.fit.ill_conditioned = false;
+    result.iterations = it;
+    if (change < settings.tolerance) {
+      result.converged = true;
+      return result;
+    }
+  }
+  result.message = std::string(who) + ": the estimate still changed by more than the tolerance " +
+                   "after " + std::to_string(settings.max_iterations) + " iterations";
+  return result;
+}
+
 }  // namespace detail
 
 SID_INLINE InstrumentalVariableResult
@@ -140,39 +219,19 @@ refine_instrumental_variables(const Kinematics<double>& k, const LeastSquaresRes
                               const InstrumentalVariableOptions& options) {
   const char* who = "sid::refine_instrumental_variables";
   detail::check_iv_inputs(k, first, options, who);
-
-  const StackedRegression<double> measured = stack_two_link_regression(k, options.gravity);
-  const Eigen::VectorXd scale = measured.X.colwise().norm().cwiseMax(1e-300).transpose();
-  const Eigen::MatrixXd x_scaled = measured.X * scale.cwiseInverse().asDiagonal();
-
-  const MatrixX2<double> drive = detail::smoothed_torque(k);
-  InstrumentalVariableResult result;
-  result.fit = first;
-  Kinematics<double> simulated = detail::instrument_kinematics(k, drive);
-  for (int it = 1; it <= options.max_iterations; ++it) {
-    const TwoLinkParameters<double> theta = result.fit.theta;
-    if (!detail::simulate_states(k, drive, theta, options, who, it, simulated, result))
-      return result;
-    detail::fill_simulated_accelerations(theta, drive, options.gravity, simulated);
-    const StackedRegression<double> instruments =
-        stack_two_link_regression(simulated, options.gravity);
-    Eigen::VectorXd next;
-    if (!detail::solve_iv(instruments.X, x_scaled, measured.y, scale, who, it, next, result))
-      return result;
-    const double change =
-        (next - result.fit.theta).cwiseQuotient(result.fit.theta).cwiseAbs().maxCoeff();
-    detail::fill_iv_statistics(measured.X, measured.y, instruments.X, scale, next, result.fit);
-    result.fit.message.clear();
-    result.fit.ill_conditioned = false;
-    result.iterations = it;
-    if (change < options.tolerance) {
-      result.converged = true;
-      return result;
-    }
-  }
-  result.message = std::string(who) + ": theta still changed by more than the tolerance after " +
-                   std::to_string(options.max_iterations) + " iterations";
-  return result;
+  ChainKinematics<double> run;
+  run.t = k.t;
+  run.q = k.q;
+  run.qd = k.qd;
+  run.qdd = k.qdd;
+  run.tau = k.tau;
+  std::vector<Eigen::Index> every(static_cast<std::size_t>(k.size()));
+  for (std::size_t i = 0; i < every.size(); ++i) every[i] = static_cast<Eigen::Index>(i);
+  const detail::IvSettings settings{
+      options.max_iterations, options.tolerance, detail::IvConvergence::Relative, options.segment,
+      options.simulator,      Eigen::VectorXd(), ChainConsistencyOptions()};
+  return detail::iterate_instrumental_variables(paper_arm(options.gravity), {run}, {every}, first,
+                                                settings, who);
 }
 
 SID_INLINE std::function<LeastSquaresResult<double>(const Kinematics<double>&,

@@ -17,6 +17,8 @@
 ///   `segment` seconds restarts from the smoothed state; a wrong θ then cannot drift away from
 ///   the measured motion.
 
+#include <sid/arm.hpp>
+#include <sid/chain_consistency.hpp>
 #include <sid/config.hpp>
 #include <sid/cvode/simulator.hpp>
 #include <sid/identify.hpp>
@@ -35,6 +37,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace sid {
 
@@ -126,6 +129,32 @@ SID_INLINE void fill_iv_statistics(const Eigen::MatrixXd& x, const Eigen::Vector
 SID_INLINE bool solve_iv(const Eigen::MatrixXd& w, const Eigen::MatrixXd& x_scaled,
                          const Eigen::VectorXd& y, const Eigen::VectorXd& scale, const char* who,
                          int it, Eigen::VectorXd& next, InstrumentalVariableResult& result);
+
+/// When the IV iteration has converged: the largest relative change of a parameter (the
+/// paper's arm, whose parameters are all far from zero), or the largest change times its
+/// column's norm over the largest such product (a chain's base parameters, some near zero).
+enum class IvConvergence { Relative, ScaledColumns };
+
+/// What each arm's options set for the one IV iteration (iterate_instrumental_variables).
+struct IvSettings {
+  int max_iterations = 10;
+  double tolerance = 1e-4;
+  IvConvergence convergence = IvConvergence::Relative;
+  double segment = 0.5;
+  SimulatorOptions simulator;
+  Eigen::VectorXd prior;  ///< for Arm::simulatable()
+  ChainConsistencyOptions consistency;
+};
+
+/// IDIM-IV on any arm, after the caller checked its inputs: the rows are
+/// stacked_regression(arm, runs, samples); each iteration simulates Arm::simulatable() of the
+/// current estimate through every run (driven by its measured torque smoothed by GCV,
+/// restarting from its state every `segment` seconds), takes the same rows at the simulated
+/// states as instruments and solves (WᵀX) θ = Wᵀy column-scaled. `who` prefixes the messages.
+SID_INLINE InstrumentalVariableResult iterate_instrumental_variables(
+    const Arm& arm, const std::vector<ChainKinematics<double>>& runs,
+    const std::vector<std::vector<Eigen::Index>>& samples, const LeastSquaresResult<double>& first,
+    const IvSettings& settings, const char* who);
 
 }  // namespace detail
 
