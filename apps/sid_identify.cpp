@@ -178,7 +178,8 @@ with its HAC standard deviation;
 the fit's equations and over the log as recorded. Physically consistent links (each a real
 body, near the URDF's values where the data say little: a prior toward them whose weight is
 reported, set against the estimate's uncertainty with the residuals' correlation in time) are
-fitted too, and --write-urdf OUT.urdf writes them into a copy of the URDF; when that fit does
+fitted too, and --write-urdf OUT.urdf writes them, with each joint's viscous and Coulomb
+friction as its <dynamics damping friction>, into a copy of the URDF; when that fit does
 not converge, or real bodies cannot reproduce the estimate within its uncertainty (a drive term
 the data have is missing), the report says so and --write-urdf refuses (exit 2).
 --estimator wls weights each joint by its residual variance; --estimator iv refines by IDIM-IV over all runs: angles smoothed by their
@@ -293,7 +294,7 @@ void define_options(CLI::App& cli, Options& o) {
       ->check(CLI::ExistingFile);
   cli.add_option("--write-urdf", o.chain.write_urdf,
                  "--robot URDF: write a copy of it with the physically consistent link "
-                 "parameters (refuses to overwrite without --force)");
+                 "parameters and joint friction (refuses to overwrite without --force)");
   cli.add_option("--coulomb-epsilon", o.chain.coulomb_epsilon,
                  "--robot: Coulomb friction as tanh(qd / EPS) [rad/s] (default 0.01; 0: sign)");
   cli.add_flag("--currents", o.gains.currents,

@@ -4,6 +4,7 @@
 #include <sid/cvode/identify_robot.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/model/chain_model.hpp>
+#include <sid/model/joint_friction.hpp>
 
 #include "app.hpp"
 #include "csv.hpp"
@@ -391,7 +392,28 @@ std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& wha
   std::vector<sid::LinkParameters<double>> phi;
   for (int i = 0; i < robot.chain.joints(); ++i)
     phi.push_back(r.result.consistent.theta.segment<10>(10 * i));
-  return urdf_with_link_parameters(robot.urdf, robot.base, robot.tip, robot.link_names, phi);
+  const std::string links =
+      urdf_with_link_parameters(robot.urdf, robot.base, robot.tip, robot.link_names, phi);
+  const sid::ChainModel& model = r.loaded.model;
+  const sid::JointFriction friction = sid::joint_friction(model, r.result.consistent.theta);
+  std::vector<std::string> left_out;
+  const std::size_t first = phi.size() * 10;
+  for (std::size_t i = 0; i < model.terms().size(); ++i) {
+    const sid::DriveTermKind kind = model.terms()[i].kind;
+    if (kind != sid::DriveTermKind::Viscous && kind != sid::DriveTermKind::Coulomb)
+      left_out.push_back(model.parameter_names()[first + i]);
+  }
+  left_out.insert(left_out.end(), friction.coupled.begin(), friction.coupled.end());
+  const std::string written = urdf_with_joint_dynamics(links, robot.joint_names, friction.damping,
+                                                       friction.friction, left_out);
+  // What was written must read back as what was identified.
+  const RobotDescription back = sid::robot_description_from_urdf(written, robot.base, robot.tip);
+  const auto close = [](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+    return a.size() == b.size() && ((a - b).array().abs() <= 1e-12 * (1.0 + b.array().abs())).all();
+  };
+  if (!close(back.damping, friction.damping) || !close(back.friction, friction.friction))
+    throw std::runtime_error(what + ": the joints' <dynamics> do not read back as identified");
+  return written;
 }
 
 LoadedChain load_identify_chain(const ChainIdentifyAppOptions& o) {

@@ -34,18 +34,19 @@ std::string inertial_element(const sid::LinkParameters<double>& phi, const std::
          "</inertial>";
 }
 
-/// [begin, end) of the <link> element named name in the text, and whether it is self-closing.
-bool find_link(const std::string& text, const std::string& name, std::size_t& begin,
-               std::size_t& end, bool& self_closing) {
-  for (std::size_t at = text.find("<link"); at != std::string::npos;
-       at = text.find("<link", at + 1)) {
-    const char next = at + 5 < text.size() ? text[at + 5] : '\0';
+/// [begin, end) of the <tag> element named name in the text, and whether it is self-closing.
+bool find_element(const std::string& text, const std::string& tag, const std::string& name,
+                  std::size_t& begin, std::size_t& end, bool& self_closing) {
+  const std::string open = "<" + tag, close_tag = "</" + tag + ">";
+  for (std::size_t at = text.find(open); at != std::string::npos; at = text.find(open, at + 1)) {
+    const std::size_t after = at + open.size();
+    const char next = after < text.size() ? text[after] : '\0';
     if (next != ' ' && next != '\t' && next != '\n' && next != '\r') continue;
     const std::size_t close = text.find('>', at);
     if (close == std::string::npos) return false;
-    const std::string tag = text.substr(at, close - at + 1);
-    if (tag.find("name=\"" + name + "\"") == std::string::npos &&
-        tag.find("name='" + name + "'") == std::string::npos)
+    const std::string head = text.substr(at, close - at + 1);
+    if (head.find("name=\"" + name + "\"") == std::string::npos &&
+        head.find("name='" + name + "'") == std::string::npos)
       continue;
     begin = at;
     self_closing = text[close - 1] == '/';
@@ -53,12 +54,27 @@ bool find_link(const std::string& text, const std::string& name, std::size_t& be
       end = close + 1;
       return true;
     }
-    const std::size_t finish = text.find("</link>", close);
+    const std::size_t finish = text.find(close_tag, close);
     if (finish == std::string::npos) return false;
-    end = finish + 7;
+    end = finish + close_tag.size();
     return true;
   }
   return false;
+}
+
+/// The joint element's text with its <dynamics> replaced by (or given) `dynamics`.
+std::string with_dynamics(std::string joint, const std::string& dynamics) {
+  const std::size_t d0 = joint.find("<dynamics");
+  if (d0 == std::string::npos) {
+    const std::size_t finish = joint.rfind("</joint>");
+    joint.insert(finish, "  " + dynamics + "\n  ");
+    return joint;
+  }
+  const std::size_t tag_end = joint.find('>', d0);
+  std::size_t d1 = tag_end + 1;
+  if (joint[tag_end - 1] != '/') d1 = joint.find("</dynamics>", d0) + 11;
+  joint.replace(d0, d1 - d0, dynamics);
+  return joint;
 }
 
 }  // namespace
@@ -88,7 +104,7 @@ std::string urdf_with_link_parameters(const std::string& urdf, const std::string
                        "' less the bodies it carries in the description is not a real body");
     std::size_t begin = 0, end = 0;
     bool self_closing = false;
-    if (!find_link(out, links[k], begin, end, self_closing))
+    if (!find_element(out, "link", links[k], begin, end, self_closing))
       throw InputError("--write-urdf: cannot find the text of link '" + links[k] + "'");
     const std::string indent = "    ";
     std::string element_text = out.substr(begin, end - begin);
@@ -123,6 +139,39 @@ std::string urdf_with_link_parameters(const std::string& urdf, const std::string
       throw std::runtime_error("--write-urdf: link '" + links[k] +
                                "' does not read back as identified");
   }
+  return out;
+}
+
+std::string urdf_with_joint_dynamics(const std::string& urdf,
+                                     const std::vector<std::string>& joints,
+                                     const Eigen::VectorXd& damping,
+                                     const Eigen::VectorXd& friction,
+                                     const std::vector<std::string>& left_out) {
+  std::string out = urdf;
+  for (std::size_t j = 0; j < joints.size(); ++j) {
+    std::size_t begin = 0, end = 0;
+    bool self_closing = false;
+    if (!find_element(out, "joint", joints[j], begin, end, self_closing) || self_closing)
+      throw InputError("--write-urdf: cannot find the text of joint '" + joints[j] + "'");
+    const auto at = static_cast<Eigen::Index>(j);
+    out.replace(begin, end - begin,
+                with_dynamics(out.substr(begin, end - begin),
+                              "<dynamics damping=\"" + number(damping[at]) + "\" friction=\"" +
+                                  number(friction[at]) + "\"/>"));
+  }
+  std::string note =
+      "<!-- Identified by sid: the links' inertials and the joints' viscous and Coulomb friction "
+      "(damping, friction).";
+  if (!left_out.empty()) {
+    note += " A URDF has no place for";
+    for (std::size_t i = 0; i < left_out.size(); ++i) note += (i == 0 ? " " : ", ") + left_out[i];
+    note += "; the identification's JSON keeps them.";
+  }
+  note += " -->";
+  const std::size_t robot = out.find("<robot");
+  const std::size_t open_end = robot == std::string::npos ? robot : out.find('>', robot);
+  if (open_end == std::string::npos) throw InputError("--write-urdf: the URDF has no <robot>");
+  out.insert(open_end + 1, "\n  " + note);
   return out;
 }
 

@@ -5,6 +5,8 @@
 
 #include <sid/model/link_inertia.hpp>
 
+#include <Eigen/Core>
+
 #include <string>
 #include <vector>
 
@@ -22,5 +24,15 @@ namespace sid::app {
 std::string urdf_with_link_parameters(const std::string& urdf, const std::string& base,
                                       const std::string& tip, const std::vector<std::string>& links,
                                       const std::vector<sid::LinkParameters<double>>& phi);
+
+/// @brief The URDF text with each named joint's <dynamics> set to the given damping and friction
+/// (one value per joint, in the joints' order), and a comment after <robot> saying what was
+/// identified and which parameters (`left_out`, by name) a URDF has no place for.
+/// @throws InputError when a joint's element is not found.
+std::string urdf_with_joint_dynamics(const std::string& urdf,
+                                     const std::vector<std::string>& joints,
+                                     const Eigen::VectorXd& damping,
+                                     const Eigen::VectorXd& friction,
+                                     const std::vector<std::string>& left_out);
 
 }  // namespace sid::app

@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 #include <sid/cvode/identify_robot.hpp>
+#include <sid/model/robot_description.hpp>
 #include <sid/model/urdf.hpp>
 
 #include "app_test_support.hpp"
@@ -190,7 +191,26 @@ TEST_F(IdentifyLightWrist, EffectsAddToViscousFrictionAndArmatureAndTheLinksStay
   EXPECT_GT(physical["prior_weight"].get<double>(), 0.0);
   EXPECT_GE(physical["correlation_inflation"].get<double>(), 1.0);
   expect_near_description(fit);
-  EXPECT_NE(read(file("out.urdf")).find("<robot"), std::string::npos);
+  // The joints' <dynamics> hold the consistent model's viscous and Coulomb friction, near the
+  // simulated damping of 1 N m s/rad; the rotors' inertia has no place in a URDF and is named.
+  const std::string written = read(file("out.urdf"));
+  const sid::RobotDescription back =
+      sid::robot_description_from_urdf(written, "base_link", "tool0");
+  const auto& names = fit["model_parameters"];
+  for (int j = 0; j < 6; ++j) {
+    const std::string joint = std::to_string(j + 1);
+    for (std::size_t p = 0; p < names.size(); ++p) {
+      const double value = physical["theta"][p].get<double>();
+      if (names[p] == "fv_" + joint) {
+        EXPECT_EQ(back.damping[j], value) << names[p];
+      }
+      if (names[p] == "fc_" + joint) {
+        EXPECT_EQ(back.friction[j], value) << names[p];
+      }
+    }
+    EXPECT_NEAR(back.damping[j], 1.0, 0.25) << "joint " << joint;
+  }
+  EXPECT_NE(written.find("A URDF has no place for Ia_1, Ia_2"), std::string::npos) << written;
 
   // Without the default terms (the model the option used to give): the consistent links are
   // either near the description or reported as not reproducing the estimate, and not written.
