@@ -181,7 +181,9 @@ reported, set against the estimate's uncertainty with the residuals' correlation
 fitted too, and --write-urdf OUT.urdf writes them, with each joint's viscous and Coulomb
 friction as its <dynamics damping friction>, into a copy of the URDF; when that fit does
 not converge, or real bodies cannot reproduce the estimate within its uncertainty (a drive term
-the data have is missing), the report says so and --write-urdf refuses (exit 2).
+the data have is missing), the report says so, with the torque error the real bodies add;
+--write-urdf refuses them (exit 2) when the fit did not converge or they add more than 10 %
+(--strict-consistency: whenever they do not reproduce the estimate).
 --estimator wls weights each joint by its residual variance; --estimator iv refines by IDIM-IV over all runs: angles smoothed by their
 GCV spline, torque as measured, least squares, then instruments from simulations (0.5 s
 segments from the smoothed state) of the physically consistent arm nearest to each estimate.
@@ -295,6 +297,10 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--write-urdf", o.chain.write_urdf,
                  "--robot URDF: write a copy of it with the physically consistent link "
                  "parameters and joint friction (refuses to overwrite without --force)");
+  cli.add_flag("--strict-consistency", o.chain.strict_consistency,
+               "--write-urdf refuses real bodies that do not reproduce the estimate within its "
+               "uncertainty too (by default only those that add more than 10 % to the torque "
+               "error, held-out where there is a held-out run)");
   cli.add_option("--coulomb-epsilon", o.chain.coulomb_epsilon,
                  "--robot: Coulomb friction as tanh(qd / EPS) [rad/s] (default 0.01; 0: sign)");
   cli.add_flag("--currents", o.gains.currents,
@@ -374,7 +380,8 @@ void define_options(CLI::App& cli, Options& o) {
   group("Any serial chain (--robot)",
         {"--robot", "--base", "--tip", "--hold", "--transmission", "--validate-fraction",
          "--rest-fraction", "--no-default-effects", "--coulomb-epsilon", "--write-urdf",
-         "--payload-of", "--payload-frame", "--currents", "--known-payload", "--payload-run"});
+         "--strict-consistency", "--payload-of", "--payload-frame", "--currents", "--known-payload",
+         "--payload-run"});
   group("The paper's two-link arm (without --robot)",
         {"--method", "--smoothing", "--sigma-q", "--S", "--lambda", "--true", "--reference-theta",
          "--gear-ratio"});
@@ -841,9 +848,10 @@ int identify(Options o) {
   require(o.chain.base.empty() && o.chain.tip.empty() && o.chain.hold.empty() &&
               o.chain.transmission.empty() && !o.chain.validate_fraction &&
               !o.chain.rest_fraction && !o.chain.coulomb_epsilon && o.chain.write_urdf.empty() &&
-              !o.chain.no_default_effects,
+              !o.chain.no_default_effects && !o.chain.strict_consistency,
           "--base, --tip, --hold, --transmission, --validate-fraction, --rest-fraction, "
-          "--coulomb-epsilon, --write-urdf and --no-default-effects need --robot");
+          "--coulomb-epsilon, --write-urdf, --strict-consistency and --no-default-effects need "
+          "--robot");
   require(o.payload_of.empty(), "--payload-of needs --robot (the description of the arm)");
   require(o.payload_frame.empty(), "--payload-frame needs --robot (a URDF naming the link)");
   require(!o.gains.any(), "--currents, --known-payload and --payload-run need --robot");

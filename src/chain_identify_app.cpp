@@ -200,6 +200,11 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
                     number("%.3g", consistent.correlation_inflation) + "-fold)"
               : std::string())
       << "\n";
+  const sid::ConsistentCost cost = sid::consistent_cost(r);
+  if (cost.held_out)
+    out << "  held-out torque: " << number("%.2f", 100.0 * cost.consistent)
+        << " % error against the estimate's " << number("%.2f", 100.0 * cost.estimate) << " %\n";
+  const std::string problem = sid::consistent_links_problem(r, o.consistency());
   if (!consistent.converged)
     out << "  NOT CONVERGED in " << consistent.iterations
         << " Newton steps: the links below are the last iterate, not a result (--write-urdf "
@@ -208,7 +213,15 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
     out << "  REAL BODIES DO NOT FIT THE ESTIMATE: misfit " << number("%.3g", consistent.misfit)
         << " where noise alone gives at most " << number("%.3g", consistent.misfit_limit)
         << " (the model probably lacks a drive term the data have; see --effects): the links "
-           "below are the nearest real bodies, not the arm's (--write-urdf refuses them)\n";
+           "below are the nearest real bodies, not the arm's"
+        << (problem.empty() ? "; their " + std::string(cost.held_out ? "held-out" : "fitted") +
+                                  " torque error is within " +
+                                  number("%.0f", 100.0 * o.consistency().max_extra_error) +
+                                  " % of the estimate's, so --write-urdf writes them "
+                                  "(--strict-consistency refuses)\n"
+                            : " (--write-urdf refuses them: " + problem + ")\n");
+  else if (!problem.empty())
+    out << "  REAL BODIES COST TOO MUCH: " << problem << " (--write-urdf refuses them)\n";
   for (int i = 0; i < model.joints(); ++i) {
     const double m = consistent.theta[10 * i];
     const Eigen::Vector3d c = consistent.theta.segment<3>(10 * i + 1) / m;
@@ -275,6 +288,14 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
   physical["correlation_inflation"] = consistent.correlation_inflation;
   physical["misfit"] = consistent.misfit;
   physical["fits_estimate"] = consistent.fits_estimate;
+  const sid::ConsistentCost cost = sid::consistent_cost(r);
+  physical["torque_error"] = cost.consistent;
+  physical["estimate_torque_error"] = cost.estimate;
+  physical["torque_error_on"] = cost.held_out ? "held-out runs" : "fitted equations";
+  physical["validation"] = nlohmann::json::array();
+  for (const auto& v : r.consistent_validation)
+    physical["validation"].push_back(prediction_json(v));
+  physical["written"] = sid::consistent_links_problem(r, o.consistency()).empty();
   j["physically_consistent"] = physical;
   return j;
 }
@@ -384,10 +405,11 @@ ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChai
   return identify_report(o, std::move(loaded), std::move(result));
 }
 
-std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& what) {
+std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& what,
+                            const sid::ConsistentLinksPolicy& policy) {
   const RobotDescription& robot = r.loaded.robot;
   require(!robot.urdf.empty(), what + " needs a URDF as the robot, not a DH table");
-  const std::string problem = sid::consistent_links_problem(r.result);
+  const std::string problem = sid::consistent_links_problem(r.result, policy);
   if (!problem.empty()) throw InputError(what + ": " + problem);
   std::vector<sid::LinkParameters<double>> phi;
   for (int i = 0; i < robot.chain.joints(); ++i)
@@ -447,7 +469,7 @@ void write_identify_outputs(const ChainIdentifyAppOptions& o, const ChainIdentif
   if (o.write_urdf.empty()) return;
   std::string written;
   try {
-    written = consistent_urdf(r, "--write-urdf");
+    written = consistent_urdf(r, "--write-urdf", o.consistency());
   } catch (const InputError& e) {
     throw InputError(std::string(e.what()) + "; " + o.write_urdf + " is not written");
   }

@@ -39,7 +39,15 @@ struct ChainIdentifyAppOptions {
   std::string estimator = "ls";
   std::string json;
   std::string write_urdf;  ///< a copy of the URDF with the physically consistent links
+  /// --write-urdf also refuses links that do not reproduce the estimate within its uncertainty.
+  bool strict_consistency = false;
   bool force = false;
+
+  sid::ConsistentLinksPolicy consistency() const {
+    sid::ConsistentLinksPolicy policy;
+    policy.strict = strict_consistency;
+    return policy;
+  }
 };
 
 /// @brief A log of the chain, joint-side.
@@ -108,9 +116,10 @@ ChainIdentifyResult identify_report(const ChainIdentifyAppOptions& options, Load
 ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChain loaded,
                                     std::vector<ChainRunFile> held_out);
 /// @brief The robot's URDF with the physically consistent links of r.
-/// @throws InputError (prefixed with what) for a DH table, an unconverged fit or bodies that do
-/// not reproduce the estimate: links that are no result are never written.
-std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& what);
+/// @throws InputError (prefixed with what) for a DH table, or links that are no result under
+/// `policy` (sid::consistent_links_problem): those are never written.
+std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& what,
+                            const sid::ConsistentLinksPolicy& policy = {});
 /// @brief Prints r's report and warnings (app_name: warning: ...), writes --json and
 /// --write-urdf (which refuses links that are no result).
 void write_identify_outputs(const ChainIdentifyAppOptions& options, const ChainIdentifyResult& r,

@@ -127,6 +127,12 @@ SID_INLINE RobotIdentification identify_robot(const ChainModel& model,
     out.validation.back().source = r.name;
   }
   out.consistent = consistent_chain_parameters(model, id, description_prior(model, o.description));
+  ChainIdentification physical = id;
+  physical.fit.theta = out.consistent.beta;
+  for (const auto& r : held_out) {
+    out.consistent_validation.push_back(predict_chain(model, physical, r.data, o.fit));
+    out.consistent_validation.back().source = r.name;
+  }
   if (id.fit.ill_conditioned) out.warnings.push_back(id.fit.message);
   for (std::size_t r = 0; r < runs.size(); ++r)
     out.fitted_runs.push_back({std::move(runs[r].name), std::move(data[r])});
@@ -142,16 +148,47 @@ SID_INLINE std::vector<DriveTermKind> robot_drive_term_kinds(
   return kinds;
 }
 
-SID_INLINE std::string consistent_links_problem(const RobotIdentification& result) {
+SID_INLINE ConsistentCost consistent_cost(const RobotIdentification& result) {
+  ConsistentCost cost;
+  if (result.validation.empty() ||
+      result.consistent_validation.size() != result.validation.size()) {
+    cost.consistent = result.consistent.relative_residual;
+    cost.estimate = result.consistent.least_squares_relative_residual;
+    return cost;
+  }
+  cost.held_out = true;
+  for (std::size_t r = 0; r < result.validation.size(); ++r) {
+    cost.consistent += result.consistent_validation[r].relative_residual;
+    cost.estimate += result.validation[r].relative_residual;
+  }
+  const auto runs = static_cast<double>(result.validation.size());
+  cost.consistent /= runs;
+  cost.estimate /= runs;
+  return cost;
+}
+
+SID_INLINE std::string consistent_links_problem(const RobotIdentification& result,
+                                                const ConsistentLinksPolicy& policy) {
   const ChainConsistentFit& c = result.consistent;
   if (!c.converged)
     return "the physically consistent fit did not converge in " + std::to_string(c.iterations) +
            " Newton steps; its links would not be a result";
-  if (!c.fits_estimate)
+  if (policy.strict && !c.fits_estimate)
     return "real bodies do not reproduce the estimate (misfit " +
            detail::format_number("%.3g", c.misfit) + " where noise alone gives at most " +
            detail::format_number("%.3g", c.misfit_limit) +
            "; a drive term the data have may be missing from the effects)";
+  const ConsistentCost cost = consistent_cost(result);
+  if (!(cost.extra() <= policy.max_extra_error))
+    return "the nearest real bodies predict the " +
+           std::string(cost.held_out ? "held-out" : "fitted") + " torque with " +
+           detail::format_number("%.3g", 100.0 * cost.consistent) +
+           " % error against the "
+           "estimate's " +
+           detail::format_number("%.3g", 100.0 * cost.estimate) + " % (" +
+           detail::format_number("%.0f", 100.0 * cost.extra()) + " % more, above the " +
+           detail::format_number("%.0f", 100.0 * policy.max_extra_error) +
+           " % allowed; a drive term the data have may be missing from the effects)";
   return {};
 }
 

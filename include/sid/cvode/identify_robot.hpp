@@ -77,7 +77,9 @@ struct RobotIdentification {
   ChainIvRefinement iv;
   std::vector<ChainPrediction> validation;  ///< one per held-out run, named as given
   ChainConsistentFit consistent;            ///< real bodies near the estimate and the prior
-  std::vector<std::string> warnings;        ///< an IV estimate not used; an ill-conditioned fit
+  /// The consistent model's prediction of each held-out run, beside `validation`'s.
+  std::vector<ChainPrediction> consistent_validation;
+  std::vector<std::string> warnings;  ///< an IV estimate not used; an ill-conditioned fit
 };
 
 /// @brief Identifies model from runs (joint side) and predicts held_out with the estimate.
@@ -95,10 +97,35 @@ SID_INLINE RobotIdentification identify_robot(const ChainModel& model,
 SID_INLINE std::vector<DriveTermKind> robot_drive_term_kinds(
     const std::vector<DriveTermKind>& added = {DriveTermKind::Coulomb, DriveTermKind::Offset});
 
-/// @brief Whether real bodies reproduce the estimate: the consistent fit converged and its misfit
-/// is within what noise alone gives. Links that fail are no result and are not to be written.
+/// @brief What the consistent model's torque error costs against the estimate's: over the
+/// held-out runs where there are any (their relative residuals' mean), else over the fitted
+/// equations (ChainConsistentFit::relative_residual beside least squares').
+struct ConsistentCost {
+  double consistent = 0.0;  ///< the consistent model's relative torque error
+  double estimate = 0.0;    ///< the estimate's
+  bool held_out = false;    ///< measured on held-out runs
+  /// consistent / estimate − 1: the share of error the real bodies add.
+  double extra() const noexcept { return estimate > 0.0 ? consistent / estimate - 1.0 : 0.0; }
+};
+
+SID_INLINE ConsistentCost consistent_cost(const RobotIdentification& result);
+
+/// @brief When the consistent links are a result to write.
+struct ConsistentLinksPolicy {
+  /// The most torque error the real bodies may add to the estimate's (consistent_cost()), as a
+  /// fraction. On a real arm some unmodelled effect always remains, so real bodies never
+  /// reproduce the estimate within its noise alone; what matters is what they cost.
+  double max_extra_error = 0.10;
+  /// Also refuse links that do not reproduce the estimate within its uncertainty (the misfit
+  /// test, ChainConsistentFit::fits_estimate).
+  bool strict = false;
+};
+
+/// @brief Whether the consistent links are a result: the fit converged and, under `policy`,
+/// they cost little enough torque error (and, strict, reproduce the estimate).
 /// @return "" when they are, else the reason.
-SID_INLINE std::string consistent_links_problem(const RobotIdentification& result);
+SID_INLINE std::string consistent_links_problem(const RobotIdentification& result,
+                                                const ConsistentLinksPolicy& policy = {});
 
 }  // namespace sid
 
