@@ -48,6 +48,8 @@ bool find_element(const std::string& text, const std::string& tag, const std::st
     if (head.find("name=\"" + name + "\"") == std::string::npos &&
         head.find("name='" + name + "'") == std::string::npos)
       continue;
+    // A robot's <joint> has a type; a <transmission>'s <joint> only names one.
+    if (tag == "joint" && head.find("type=") == std::string::npos) continue;
     begin = at;
     self_closing = text[close - 1] == '/';
     if (self_closing) {

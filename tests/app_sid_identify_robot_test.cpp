@@ -84,8 +84,13 @@ TEST_F(IdentifyRobot, Tx40ExampleBeatsFigarohsResidualAndPredictsTheLastThirtyPe
 
 TEST_F(IdentifyRobot, WritesThePhysicallyConsistentLinksIntoACopyOfTheUrdf) {
   write_run("run.csv", 4.0, 4);
-  // The simulated arm as URDF: three revolute joints as the DH table below places them.
+  // The simulated arm as URDF: three revolute joints as the DH table below places them, and a
+  // ros_control transmission that names joint b before b itself.
   write("arm.urdf", R"(<robot name="arm">
+  <transmission name="b_drive"><type>transmission_interface/SimpleTransmission</type>
+    <joint name="b"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>
+    <actuator name="b_motor"><mechanicalReduction>50</mechanicalReduction></actuator>
+  </transmission>
   <link name="base"/>
   <joint name="a" type="revolute"><parent link="base"/><child link="l1"/>
     <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="100" velocity="5"/></joint>
@@ -111,6 +116,14 @@ TEST_F(IdentifyRobot, WritesThePhysicallyConsistentLinksIntoACopyOfTheUrdf) {
        at = written.find("<inertial>", at + 1))
     ++inertials;
   EXPECT_EQ(inertials, 3u);
+  // Each moving joint got its <dynamics>; the transmission's mention of b did not.
+  const std::size_t transmission_end = written.find("</transmission>");
+  EXPECT_EQ(written.substr(0, transmission_end).find("<dynamics"), std::string::npos) << written;
+  std::size_t dynamics = 0;
+  for (std::size_t at = written.find("<dynamics"); at != std::string::npos;
+       at = written.find("<dynamics", at + 1))
+    ++dynamics;
+  EXPECT_EQ(dynamics, 3u) << written;
   const sid_test::AppRun again =
       shell(app("sid_identify") + " --robot arm.urdf --cutoff 8 --write-urdf out.urdf run.csv");
   EXPECT_EQ(again.exit_code, 2);
