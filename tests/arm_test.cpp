@@ -107,7 +107,7 @@ TEST_P(ArmKinds, StackedRunsKeepEachJointsRowsTogether) {
   EXPECT_THROW((void)sid::stacked_regression(c.arm, {a, b}, {{0}}), std::invalid_argument);
 }
 
-TEST_P(ArmKinds, CopiesShareOneKernel) {
+TEST_P(ArmKinds, ACopyGivesTheSameRows) {
   const ArmCase c = make();
   const sid::Arm copy = c.arm;
   const sid::ChainKinematics<double> k = forward_samples(copy, c.body, 3, 9);
