@@ -179,10 +179,12 @@ the fit's equations and over the log as recorded. Physically consistent links (e
 body, near the URDF's values where the data say little: a prior toward them whose weight is
 reported, set against the estimate's uncertainty with the residuals' correlation in time) are
 fitted too, and --write-urdf OUT.urdf writes them, with each joint's viscous and Coulomb
-friction as its <dynamics damping friction>, into a copy of the URDF; when that fit does
+friction as its <dynamics damping friction>, into a copy of the URDF, and --write-mjcf OUT.xml
+into a MuJoCo model (armature and stiffness too, a motor per joint; meshes MuJoCo cannot read
+are left out and listed in its first comment); when that fit does
 not converge, or real bodies cannot reproduce the estimate within its uncertainty (a drive term
 the data have is missing), the report says so, with the torque error the real bodies add;
---write-urdf refuses them (exit 2) when the fit did not converge or they add more than 10 %
+both refuse them (exit 2) when the fit did not converge or they add more than 10 %
 (--strict-consistency: whenever they do not reproduce the estimate).
 --estimator wls weights each joint by its residual variance; --estimator iv refines by IDIM-IV over all runs: angles smoothed by their
 GCV spline, torque as measured, least squares, then instruments from simulations (0.5 s
@@ -297,10 +299,15 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--write-urdf", o.chain.write_urdf,
                  "--robot URDF: write a copy of it with the physically consistent link "
                  "parameters and joint friction (refuses to overwrite without --force)");
+  cli.add_option("--write-mjcf", o.chain.write_mjcf,
+                 "--robot URDF: write a MuJoCo model of it (MJCF) with the physically consistent "
+                 "links, each joint's damping, frictionloss, armature and stiffness, the "
+                 "description's shapes and a motor per joint (refuses to overwrite without "
+                 "--force)");
   cli.add_flag("--strict-consistency", o.chain.strict_consistency,
-               "--write-urdf refuses real bodies that do not reproduce the estimate within its "
-               "uncertainty too (by default only those that add more than 10 % to the torque "
-               "error, held-out where there is a held-out run)");
+               "--write-urdf and --write-mjcf refuse real bodies that do not reproduce the "
+               "estimate within its uncertainty too (by default only those that add more than "
+               "10 % to the torque error, held-out where there is a held-out run)");
   cli.add_option("--coulomb-epsilon", o.chain.coulomb_epsilon,
                  "--robot: Coulomb friction as tanh(qd / EPS) [rad/s] (default 0.01; 0: sign)");
   cli.add_flag("--currents", o.gains.currents,
@@ -380,8 +387,8 @@ void define_options(CLI::App& cli, Options& o) {
   group("Any serial chain (--robot)",
         {"--robot", "--base", "--tip", "--hold", "--transmission", "--validate-fraction",
          "--rest-fraction", "--no-default-effects", "--coulomb-epsilon", "--write-urdf",
-         "--strict-consistency", "--payload-of", "--payload-frame", "--currents", "--known-payload",
-         "--payload-run"});
+         "--write-mjcf", "--strict-consistency", "--payload-of", "--payload-frame", "--currents",
+         "--known-payload", "--payload-run"});
   group("The paper's two-link arm (without --robot)",
         {"--method", "--smoothing", "--sigma-q", "--S", "--lambda", "--true", "--reference-theta",
          "--gear-ratio"});
@@ -839,6 +846,9 @@ int identify(Options o) {
             "unknown load on a fitted arm; give one");
     require(o.payload_frame.empty() || !o.payload_of.empty() || !o.gains.known_payload.empty(),
             "--payload-frame goes with --known-payload or --payload-of (the frame of the load)");
+    require(o.chain.write_mjcf.empty() || o.payload_of.empty(),
+            "--write-mjcf does not go with --payload-of: --write-urdf writes the arm with its "
+            "load");
     o.gains.payload_frame = o.payload_frame;
     if (o.gains.any()) return sid::app::identify_robot_currents(o.chain, o.gains, kName);
     if (!o.payload_of.empty())
@@ -848,9 +858,11 @@ int identify(Options o) {
   require(o.chain.base.empty() && o.chain.tip.empty() && o.chain.hold.empty() &&
               o.chain.transmission.empty() && !o.chain.validate_fraction &&
               !o.chain.rest_fraction && !o.chain.coulomb_epsilon && o.chain.write_urdf.empty() &&
-              !o.chain.no_default_effects && !o.chain.strict_consistency,
+              o.chain.write_mjcf.empty() && !o.chain.no_default_effects &&
+              !o.chain.strict_consistency,
           "--base, --tip, --hold, --transmission, --validate-fraction, --rest-fraction, "
-          "--coulomb-epsilon, --write-urdf, --strict-consistency and --no-default-effects need "
+          "--coulomb-epsilon, --write-urdf, --write-mjcf, --strict-consistency and "
+          "--no-default-effects need "
           "--robot");
   require(o.payload_of.empty(), "--payload-of needs --robot (the description of the arm)");
   require(o.payload_frame.empty(), "--payload-frame needs --robot (a URDF naming the link)");

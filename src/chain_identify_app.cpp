@@ -4,11 +4,12 @@
 #include <sid/cvode/identify_robot.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/model/chain_model.hpp>
-#include <sid/model/joint_friction.hpp>
+#include <sid/model/joint_dynamics.hpp>
 
 #include "app.hpp"
 #include "csv.hpp"
 #include "robot_description.hpp"
+#include "mjcf_writer.hpp"
 #include "urdf_writer.hpp"
 
 #include <nlohmann/json.hpp>
@@ -16,11 +17,24 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <iostream>
 #include <sstream>
 
 namespace sid::app {
+
+std::string fs_parent(const std::string& path) {
+  return std::filesystem::path(path).parent_path().string();
+}
+
+void require_model_files(const ChainIdentifyAppOptions& o, const RobotDescription& robot) {
+  require(o.write_urdf.empty() || !robot.urdf.empty(),
+          "--write-urdf needs a URDF as --robot, not a DH table");
+  require(o.write_mjcf.empty() || !robot.urdf.empty(),
+          "--write-mjcf needs a URDF as --robot, not a DH table");
+}
 
 ChainRunFile identification_run(const std::string& name, sid::ChainTrajectory<double> run,
                                 const sid::Transmission& transmission, bool motor_side) {
@@ -405,6 +419,26 @@ ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChai
   return identify_report(o, std::move(loaded), std::move(result));
 }
 
+namespace {
+
+/// The names of model's drive terms that a file holding `written` kinds per joint cannot hold:
+/// the other kinds, and those that no joint feels alone.
+std::vector<std::string> unwritable_terms(const sid::ChainModel& model,
+                                          const sid::JointDynamics& per_joint,
+                                          std::initializer_list<sid::DriveTermKind> written) {
+  std::vector<std::string> left_out;
+  const std::size_t first = static_cast<std::size_t>(model.parameters()) - model.terms().size();
+  for (std::size_t i = 0; i < model.terms().size(); ++i)
+    if (std::find(written.begin(), written.end(), model.terms()[i].kind) == written.end())
+      left_out.push_back(model.parameter_names()[first + i]);
+  for (const std::string& name : per_joint.coupled)
+    if (std::find(left_out.begin(), left_out.end(), name) == left_out.end())
+      left_out.push_back(name);
+  return left_out;
+}
+
+}  // namespace
+
 std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& what,
                             const sid::ConsistentLinksPolicy& policy) {
   const RobotDescription& robot = r.loaded.robot;
@@ -417,17 +451,11 @@ std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& wha
   const std::string links =
       urdf_with_link_parameters(robot.urdf, robot.base, robot.tip, robot.link_names, phi);
   const sid::ChainModel& model = r.loaded.model;
-  const sid::JointFriction friction = sid::joint_friction(model, r.result.consistent.theta);
-  std::vector<std::string> left_out;
-  const std::size_t first = phi.size() * 10;
-  for (std::size_t i = 0; i < model.terms().size(); ++i) {
-    const sid::DriveTermKind kind = model.terms()[i].kind;
-    if (kind != sid::DriveTermKind::Viscous && kind != sid::DriveTermKind::Coulomb)
-      left_out.push_back(model.parameter_names()[first + i]);
-  }
-  left_out.insert(left_out.end(), friction.coupled.begin(), friction.coupled.end());
-  const std::string written = urdf_with_joint_dynamics(links, robot.joint_names, friction.damping,
-                                                       friction.friction, left_out);
+  const sid::JointDynamics friction = sid::joint_dynamics(model, r.result.consistent.theta);
+  const std::string written = urdf_with_joint_dynamics(
+      links, robot.joint_names, friction.damping, friction.friction,
+      unwritable_terms(model, friction,
+                       {sid::DriveTermKind::Viscous, sid::DriveTermKind::Coulomb}));
   // What was written must read back as what was identified.
   const RobotDescription back = sid::robot_description_from_urdf(written, robot.base, robot.tip);
   const auto close = [](const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
@@ -436,6 +464,19 @@ std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& wha
   if (!close(back.damping, friction.damping) || !close(back.friction, friction.friction))
     throw std::runtime_error(what + ": the joints' <dynamics> do not read back as identified");
   return written;
+}
+
+Mjcf consistent_mjcf(const ChainIdentifyResult& r, const std::string& what,
+                     const sid::ConsistentLinksPolicy& policy, const MjcfPaths& paths) {
+  const std::string urdf = consistent_urdf(r, what, policy);
+  const RobotDescription& robot = r.loaded.robot;
+  const sid::JointDynamics drives = sid::joint_dynamics(r.loaded.model, r.result.consistent.theta);
+  using K = sid::DriveTermKind;
+  return mjcf_from_urdf(
+      urdf, robot.base, robot.chain.gravity(),
+      {robot.joint_names, drives.damping, drives.friction, drives.armature, drives.stiffness},
+      unwritable_terms(r.loaded.model, drives, {K::Viscous, K::Coulomb, K::Armature, K::Spring}),
+      paths);
 }
 
 LoadedChain load_identify_chain(const ChainIdentifyAppOptions& o) {
@@ -449,9 +490,9 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
   require(!o.inputs.empty(), "no run given");
   if (!o.json.empty()) ensure_writable(o.json, o.force);
   if (!o.write_urdf.empty()) ensure_writable(o.write_urdf, o.force);
+  if (!o.write_mjcf.empty()) ensure_writable(o.write_mjcf, o.force);
   LoadedChain loaded = load_identify_chain(o);
-  require(o.write_urdf.empty() || !loaded.robot.urdf.empty(),
-          "--write-urdf needs a URDF as --robot, not a DH table");
+  require_model_files(o, loaded.robot);
   std::vector<ChainRunFile> held_out;
   for (const auto& f : o.validate)
     held_out.push_back(
@@ -466,16 +507,35 @@ void write_identify_outputs(const ChainIdentifyAppOptions& o, const ChainIdentif
   (o.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
   for (const auto& w : r.result.warnings) std::cerr << app_name << ": warning: " << w << "\n";
   if (!o.json.empty()) write_json(o.json, r.json);
-  if (o.write_urdf.empty()) return;
-  std::string written;
-  try {
-    written = consistent_urdf(r, "--write-urdf", o.consistency());
-  } catch (const InputError& e) {
-    throw InputError(std::string(e.what()) + "; " + o.write_urdf + " is not written");
+  const auto write = [](const std::string& path, const std::string& text) {
+    std::ofstream file(path, std::ios::binary);
+    file << text;
+    if (!file) throw std::runtime_error("cannot write '" + path + "'");
+  };
+  const auto refused = [](const InputError& e, const std::string& path) {
+    return InputError(std::string(e.what()) + "; " + path + " is not written");
+  };
+  if (!o.write_urdf.empty()) {
+    try {
+      write(o.write_urdf, consistent_urdf(r, "--write-urdf", o.consistency()));
+    } catch (const InputError& e) {
+      throw refused(e, o.write_urdf);
+    }
   }
-  std::ofstream file(o.write_urdf, std::ios::binary);
-  file << written;
-  if (!file) throw std::runtime_error("cannot write '" + o.write_urdf + "'");
+  if (!o.write_mjcf.empty()) {
+    Mjcf mjcf;
+    try {
+      mjcf = consistent_mjcf(r, "--write-mjcf", o.consistency(),
+                             {fs_parent(o.robot), fs_parent(o.write_mjcf)});
+    } catch (const InputError& e) {
+      throw refused(e, o.write_mjcf);
+    }
+    write(o.write_mjcf, mjcf.text);
+    if (!mjcf.left_out.empty())
+      std::cerr << app_name << ": note: " << o.write_mjcf << " leaves out " << mjcf.left_out.size()
+                << " part(s) of the description (listed in its first comment), e.g. "
+                << mjcf.left_out.front() << "\n";
+  }
 }
 
 }  // namespace sid::app

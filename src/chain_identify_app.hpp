@@ -8,6 +8,7 @@
 #include <sid/identify_chain.hpp>
 #include <sid/model/chain_model.hpp>
 
+#include "mjcf_writer.hpp"
 #include "robot_description.hpp"
 
 #include <nlohmann/json.hpp>
@@ -39,6 +40,7 @@ struct ChainIdentifyAppOptions {
   std::string estimator = "ls";
   std::string json;
   std::string write_urdf;  ///< a copy of the URDF with the physically consistent links
+  std::string write_mjcf;  ///< a MuJoCo model of the URDF with the physically consistent links
   /// --write-urdf also refuses links that do not reproduce the estimate within its uncertainty.
   bool strict_consistency = false;
   bool force = false;
@@ -120,8 +122,18 @@ ChainIdentifyResult identify_loaded(const ChainIdentifyAppOptions& o, LoadedChai
 /// `policy` (sid::consistent_links_problem): those are never written.
 std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& what,
                             const sid::ConsistentLinksPolicy& policy = {});
+/// @brief The MuJoCo model of the robot's URDF with the physically consistent links of r and
+/// their joints' damping, frictionloss, armature and stiffness (paths: where meshes are found
+/// and written from).
+/// @throws InputError as consistent_urdf.
+Mjcf consistent_mjcf(const ChainIdentifyResult& r, const std::string& what,
+                     const sid::ConsistentLinksPolicy& policy, const MjcfPaths& paths);
+/// @brief The directory part of a path ("" for a bare file name).
+std::string fs_parent(const std::string& path);
+/// @brief Refuses --write-urdf and --write-mjcf for a robot described by a DH table.
+void require_model_files(const ChainIdentifyAppOptions& options, const RobotDescription& robot);
 /// @brief Prints r's report and warnings (app_name: warning: ...), writes --json and
-/// --write-urdf (which refuses links that are no result).
+/// --write-urdf and --write-mjcf (which refuse links that are no result).
 void write_identify_outputs(const ChainIdentifyAppOptions& options, const ChainIdentifyResult& r,
                             const char* app_name);
 /// @brief Runs the identification and prints the report (the JSON too with --json).

@@ -195,10 +195,10 @@ int identify_robot_currents(const ChainIdentifyAppOptions& chain, const DriveGai
   check_drive_gain_options(chain, o);
   if (!chain.json.empty()) ensure_writable(chain.json, chain.force);
   if (!chain.write_urdf.empty()) ensure_writable(chain.write_urdf, chain.force);
+  if (!chain.write_mjcf.empty()) ensure_writable(chain.write_mjcf, chain.force);
   const DriveGainResult r = identify_with_drive_gains(chain, o);
   const ChainIdentifyResult& id = r.identified;
-  require(chain.write_urdf.empty() || !id.loaded.robot.urdf.empty(),
-          "--write-urdf needs a URDF as --robot, not a DH table");
+  require_model_files(chain, id.loaded.robot);
   write_identify_outputs(chain, id, app_name);
   return kExitOk;
 }

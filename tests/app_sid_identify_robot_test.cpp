@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 #include <sid/cvode/identify_robot.hpp>
+#include <sid/detail/xml.hpp>
 #include <sid/model/robot_description.hpp>
 #include <sid/model/urdf.hpp>
 
@@ -187,7 +188,8 @@ class IdentifyLightWrist : public IdentifyRobot {
 TEST_F(IdentifyLightWrist, EffectsAddToViscousFrictionAndArmatureAndTheLinksStayBodies) {
   const sid_test::AppRun r =
       shell(app("sid_identify") + " --robot " + urdf() +
-            " --effects coulomb --json fit.json --write-urdf out.urdf log.csv");
+            " --effects coulomb --json fit.json --write-urdf out.urdf --write-mjcf out.xml "
+            "log.csv");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("drive terms: viscous, coulomb, armature on every joint"), std::string::npos)
       << r.out;
@@ -224,6 +226,45 @@ TEST_F(IdentifyLightWrist, EffectsAddToViscousFrictionAndArmatureAndTheLinksStay
     EXPECT_NEAR(back.damping[j], 1.0, 0.25) << "joint " << joint;
   }
   EXPECT_NE(written.find("A URDF has no place for Ia_1, Ia_2"), std::string::npos) << written;
+  // The MuJoCo model: each joint's damping, frictionloss and armature are the consistent
+  // model's, each link's inertial the URDF's, and a motor drives each joint.
+  const sid::detail::XmlElement mjcf =
+      sid::detail::XmlParser(read(file("out.xml")), "test").parse_document();
+  const sid::detail::XmlElement robot = sid::detail::XmlParser(written, "test").parse_document();
+  const auto named = [](const sid::detail::XmlElement& e, const std::string& kind,
+                        const std::string& name) {
+    std::vector<const sid::detail::XmlElement*> todo{&e};
+    while (!todo.empty()) {
+      const sid::detail::XmlElement* at = todo.back();
+      todo.pop_back();
+      const std::string* n = at->attribute("name");
+      if (at->name == kind && n && *n == name) return at;
+      for (const auto& c : at->children) todo.push_back(&c);
+    }
+    return static_cast<const sid::detail::XmlElement*>(nullptr);
+  };
+  const auto value = [](const sid::detail::XmlElement* e, const char* key) {
+    return e && e->attribute(key) ? std::stod(*e->attribute(key)) : 0.0;
+  };
+  for (int j = 0; j < 6; ++j) {
+    const sid::detail::XmlElement* joint = named(mjcf, "joint", back.joint_names[j]);
+    ASSERT_NE(joint, nullptr) << back.joint_names[j];
+    EXPECT_EQ(value(joint, "damping"), back.damping[j]);
+    EXPECT_EQ(value(joint, "frictionloss"), back.friction[j]);
+    for (std::size_t p = 0; p < names.size(); ++p)
+      if (names[p] == "Ia_" + std::to_string(j + 1)) {
+        EXPECT_EQ(value(joint, "armature"), physical["theta"][p].get<double>());
+      }
+    const std::string& link = back.link_names[static_cast<std::size_t>(j)];
+    const sid::detail::XmlElement* body = named(mjcf, "body", link);
+    const sid::detail::XmlElement* described = named(robot, "link", link);
+    ASSERT_TRUE(body && described) << link;
+    EXPECT_EQ(value(body->child("inertial"), "mass"),
+              value(described->child("inertial")->child("mass"), "value"))
+        << link;
+  }
+  ASSERT_NE(mjcf.child("actuator"), nullptr);
+  EXPECT_EQ(mjcf.child("actuator")->children.size(), 6u);
 
   // Without the default terms (the model the option used to give): the consistent links are
   // near the description, or reported as not reproducing the estimate with the torque error
@@ -378,6 +419,8 @@ TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
   refused("--robot arm.dh --method filtered run.csv", "two-link");
   refused("--robot arm.dh --base link0 run.csv", "DH table");
   refused("--robot arm.dh --write-urdf out.urdf run.csv", "needs a URDF");
+  refused("--robot arm.dh --write-mjcf out.xml run.csv", "--write-mjcf needs a URDF");
+  refused("--write-mjcf out.xml run.csv", "need --robot");
   // A tree with several end links: the chain's last link must be named.
   refused("--robot '" SID_TEST_DATA_DIR "/urdf/mobile_manipulator.urdf' run.csv",
           "name the chain's last with --tip");

@@ -22,7 +22,7 @@
 #include <sid/model/chain_regressor.hpp>
 #include <sid/model/dynamics.hpp>
 #include <sid/model/effects.hpp>
-#include <sid/model/joint_friction.hpp>
+#include <sid/model/joint_dynamics.hpp>
 #include <sid/model/link_inertia.hpp>
 #include <sid/model/model.hpp>
 #include <sid/model/regressor.hpp>

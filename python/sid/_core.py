@@ -250,6 +250,21 @@ class Fit:
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
 
+    def write_mjcf(self, path: PathLike, force: bool = False) -> None:
+        """A MuJoCo model (MJCF) of the robot's URDF with the physically consistent links of this
+        fit, each joint's damping, frictionloss, armature and stiffness, the description's
+        shapes and a motor per joint of the chain (as ``sid_identify --write-mjcf``).
+
+        Meshes MuJoCo cannot read, or that are not found, are left out and listed in the file's
+        first comment. Refuses (ValueError) as write_urdf does, and an existing file unless force.
+        """
+        path = os.fspath(path)
+        if os.path.exists(path) and not force:
+            raise ValueError(f"{path} exists; pass force=True to overwrite it")
+        text = self._handle.consistent_mjcf(os.path.dirname(os.path.abspath(path)))
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(text)
+
     def identify_payload(
         self, runs: Union["Run", Sequence["Run"]], payload_frame: Optional[str] = None
     ) -> "Payload":

@@ -114,9 +114,19 @@ struct IdentifyOptions {
 /// An identification, as sid_identify --robot makes it.
 class Fit {
  public:
-  explicit Fit(sid::app::ChainIdentifyResult result) : r_(std::move(result)) {}
+  /// robot_path: the description's file (where its meshes are found).
+  Fit(sid::app::ChainIdentifyResult result, std::string robot_path)
+      : r_(std::move(result)), robot_path_(std::move(robot_path)) {}
 
   const sid::app::ChainIdentifyResult& result() const { return r_; }
+
+  /// The MJCF text of the consistent model, mesh paths relative to mjcf_directory; what it
+  /// leaves out is in the text's first comment.
+  std::string consistent_mjcf(const std::string& mjcf_directory) const {
+    return sid::app::consistent_mjcf(r_, "write_mjcf", {},
+                                     {sid::app::fs_parent(robot_path_), mjcf_directory})
+        .text;
+  }
 
   /// The model's torque at each sample of a run, on its spline-smoothed motion at the fit's
   /// cutoffs (joint side).
@@ -164,6 +174,7 @@ class Fit {
   }
 
   sid::app::ChainIdentifyResult r_;
+  std::string robot_path_;
 };
 
 Fit identify(const Robot& robot, const std::vector<RunData>& runs,
@@ -182,7 +193,7 @@ Fit identify(const Robot& robot, const std::vector<RunData>& runs,
   for (const auto& r : runs) loaded.runs.push_back(chain_run(r, loaded));
   std::vector<sid::app::ChainRunFile> held_out;
   for (const auto& r : validate) held_out.push_back(chain_run(r, loaded));
-  return Fit(sid::app::identify_loaded(o, std::move(loaded), std::move(held_out)));
+  return Fit(sid::app::identify_loaded(o, std::move(loaded), std::move(held_out)), o.robot);
 }
 
 /// The arm a fit holds (sid_identify --json's text), on the robot's chain and transmission.
@@ -560,7 +571,8 @@ NB_MODULE(_sid, m) {
       .def("fitted_runs", &Fit::fitted_runs)
       .def_prop_ro("joint_names", [](const Fit& f) { return f.result().loaded.robot.joint_names; })
       .def("consistent_urdf",
-           [](const Fit& f) { return sid::app::consistent_urdf(f.result(), "write_urdf"); });
+           [](const Fit& f) { return sid::app::consistent_urdf(f.result(), "write_urdf"); })
+      .def("consistent_mjcf", &Fit::consistent_mjcf, "mjcf_directory"_a);
   m.def("identify", &identify, "robot"_a, "runs"_a, "validate"_a, "options"_a,
         nb::call_guard<nb::gil_scoped_release>());
 

@@ -1,6 +1,7 @@
 """sid.identify gives sid_identify's numbers on the same data, with its messages."""
 
 import json
+import re
 import subprocess
 
 import numpy as np
@@ -129,3 +130,57 @@ def test_bad_input_raises_value_error_with_the_clis_message(data, tmp_path):
     bad.write_text("")
     with pytest.raises(ValueError):
         sid.Run.from_csv(bad)
+
+
+def test_writes_a_mujoco_model_that_mujoco_reads_as_the_written_urdf(tx40_csv, tx40_fit, cli,
+                                                                     tmp_path):
+    mujoco = pytest.importorskip("mujoco")
+    mjcf, urdf = tmp_path / "tx40.xml", tmp_path / "tx40.urdf"
+    tx40_fit.write_mjcf(mjcf)
+    tx40_fit.write_urdf(urdf)
+    with pytest.raises(ValueError, match="exists"):
+        tx40_fit.write_mjcf(mjcf)
+    # The tool writes the same file.
+    from_cli = tmp_path / "cli.xml"
+    subprocess.run(
+        [str(cli), "--robot", str(tx40.URDF), "--transmission", str(tx40.TRANSMISSION),
+         "--validate-fraction", "0.3", "--write-mjcf", str(from_cli), str(tx40_csv)],
+        check=True, capture_output=True,
+    )
+    assert from_cli.read_text() == mjcf.read_text()
+    ours = mujoco.MjModel.from_xml_path(str(mjcf))
+    # MuJoCo's own URDF reader, on the URDF sid writes with the same links, is the reference
+    # (without its shapes: the meshes are not shipped, and sid's MJCF leaves them out too).
+    text = re.sub(r"<(visual|collision)>.*?</\1>", "", urdf.read_text(), flags=re.S)
+    at = text.index(">", text.index("<robot")) + 1
+    theirs = mujoco.MjModel.from_xml_string(
+        text[:at] + '<mujoco><compiler fusestatic="false"/></mujoco>' + text[at:])
+    names = tx40_fit.robot.joint_names
+    ours_dof = [ours.jnt_dofadr[ours.joint(n).id] for n in names]
+    theirs_dof = [theirs.jnt_dofadr[theirs.joint(n).id] for n in names]
+    result = tx40_fit.to_dict()
+    consistent = dict(zip(result["model_parameters"], result["physically_consistent"]["theta"]))
+    for j, dof in enumerate(ours_dof):
+        assert ours.dof_armature[dof] == consistent[f"Ia_{j + 1}"]
+        assert ours.dof_damping[dof] == theirs.dof_damping[theirs_dof[j]] > 0
+        assert ours.dof_frictionloss[dof] == theirs.dof_frictionloss[theirs_dof[j]] > 0
+    assert ours.nu == len(names)
+    # The coupled wrist motor's terms have no joint of their own: the file names them.
+    assert "Ia_m6" in mjcf.read_text().split("-->")[0]
+    rng = np.random.default_rng(3)
+    ours_data, theirs_data = mujoco.MjData(ours), mujoco.MjData(theirs)
+    for _ in range(5):
+        q, qd = rng.uniform(-1.5, 1.5, len(names)), rng.uniform(-2, 2, len(names))
+        for model, data, dofs in ((ours, ours_data, ours_dof), (theirs, theirs_data, theirs_dof)):
+            for n, a, b in zip(names, q, qd):
+                data.qpos[model.jnt_qposadr[model.joint(n).id]] = a
+                data.qvel[model.jnt_dofadr[model.joint(n).id]] = b
+            mujoco.mj_forward(model, data)
+        mass = [np.zeros((m.nv, m.nv)) for m in (ours, theirs)]
+        mujoco.mj_fullM(ours, ours_data, mass[0])
+        mujoco.mj_fullM(theirs, theirs_data, mass[1])
+        rigid = mass[0][np.ix_(ours_dof, ours_dof)] - np.diag(ours.dof_armature[ours_dof])
+        np.testing.assert_allclose(rigid, mass[1][np.ix_(theirs_dof, theirs_dof)],
+                                   rtol=0, atol=1e-10)
+        np.testing.assert_allclose(ours_data.qfrc_bias[ours_dof],
+                                   theirs_data.qfrc_bias[theirs_dof], rtol=0, atol=1e-9)

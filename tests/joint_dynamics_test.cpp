@@ -1,4 +1,4 @@
-#include <sid/model/joint_friction.hpp>
+#include <sid/model/joint_dynamics.hpp>
 
 #include "test_support.hpp"
 
@@ -34,25 +34,31 @@ sid::ChainModel geared_arm() {
       chain, {"a", "b", "c"},
       {term(K::Viscous, 0, false), term(K::Coulomb, 0, false), term(K::Viscous, 1, true),
        term(K::Coulomb, 1, true), term(K::Viscous, 1, false), term(K::Armature, 1, true),
-       term(K::Viscous, 2, true), term(K::Coulomb, 2, true)},
+       term(K::Viscous, 2, true), term(K::Coulomb, 2, true), term(K::Spring, 0, false),
+       term(K::Spring, 1, true), term(K::Offset, 0, false)},
       sid::Transmission(ratio, Eigen::Vector3d::Zero()), 1e-4);
 }
 
 Eigen::VectorXd drive_values(const sid::ChainModel& model) {
   Eigen::VectorXd theta = Eigen::VectorXd::Zero(model.parameters());
-  theta.tail(8) << 0.5, 1.2, 0.3, 0.8, 0.2, 0.01, 0.4, 0.6;
+  theta.tail(11) << 0.5, 1.2, 0.3, 0.8, 0.2, 0.01, 0.4, 0.6, 2.0, 3.0, 0.7;
   return theta;
 }
 
-TEST(JointFriction, IsTheTorqueTheModelGivesEachJointAloneInMotion) {
+TEST(JointDynamics, IsTheTorqueTheModelGivesEachJointAloneInMotion) {
   // The model's own torque (no links: theta's link parameters are zero): turning joint j alone at
-  // rate v gives damping_j v + friction_j tanh(v / eps) on that joint, tanh = 1 at v >= 1.
+  // rate v gives damping_j v + friction_j tanh(v / eps) + stiffness_j q_j on that joint, tanh = 1
+  // at v >= 1.
   const sid::ChainModel model = geared_arm();
   const Eigen::VectorXd theta = drive_values(model);
-  const sid::JointFriction f = sid::joint_friction(model, theta);
-  EXPECT_EQ(f.coupled, (std::vector<std::string>{"fv_m3", "fc_m3"}));
-  // The coupled motor's terms act on joints 2 and 3 at once: what is written leaves them out.
+  const sid::JointDynamics f = sid::joint_dynamics(model, theta);
+  ASSERT_EQ(f.coupled.size(), 3u);
+  EXPECT_EQ(f.coupled[0], "fv_m3");
+  EXPECT_EQ(f.coupled[1], "fc_m3");
+  // The coupled motor's terms act on joints 2 and 3 at once, a motor's spring on its angle (the
+  // transmission's zero included), an offset on no motion: what is written leaves them out.
   Eigen::VectorXd per_joint = theta;
+  per_joint.segment(per_joint.size() - 5, 2).setZero();
   per_joint.tail(2).setZero();
   const Eigen::Vector3d q(0.2, -0.3, 0.4), zero = Eigen::Vector3d::Zero();
   for (int j = 0; j < 2; ++j) {
@@ -62,18 +68,33 @@ TEST(JointFriction, IsTheTorqueTheModelGivesEachJointAloneInMotion) {
       Eigen::MatrixXd y(3, model.parameters());
       model.regressor(q, qd, zero, y);
       const double tau = (y * per_joint)[j];
-      EXPECT_NEAR(tau, f.damping[j] * v + f.friction[j], 1e-12) << "joint " << j << " at " << v;
+      EXPECT_NEAR(tau, f.damping[j] * v + f.friction[j] + f.stiffness[j] * q[j], 1e-12)
+          << "joint " << j << " at " << v;
     }
   }
+  // Each joint accelerated alone from rest at zero angle, then held still at an angle.
+  for (int j = 0; j < 2; ++j) {
+    Eigen::Vector3d qdd = zero, at = zero;
+    qdd[j] = 2.0;
+    at[j] = 0.3;
+    Eigen::MatrixXd y(3, model.parameters());
+    model.regressor(zero, zero, qdd, y);
+    EXPECT_NEAR((y * per_joint)[j], f.armature[j] * 2.0, 1e-12) << "joint " << j;
+    model.regressor(at, zero, zero, y);
+    EXPECT_NEAR((y * per_joint)[j], f.stiffness[j] * 0.3, 1e-12) << "joint " << j;
+  }
+  EXPECT_DOUBLE_EQ(f.armature[1], 0.01);
+  EXPECT_DOUBLE_EQ(f.stiffness[0], 2.0);
+  EXPECT_EQ(f.stiffness[1], 0.0);             // the motor's spring is listed apart
   EXPECT_DOUBLE_EQ(f.damping[1], 0.3 + 0.2);  // the motor's and the joint's own
   EXPECT_DOUBLE_EQ(f.friction[1], 0.8);
   EXPECT_EQ(f.damping[2], 0.0);  // only the coupled motor acts there
 }
 
-TEST(JointFriction, RefusesParametersOfAnotherModel) {
+TEST(JointDynamics, RefusesParametersOfAnotherModel) {
   const sid::ChainModel model = geared_arm();
   sid_test::expect_invalid_argument(
-      [&] { (void)sid::joint_friction(model, Eigen::VectorXd::Zero(3)); }, "sid::joint_friction",
+      [&] { (void)sid::joint_dynamics(model, Eigen::VectorXd::Zero(3)); }, "sid::joint_dynamics",
       "parameters");
 }
 
