@@ -449,7 +449,7 @@ std::string consistent_urdf(const ChainIdentifyResult& r, const std::string& wha
   for (int i = 0; i < robot.chain.joints(); ++i)
     phi.push_back(r.result.consistent.theta.segment<10>(10 * i));
   const std::string links =
-      urdf_with_link_parameters(robot.urdf, robot.base, robot.tip, robot.link_names, phi);
+      urdf_with_link_parameters(robot.urdf, robot.base, robot.tip, robot.link_names, phi, what);
   const sid::ChainModel& model = r.loaded.model;
   const sid::JointDynamics friction = sid::joint_dynamics(model, r.result.consistent.theta);
   const std::string written = urdf_with_joint_dynamics(

@@ -193,14 +193,27 @@ class MjcfBuilder {
     if (!link.child("inertial")) return;
     const sid::LinkInertia<double> body = sid::detail::urdf_inertia(link);
     if (!(body.mass > 0.0)) return;
-    const Eigen::Matrix3d& i = body.inertia_com;
-    // MuJoCo refuses principal moments that break the triangle inequality (no real body has
-    // them); balanceinertia makes them real.
+    Eigen::Matrix3d i = body.inertia_com;
+    // MuJoCo refuses principal moments that break the triangle inequality. A body at the edge of
+    // real ones (a fit's flat link) breaks it by round-off: the same inertia added about every
+    // axis closes that gap. A description's body that breaks it for real is balanced by MuJoCo
+    // (balanceinertia), and said so.
     const Eigen::Vector3d moments = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(i).eigenvalues();
-    if (moments[0] + moments[1] < moments[2] * (1.0 - 1e-12)) {
+    const double gap = moments[2] - moments[0] - moments[1];
+    if (gap > 1e-9 * moments[2]) {
       unbalanced_ = true;
       left_out_.push_back("link '" + *link.attribute("name") +
                           "' inertia as given (no real body has it: MuJoCo balances it)");
+    } else if (gap >= 0.0) {
+      i.diagonal().array() += gap + 1e-12 * moments[2];
+    }
+    // Nor does it take a point mass or a rod (a moment of zero).
+    const double least = std::max(1e-9 * moments[2], 1e-12);
+    if (moments[0] < least) {
+      i.diagonal().array() += least - moments[0];
+      left_out_.push_back("link '" + *link.attribute("name") + "' inertia as given (a moment of " +
+                          shortest_number(moments[0]) + " kg m^2: raised to " +
+                          shortest_number(least) + ")");
     }
     bodies_ += indent + "<inertial pos=\"" + triple(body.com) + "\" mass=\"" +
                shortest_number(body.mass) + "\" fullinertia=\"" + shortest_number(i(0, 0)) + " " +

@@ -16,14 +16,19 @@ namespace sid::app {
 /// chain read from it between base and tip has the given link parameters. A moving link that
 /// carries other bodies in the description (links fixed to it, bodies past the tip) keeps them:
 /// its own <inertial> becomes the identified parameters less what they carry.
+/// When that own part is no real body, the bodies fixed to the link join it (a hand on a flange:
+/// the data see their sum only), theirs removed; if it still is none (a fit on the edge of real
+/// bodies, with moving parts past it), the nearest real body is written. A comment at the link
+/// says which, and by how much the written inertia differs.
 /// @param links the moving links, base first; phi their identified parameters (lumped, in the
 ///        link's frame, as sid::chain_from_urdf gives them).
-/// @throws InputError when a link's own part would not be a real body (the identified link is
-///         lighter than what it carries in the description), or the result does not read back
-///         to the given parameters.
+/// @param what the option messages start with ("--write-urdf").
+/// @throws InputError when a link is lighter than what it carries in the description, or the
+///         result does not read back to what was written.
 std::string urdf_with_link_parameters(const std::string& urdf, const std::string& base,
                                       const std::string& tip, const std::vector<std::string>& links,
-                                      const std::vector<sid::LinkParameters<double>>& phi);
+                                      const std::vector<sid::LinkParameters<double>>& phi,
+                                      const std::string& what);
 
 /// @brief The URDF text with each named joint's <dynamics> set to the given damping and friction
 /// (one value per joint, in the joints' order), and a comment after <robot> saying what was

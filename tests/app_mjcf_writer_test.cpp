@@ -273,4 +273,30 @@ TEST_F(MjcfWriter, StartsAtTheBaseLinkAndRefusesJointsAboveIt) {
   }
 }
 
+TEST_F(MjcfWriter, GivesAPointMassTheLeastInertiaMujocoTakes) {
+  const std::string urdf = R"(<robot name="point">
+  <link name="base"/>
+  <joint name="j" type="revolute">
+    <parent link="base"/><child link="p"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+  <link name="p">
+    <inertial><origin xyz="0.3 0 0"/><mass value="0.5"/><inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>
+  </link>
+</robot>
+)";
+  sid::app::MjcfJointDrives d;
+  d.joints = {"j"};
+  d.damping = d.friction = d.armature = d.stiffness = Eigen::VectorXd::Zero(1);
+  const sid::app::Mjcf out =
+      sid::app::mjcf_from_urdf(urdf, "base", Eigen::Vector3d(0, 0, -9.81), d, {}, {"", ""});
+  const XmlElement mjcf = parsed(out.text);
+  const XmlElement* p = find(mjcf, "body", "p");
+  ASSERT_NE(p, nullptr);
+  ASSERT_NE(p->child("inertial"), nullptr) << out.text;
+  const std::vector<double> full = numbers(*p->child("inertial"), "fullinertia");
+  ASSERT_EQ(full.size(), 6u) << out.text;
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(full[static_cast<std::size_t>(i)], 1e-12);
+  EXPECT_TRUE(lists(out.left_out, "link 'p' inertia as given (a moment of 0 kg m^2: raised to"));
+}
+
 }  // namespace
