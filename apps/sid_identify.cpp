@@ -304,6 +304,10 @@ void define_options(CLI::App& cli, Options& o) {
                  "links, each joint's damping, frictionloss, armature and stiffness, the "
                  "description's shapes and a motor per joint (refuses to overwrite without "
                  "--force)");
+  cli.add_option("--report", o.chain.report,
+                 "--robot: write the result as one self-contained HTML page (parameters and "
+                 "std, torque errors, held-out prediction, the consistent model, plots per "
+                 "joint; refuses to overwrite without --force)");
   cli.add_flag("--strict-consistency", o.chain.strict_consistency,
                "--write-urdf and --write-mjcf refuse real bodies that do not reproduce the "
                "estimate within its uncertainty too (by default only those that add more than "
@@ -387,8 +391,8 @@ void define_options(CLI::App& cli, Options& o) {
   group("Any serial chain (--robot)",
         {"--robot", "--base", "--tip", "--hold", "--transmission", "--validate-fraction",
          "--rest-fraction", "--no-default-effects", "--coulomb-epsilon", "--write-urdf",
-         "--write-mjcf", "--strict-consistency", "--payload-of", "--payload-frame", "--currents",
-         "--known-payload", "--payload-run"});
+         "--write-mjcf", "--report", "--strict-consistency", "--payload-of", "--payload-frame",
+         "--currents", "--known-payload", "--payload-run"});
   group("The paper's two-link arm (without --robot)",
         {"--method", "--smoothing", "--sigma-q", "--S", "--lambda", "--true", "--reference-theta",
          "--gear-ratio"});
@@ -846,9 +850,9 @@ int identify(Options o) {
             "unknown load on a fitted arm; give one");
     require(o.payload_frame.empty() || !o.payload_of.empty() || !o.gains.known_payload.empty(),
             "--payload-frame goes with --known-payload or --payload-of (the frame of the load)");
-    require(o.chain.write_mjcf.empty() || o.payload_of.empty(),
-            "--write-mjcf does not go with --payload-of: --write-urdf writes the arm with its "
-            "load");
+    require((o.chain.write_mjcf.empty() && o.chain.report.empty()) || o.payload_of.empty(),
+            "--write-mjcf and --report do not go with --payload-of: --write-urdf writes the arm "
+            "with its load");
     o.gains.payload_frame = o.payload_frame;
     if (o.gains.any()) return sid::app::identify_robot_currents(o.chain, o.gains, kName);
     if (!o.payload_of.empty())
@@ -858,10 +862,10 @@ int identify(Options o) {
   require(o.chain.base.empty() && o.chain.tip.empty() && o.chain.hold.empty() &&
               o.chain.transmission.empty() && !o.chain.validate_fraction &&
               !o.chain.rest_fraction && !o.chain.coulomb_epsilon && o.chain.write_urdf.empty() &&
-              o.chain.write_mjcf.empty() && !o.chain.no_default_effects &&
+              o.chain.write_mjcf.empty() && o.chain.report.empty() && !o.chain.no_default_effects &&
               !o.chain.strict_consistency,
           "--base, --tip, --hold, --transmission, --validate-fraction, --rest-fraction, "
-          "--coulomb-epsilon, --write-urdf, --write-mjcf, --strict-consistency and "
+          "--coulomb-epsilon, --write-urdf, --write-mjcf, --report, --strict-consistency and "
           "--no-default-effects need "
           "--robot");
   require(o.payload_of.empty(), "--payload-of needs --robot (the description of the arm)");

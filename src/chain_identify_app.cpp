@@ -8,6 +8,7 @@
 
 #include "app.hpp"
 #include "csv.hpp"
+#include "identify_report_html.hpp"
 #include "robot_description.hpp"
 #include "mjcf_writer.hpp"
 #include "urdf_writer.hpp"
@@ -491,6 +492,7 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
   if (!o.json.empty()) ensure_writable(o.json, o.force);
   if (!o.write_urdf.empty()) ensure_writable(o.write_urdf, o.force);
   if (!o.write_mjcf.empty()) ensure_writable(o.write_mjcf, o.force);
+  if (!o.report.empty()) ensure_writable(o.report, o.force);
   LoadedChain loaded = load_identify_chain(o);
   require_model_files(o, loaded.robot);
   std::vector<ChainRunFile> held_out;
@@ -515,6 +517,7 @@ void write_identify_outputs(const ChainIdentifyAppOptions& o, const ChainIdentif
   const auto refused = [](const InputError& e, const std::string& path) {
     return InputError(std::string(e.what()) + "; " + path + " is not written");
   };
+  if (!o.report.empty()) write(o.report, identify_report_html(r));
   if (!o.write_urdf.empty()) {
     try {
       write(o.write_urdf, consistent_urdf(r, "--write-urdf", o.consistency()));

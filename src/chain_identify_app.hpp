@@ -41,6 +41,7 @@ struct ChainIdentifyAppOptions {
   std::string json;
   std::string write_urdf;  ///< a copy of the URDF with the physically consistent links
   std::string write_mjcf;  ///< a MuJoCo model of the URDF with the physically consistent links
+  std::string report;      ///< the result as one self-contained HTML page
   /// --write-urdf also refuses links that do not reproduce the estimate within its uncertainty.
   bool strict_consistency = false;
   bool force = false;

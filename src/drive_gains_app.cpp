@@ -196,6 +196,7 @@ int identify_robot_currents(const ChainIdentifyAppOptions& chain, const DriveGai
   if (!chain.json.empty()) ensure_writable(chain.json, chain.force);
   if (!chain.write_urdf.empty()) ensure_writable(chain.write_urdf, chain.force);
   if (!chain.write_mjcf.empty()) ensure_writable(chain.write_mjcf, chain.force);
+  if (!chain.report.empty()) ensure_writable(chain.report, chain.force);
   const DriveGainResult r = identify_with_drive_gains(chain, o);
   const ChainIdentifyResult& id = r.identified;
   require_model_files(chain, id.loaded.robot);

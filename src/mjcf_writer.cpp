@@ -4,6 +4,7 @@
 #include <sid/model/urdf.hpp>
 
 #include "app.hpp"
+#include "svg_plot.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -27,28 +28,7 @@ std::string triple(const Eigen::Vector3d& v) {
   return shortest_number(v[0]) + " " + shortest_number(v[1]) + " " + shortest_number(v[2]);
 }
 
-std::string quoted(const std::string& text) {
-  std::string out = "\"";
-  for (const char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out + "\"";
-}
+std::string quoted(const std::string& text) { return "\"" + xml_escaped(text) + "\""; }
 
 /// MuJoCo's pos and quat (w x y z) of a URDF pose, each left out where it is the identity.
 std::string placement(const sid::FramePose<double>& pose) {

@@ -12,6 +12,7 @@
 #include "chain_simulation.hpp"
 #include "csv.hpp"
 #include "robot_description.hpp"
+#include "svg_plot.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -322,9 +323,28 @@ TEST_F(IdentifyRobot, TheLibraryCallGivesTheToolsNumbers) {
 )");
   const sid_test::AppRun tool = shell(app("sid_identify") +
                                       " --robot arm.urdf --validate-fraction 0.25 --json fit.json "
-                                      "run.csv");
+                                      "--report fit.html run.csv");
   ASSERT_EQ(tool.exit_code, 0) << tool.err;
   const nlohmann::json j = nlohmann::json::parse(read(file("fit.json")));
+  // The page stands alone (no script, no file or address to fetch) and shows what the JSON
+  // holds: each base parameter, the held-out run, a plot per joint of each run.
+  const std::string html = read(file("fit.html"));
+  EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
+  for (const char* outside : {"<script", "src=", "href=", "url("})
+    EXPECT_EQ(html.find(outside), std::string::npos) << outside;
+  const auto count = [&](const std::string& what) {
+    std::size_t n = 0;
+    for (std::size_t at = html.find(what); at != std::string::npos; at = html.find(what, at + 1))
+      ++n;
+    return n;
+  };
+  EXPECT_EQ(count("<svg"), 6u);  // 3 joints, the fitted part and the held-out one
+  EXPECT_EQ(count("</svg>"), 6u);
+  for (const auto& name : j["parameter_names"])
+    EXPECT_NE(html.find(">" + sid::app::xml_escaped(name.get<std::string>()) + "</td>"),
+              std::string::npos)
+        << name;
+  EXPECT_NE(html.find("held out: run.csv (last 25 %)"), std::string::npos);
 
   const sid::UrdfChain arm = sid::chain_from_urdf(read(urdf), "base", "l3");
   const sid::Transmission joint_side(arm.chain.joints());
@@ -353,6 +373,10 @@ TEST_F(IdentifyRobot, TheLibraryCallGivesTheToolsNumbers) {
   expect_same(j["cutoff_hz"], r.identification.cutoff_hz, "cutoff_hz");
   ASSERT_EQ(r.validation.size(), 1u);
   EXPECT_EQ(r.validation[0].source, "run.csv (last 25 %)");
+  // The held-out end is kept beside the fitted part, every sample once.
+  ASSERT_EQ(r.held_out_runs.size(), 1u);
+  EXPECT_EQ(r.held_out_runs[0].name, "run.csv (last 25 %)");
+  EXPECT_EQ(r.fitted_runs[0].data.size() + r.held_out_runs[0].data.size(), table.rows());
   EXPECT_EQ(j["validation"][0]["relative_residual"].get<double>(),
             r.validation[0].relative_residual);
   expect_same(j["physically_consistent"]["theta"], r.consistent.theta, "consistent theta");

@@ -259,9 +259,20 @@ TEST(IdentifyChain, RecoversASimulatedArmOnAJitteredGrid) {
     EXPECT_NEAR(id.fit.theta[i], beta[i], 2e-3 * std::max(1.0, std::abs(beta[i])))
         << id.parameter_names[static_cast<std::size_t>(i)];
   // Another run is predicted as well as the fitted one.
-  const sid::ChainPrediction other =
-      sid::predict_chain(arm.model, id, arm.run(6.0, 2, 0.0), options);
+  const sid::ChainTrajectory<double> run = arm.run(6.0, 2, 0.0);
+  const sid::ChainPrediction other = sid::predict_chain(arm.model, id, run, options);
   EXPECT_LT(other.relative_residual, 2e-3);
+  // The model's torque at every sample, away from the spline's ends, is the run's.
+  const Eigen::MatrixXd tau = sid::chain_torque(arm.model, id, run, options);
+  ASSERT_EQ(tau.rows(), run.size());
+  ASSERT_EQ(tau.cols(), run.joints());
+  const Eigen::Index edge = run.size() / 20, inside = run.size() - 2 * edge;
+  const Eigen::MatrixXd error = tau.middleRows(edge, inside) - run.tau.middleRows(edge, inside);
+  EXPECT_LT(error.norm(), 2e-3 * run.tau.middleRows(edge, inside).norm());
+  sid::ChainIdentification other_model = id;
+  other_model.cutoff_hz.resize(1);
+  EXPECT_THROW((void)sid::chain_torque(arm.model, other_model, run, options),
+               std::invalid_argument);
 }
 
 TEST(IdentifyChain, ChoosesCutoffsAndItsStdDevsCoverTheErrorWithNoisyTorques) {

@@ -651,6 +651,27 @@ SID_INLINE ChainIdentification refit_chain(const ChainModel& model,
   return id;
 }
 
+SID_INLINE Eigen::MatrixXd chain_torque(const ChainModel& model,
+                                        const ChainIdentification& identification,
+                                        const ChainTrajectory<double>& run,
+                                        const ChainIdentifyOptions& options) {
+  const char* who = "sid::chain_torque";
+  if (identification.fit.theta.size() != identification.base.rank() ||
+      identification.cutoff_hz.size() != model.joints())
+    throw std::invalid_argument(std::string(who) +
+                                ": the identification does not belong to this model");
+  detail::check_chain_run(model, run, std::string(who));
+  const ChainKinematics<double> k = smooth_chain_run(run, identification.cutoff_hz, options);
+  const std::vector<Eigen::Index>& independent = identification.base.independent;
+  Eigen::MatrixXd w(model.joints(), model.parameters());
+  Eigen::MatrixXd tau(k.size(), model.joints());
+  for (Eigen::Index i = 0; i < k.size(); ++i) {
+    model.regressor(k.q.row(i).transpose(), k.qd.row(i).transpose(), k.qdd.row(i).transpose(), w);
+    tau.row(i) = (w(Eigen::all, independent) * identification.fit.theta).transpose();
+  }
+  return tau;
+}
+
 SID_INLINE ChainKinematics<double> smooth_chain_run(const ChainTrajectory<double>& run,
                                                     const Eigen::VectorXd& cutoff_hz,
                                                     const ChainIdentifyOptions& options) {

@@ -160,6 +160,14 @@ SID_INLINE ChainIdentification refit_chain(const ChainModel& model,
                                            const std::vector<ChainTrajectory<double>>& runs,
                                            const ChainIdentifyOptions& options = {});
 
+/// @brief The identified model's torque at every sample of a run (rows: samples, columns:
+/// joints), on its motion smoothed at the identification's cutoffs.
+/// @throws std::invalid_argument as predict_chain.
+SID_INLINE Eigen::MatrixXd chain_torque(const ChainModel& model,
+                                        const ChainIdentification& identification,
+                                        const ChainTrajectory<double>& run,
+                                        const ChainIdentifyOptions& options = {});
+
 /// @brief A run smoothed as identify_chain smooths it at the given cutoffs [Hz] (one per joint):
 /// the angles, rates and accelerations at every sample, and the torque filtered as the angles
 /// when options.filter_torque (else as measured).

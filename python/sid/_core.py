@@ -265,6 +265,11 @@ class Fit:
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
 
+    def report_html(self) -> str:
+        """This fit as one self-contained HTML page (as ``sid_identify --report``): parameters
+        and std, torque errors, held-out prediction, the consistent model, plots per joint."""
+        return self._handle.report_html()
+
     def identify_payload(
         self, runs: Union["Run", Sequence["Run"]], payload_frame: Optional[str] = None
     ) -> "Payload":

@@ -13,6 +13,7 @@
 #include "csv.hpp"
 #include "external_app.hpp"
 #include "identified_arm.hpp"
+#include "identify_report_html.hpp"
 #include "payload_app.hpp"
 #include "montecarlo_report.hpp"
 #include "paper_study.hpp"
@@ -153,24 +154,11 @@ class Fit {
  private:
   Eigen::MatrixXd predict_joint_side(const sid::ChainTrajectory<double>& run,
                                      const std::string& name) const {
-    const sid::ChainIdentifyOptions& options = r_.loaded.options;
-    sid::ChainKinematics<double> k;
     try {
-      k = sid::smooth_chain_run(run, r_.result.identification.cutoff_hz, options);
+      return sid::chain_torque(r_.loaded.model, r_.result.identification, run, r_.loaded.options);
     } catch (const std::invalid_argument& e) {
       throw InputError(name + ": " + e.what());
     }
-    const sid::ChainModel& model = r_.loaded.model;
-    const auto& independent = r_.result.identification.base.independent;
-    Eigen::MatrixXd w(model.joints(), model.parameters());
-    Eigen::MatrixXd tau(k.size(), model.joints());
-    for (Eigen::Index i = 0; i < k.size(); ++i) {
-      const Eigen::VectorXd q = k.q.row(i).transpose(), qd = k.qd.row(i).transpose(),
-                            qdd = k.qdd.row(i).transpose();
-      model.regressor(q, qd, qdd, w);
-      tau.row(i) = (w(Eigen::all, independent) * r_.result.identification.fit.theta).transpose();
-    }
-    return tau;
   }
 
   sid::app::ChainIdentifyResult r_;
@@ -572,7 +560,10 @@ NB_MODULE(_sid, m) {
       .def_prop_ro("joint_names", [](const Fit& f) { return f.result().loaded.robot.joint_names; })
       .def("consistent_urdf",
            [](const Fit& f) { return sid::app::consistent_urdf(f.result(), "write_urdf"); })
-      .def("consistent_mjcf", &Fit::consistent_mjcf, "mjcf_directory"_a);
+      .def("consistent_mjcf", &Fit::consistent_mjcf, "mjcf_directory"_a)
+      .def(
+          "report_html", [](const Fit& f) { return sid::app::identify_report_html(f.result()); },
+          nb::call_guard<nb::gil_scoped_release>());
   m.def("identify", &identify, "robot"_a, "runs"_a, "validate"_a, "options"_a,
         nb::call_guard<nb::gil_scoped_release>());
 

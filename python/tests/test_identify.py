@@ -184,3 +184,17 @@ def test_writes_a_mujoco_model_that_mujoco_reads_as_the_written_urdf(tx40_csv, t
                                    rtol=0, atol=1e-10)
         np.testing.assert_allclose(ours_data.qfrc_bias[ours_dof],
                                    theirs_data.qfrc_bias[theirs_dof], rtol=0, atol=1e-9)
+
+
+def test_reports_the_fit_as_one_html_page_as_the_tool_does(tx40_csv, tx40_fit, cli, tmp_path):
+    page = tx40_fit.report_html()
+    assert page.startswith("<!DOCTYPE html>")
+    assert page.count("<svg") == 2 * 6  # per joint: the fitted part and the held-out end
+    assert "<script" not in page and "src=" not in page
+    out = tmp_path / "fit.html"
+    subprocess.run(
+        [str(cli), "--robot", str(tx40.URDF), "--transmission", str(tx40.TRANSMISSION),
+         "--validate-fraction", "0.3", "--report", str(out), str(tx40_csv)],
+        check=True, capture_output=True,
+    )
+    assert out.read_text() == page

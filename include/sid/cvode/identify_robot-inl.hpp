@@ -136,6 +136,7 @@ SID_INLINE RobotIdentification identify_robot(const ChainModel& model,
   if (id.fit.ill_conditioned) out.warnings.push_back(id.fit.message);
   for (std::size_t r = 0; r < runs.size(); ++r)
     out.fitted_runs.push_back({std::move(runs[r].name), std::move(data[r])});
+  out.held_out_runs = std::move(held_out);
   return out;
 }
 

@@ -76,7 +76,9 @@ struct RobotIdentification {
   ChainIdentification identification;
   ChainIvRefinement iv;
   std::vector<ChainPrediction> validation;  ///< one per held-out run, named as given
-  ChainConsistentFit consistent;            ///< real bodies near the estimate and the prior
+  /// The held-out runs, joint side (with validate_fraction, the first is the run's end).
+  std::vector<NamedChainRun> held_out_runs;
+  ChainConsistentFit consistent;  ///< real bodies near the estimate and the prior
   /// The consistent model's prediction of each held-out run, beside `validation`'s.
   std::vector<ChainPrediction> consistent_validation;
   std::vector<std::string> warnings;  ///< an IV estimate not used; an ill-conditioned fit

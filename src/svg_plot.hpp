@@ -1,0 +1,30 @@
+#pragma once
+/// @file
+/// @brief Line plots as inline SVG, for reports that must stand alone (no script, no network).
+
+#include <Eigen/Core>
+
+#include <string>
+#include <vector>
+
+namespace sid::app {
+
+/// @brief One line of a plot: its legend, its colour (CSS) and a value per abscissa.
+struct SvgSeries {
+  std::string label;
+  std::string color;
+  Eigen::VectorXd y;
+};
+
+/// @brief An <svg> element plotting each series against x (increasing), with axes, ticks and a
+/// legend. A series longer than the plot is wide keeps each pixel column's least and greatest
+/// value, so that a spike stays visible.
+/// @throws InputError when a series' length is not x's, or x has fewer than two values.
+std::string svg_line_plot(const Eigen::VectorXd& x, const std::vector<SvgSeries>& series,
+                          const std::string& x_label, const std::string& y_label, int width = 760,
+                          int height = 220);
+
+/// @brief Text with &, <, > and " written as XML entities.
+std::string xml_escaped(const std::string& text);
+
+}  // namespace sid::app
