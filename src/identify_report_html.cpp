@@ -96,15 +96,17 @@ std::string summary(const ChainIdentifyResult& r) {
 std::string verdicts(const ChainIdentifyResult& r) {
   const nlohmann::json& p = r.json["physically_consistent"];
   const bool written = p.value("written", false);
-  std::string html = std::string("<p class=\"verdict") + (written ? "" : " bad") + "\">" +
-                     "Physically consistent model (each link a real body): " +
-                     percent(p["torque_error"].get<double>()) + " torque error on the " +
-                     xml_escaped(p["torque_error_on"].get<std::string>()) + ", against " +
-                     percent(p["estimate_torque_error"].get<double>()) + " for the estimate; " +
-                     (p.value("converged", false) ? "converged" : "did not converge") + "; " +
-                     (written ? "written by --write-urdf and --write-mjcf."
-                              : "refused by --write-urdf and --write-mjcf.") +
-                     "</p>\n";
+  std::string html =
+      std::string("<p class=\"verdict") + (written ? "" : " bad") + "\">" +
+      "Physically consistent model (each link a real body): " +
+      percent(p["torque_error"].get<double>()) + " torque error on the " +
+      xml_escaped(p["torque_error_on"].get<std::string>()) + ", against " +
+      percent(p["estimate_torque_error"].get<double>()) + " for the estimate; " +
+      (p.value("converged", false) ? "converged" : "did not converge") + "; " +
+      (r.loaded.robot.urdf.empty() ? "--write-urdf and --write-mjcf need a URDF as the robot."
+       : written                   ? "written by --write-urdf and --write-mjcf."
+                                   : "refused by --write-urdf and --write-mjcf.") +
+      "</p>\n";
   if (r.result.warnings.empty()) return html + "<p>No warnings.</p>\n";
   html += "<ul>\n";
   for (const std::string& w : r.result.warnings)
