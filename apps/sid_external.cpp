@@ -25,25 +25,28 @@ Methods:
   observer (default)  the generalized-momentum observer: p = M(q) qd,
                       r = K (p - p(0) - integral of (tau + r - beta) dt), beta = g + friction
                       - C^T qd; r follows tau_ext through a first-order lag of rate K [1/s]
-                      (--gain, default 300 /s, at most half the sampling rate). No
+                      (--gain; default 300 /s, at most half the sampling rate and no
+                      faster than the rates: 2 pi x their slowest cutoff). No
                       acceleration, so no differentiated encoder noise. The same observer is
                       the library's sid::MomentumObserver, for a real-time loop. Offline, the
                       whole log at hand, the same lag run backwards in time then cancels the
                       observer's delay (a zero-phase filter of rate K).
   residual            ID(q, qd, qdd) - tau with the spline's accelerations: no lag, more noise.
 Rates come from a smoothing spline of the angles at the cutoff GCV chooses for each joint (as
-much of the motion as the angle noise lets through), or at the fit's cutoffs when the log is a
-measured one (angles on a grid, encoder counts, or that GCV leaves unsmoothed: GCV takes their
-error for motion); --cutoff HZ or --cutoff fit chooses. The torque is taken as logged.
+much of the motion as the angle noise lets through), or, when the log is a measured one (angles
+on a grid, encoder counts, or that GCV leaves unsmoothed: GCV takes their error for motion), at
+the fit's cutoffs scaled by the half octave (1/2 to 4) at which the model best predicts this
+log's torque; --cutoff HZ or --cutoff fit chooses. The torque is taken as logged.
 
 Contacts: a joint is in contact where |tau_ext| exceeds --threshold times the fit's residual RMS
 on its own logs (as recorded): the model's own error sets what counts as a contact; where this
 estimate's robust spread (1.4826 MAD) is larger, as with coarse encoders, it does. Excursions
 shorter than --min-duration are left out; contacts closer than --merge-gap are one; none is
-looked for within --skip of the log's ends.
+looked for within --skip of the log's ends. An excursion beyond a joint's effort limit (the
+URDF's <limit effort>) is no contact but the model's failure: it is listed apart, with a warning.
 
 Outputs: the report on standard output; -o EXT.csv: t,tau_ext1..taun,contact; --json: the
-thresholds, the gain and contacts [{start, end, joints, peak}]; --plots DIR: one plot per joint
+thresholds, the gain, contacts [{start, end, joints, peak}] and beyond_effort_limit; --plots DIR: one plot per joint
 (gnuplot; without it the data and scripts are written).
 
 Exit codes: 0 success, 2 bad options or input (message on standard error), 1 internal error.
@@ -72,11 +75,12 @@ void define_options(CLI::App& cli, sid::app::ExternalOptions& o) {
                  "t=NAME,q1=NAME,...,tau1=NAME: the log's column names if not t,q1..,tau1..");
   cli.add_option("--method", o.method, "observer or residual")->capture_default_str();
   cli.add_option("--gain", o.gain,
-                 "the observer's rate K [1/s] (default 300, at most half the sampling rate)");
+                 "the observer's rate K [1/s] (default 300, at most half the sampling rate and "
+                 "2 pi x the slowest rate cutoff)");
   cli.add_option(
       "--cutoff", o.cutoff,
       "smooth the angles at this cutoff before taking rates [Hz], one or one per joint, or "
-      "'fit' for the fit's (default: GCV's)");
+      "'fit' for the fit's (default: GCV's; for a measured log, the fit's scaled to this log)");
   cli.add_option("--threshold", o.threshold_factor,
                  "contact where |tau_ext| > this times the fit's residual RMS")
       ->capture_default_str();

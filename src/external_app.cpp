@@ -63,7 +63,8 @@ ExternalResult external_torque(const IdentifiedArm& arm, const ChainRunFile& run
   const int n = model.joints();
   const sid::ChainTrajectory<double>& log = run.data;
   const Eigen::Index samples = log.size();
-  const sid::ExternalTorqueOptions options = external_options(o, n, run);
+  sid::ExternalTorqueOptions options = external_options(o, n, run);
+  options.effort_limit = arm.effort_limit;
   ExternalResult result;
   result.method = o.method;
   try {
@@ -98,14 +99,22 @@ ExternalResult external_torque(const IdentifiedArm& arm, const ChainRunFile& run
          << number("%.3g", arm.residual_rms_measured[j]) << ", spread "
          << number("%.3g", r.noise[j]) << "); largest |tau_ext| "
          << number("%.4g", r.external.col(j).cwiseAbs().maxCoeff()) << "\n";
+  const auto list = [&](const std::vector<sid::ExternalContact>& excursions) {
+    for (const sid::ExternalContact& c : excursions) {
+      text << "  " << number("%.3f", c.start) << " s to " << number("%.3f", c.end) << " s ("
+           << number("%.0f", 1000.0 * (c.end - c.start)) << " ms), peak";
+      for (const int j : c.joints)
+        text << " " << model.joint_names()[static_cast<std::size_t>(j)] << " "
+             << number("%.3g", c.peak[j]) << " N m";
+      text << "\n";
+    }
+  };
   text << r.contacts.size() << (r.contacts.size() == 1 ? " contact" : " contacts") << "\n";
-  for (const sid::ExternalContact& c : r.contacts) {
-    text << "  " << number("%.3f", c.start) << " s to " << number("%.3f", c.end) << " s ("
-         << number("%.0f", 1000.0 * (c.end - c.start)) << " ms), peak";
-    for (const int j : c.joints)
-      text << " " << model.joint_names()[static_cast<std::size_t>(j)] << " "
-           << number("%.3g", c.peak[j]) << " N m";
-    text << "\n";
+  list(r.contacts);
+  if (!r.beyond_effort.empty()) {
+    text << r.beyond_effort.size()
+         << " excursion(s) beyond a joint's effort limit: the model's failure, not contacts\n";
+    list(r.beyond_effort);
   }
   result.text = text.str();
 
@@ -122,17 +131,27 @@ ExternalResult external_torque(const IdentifiedArm& arm, const ChainRunFile& run
   j["fit_residual_rms"] = to_json_array(arm.residual_rms_measured);
   j["spread"] = to_json_array(r.noise);
   j["peak"] = to_json_array(r.external.cwiseAbs().colwise().maxCoeff().transpose());
-  j["contacts"] = nlohmann::json::array();
-  for (const sid::ExternalContact& c : r.contacts) {
-    nlohmann::json e;
-    e["start"] = c.start;
-    e["end"] = c.end;
-    std::vector<std::string> names;
-    for (const int joint : c.joints)
-      names.push_back(model.joint_names()[static_cast<std::size_t>(joint)]);
-    e["joints"] = names;
-    e["peak"] = to_json_array(c.peak);
-    j["contacts"].push_back(e);
+  const auto excursions = [&](const std::vector<sid::ExternalContact>& list) {
+    nlohmann::json out = nlohmann::json::array();
+    for (const sid::ExternalContact& c : list) {
+      nlohmann::json e;
+      e["start"] = c.start;
+      e["end"] = c.end;
+      std::vector<std::string> names;
+      for (const int joint : c.joints)
+        names.push_back(model.joint_names()[static_cast<std::size_t>(joint)]);
+      e["joints"] = names;
+      e["peak"] = to_json_array(c.peak);
+      out.push_back(e);
+    }
+    return out;
+  };
+  j["contacts"] = excursions(r.contacts);
+  j["beyond_effort_limit"] = excursions(r.beyond_effort);
+  if (arm.effort_limit.size() != 0) {
+    j["effort_limit"] = nlohmann::json::array();
+    for (const double limit : arm.effort_limit)
+      j["effort_limit"].push_back(std::isnan(limit) ? nlohmann::json() : nlohmann::json(limit));
   }
   result.warnings = arm.warnings;
   result.warnings.insert(result.warnings.end(), r.warnings.begin(), r.warnings.end());

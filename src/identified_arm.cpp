@@ -100,6 +100,7 @@ IdentifiedArm identified_arm(const nlohmann::json& j, const std::string& where,
                     numbers(j, "cutoff_hz", where),
                     numbers(j, "residual_rms", where),
                     numbers(j, "residual_rms_measured", where),
+                    {},
                     {}};
   const int n = arm.model.joints();
   if (arm.theta.size() != arm.model.parameters())
@@ -116,6 +117,11 @@ IdentifiedArm identified_arm(const nlohmann::json& j, const std::string& where,
       throw InputError(where + ": physically_consistent." + key + " is not true or false");
     return v.get<bool>();
   };
+  if (robot.limits.size() == std::size_t(n)) {
+    arm.effort_limit.resize(n);
+    for (int joint = 0; joint < n; ++joint)
+      arm.effort_limit[joint] = robot.limits[std::size_t(joint)].effort;
+  }
   const bool converged = flag("converged");
   if (!converged)
     throw InputError(where +

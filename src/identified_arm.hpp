@@ -29,6 +29,9 @@ struct IdentifiedArm {
   /// torque) and against the log as recorded.
   Eigen::VectorXd residual_rms, residual_rms_measured;
   std::vector<std::string> warnings;  ///< e.g. real bodies that do not reproduce the estimate
+  /// Per joint, what its drive can give [N m or N]: the URDF's `<limit effort>` (NaN where
+  /// absent); empty for a DH table.
+  Eigen::VectorXd effort_limit;
 };
 
 /// @brief Reads path (sid_identify --robot --json) for the chain of robot and its transmission

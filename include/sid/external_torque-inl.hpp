@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <utility>
 
@@ -94,25 +95,21 @@ inline std::string measured_log(const ChainModel& model, const ChainTrajectory<d
   return "";
 }
 
-/// The rates' cutoffs and, in words, how they were chosen.
-inline std::pair<Eigen::VectorXd, std::string> rate_cutoff(const ExternalTorqueOptions& o,
-                                                           const ChainModel& model,
-                                                           const Eigen::VectorXd& fit_cutoff_hz,
-                                                           const ChainTrajectory<double>& run) {
-  const int n = model.joints();
-  if (o.fit_cutoffs) return {fit_cutoff_hz, "the fit's"};
-  if (o.cutoff_hz.empty() && o.method == ExternalTorqueMethod::InverseDynamicsResidual)
-    return {fit_cutoff_hz, "the fit's"};
-  if (o.cutoff_hz.empty()) {
-    const double h = (run.t[run.size() - 1] - run.t[0]) / static_cast<double>(run.size() - 1);
-    const Eigen::VectorXd gcv = gcv_rate_cutoff(run);
-    const std::string measured = measured_log(model, run, gcv, h);
-    if (measured.empty()) return {gcv, "GCV"};
-    return {fit_cutoff_hz, "the fit's: " + measured};
+/// τ_ext = ID(q, q̇, q̈) − τ on the smoothed motion.
+inline Eigen::MatrixXd inverse_dynamics_residual(const ArmDynamics& dynamics,
+                                                 const ChainKinematics<double>& k,
+                                                 const ChainTrajectory<double>& log) {
+  const Eigen::Index samples = log.size(), n = log.joints();
+  Eigen::MatrixXd external(samples, n);
+  ArmDynamics::Vector q(n), qd(n), qdd(n), id(n);
+  for (Eigen::Index i = 0; i < samples; ++i) {
+    q = k.q.row(i).transpose();
+    qd = k.qd.row(i).transpose();
+    qdd = k.qdd.row(i).transpose();
+    dynamics.inverse_dynamics(q, qd, qdd, id);
+    external.row(i) = (id - log.tau.row(i).transpose()).transpose();
   }
-  Eigen::VectorXd cutoff(n);
-  for (int j = 0; j < n; ++j) cutoff[j] = o.cutoff_hz[o.cutoff_hz.size() == 1 ? 0 : std::size_t(j)];
-  return {cutoff, "given"};
+  return external;
 }
 
 inline void check_external_torque_input(const ChainModel& model, const Eigen::VectorXd& theta,
@@ -147,23 +144,12 @@ inline void check_external_torque_input(const ChainModel& model, const Eigen::Ve
   for (const double c : o.cutoff_hz)
     if (!(c > 0.0 && std::isfinite(c)))
       throw std::invalid_argument(who + "cutoff_hz values must be > 0 Hz");
-}
-
-/// τ_ext = ID(q, q̇, q̈) − τ on the smoothed motion.
-inline Eigen::MatrixXd inverse_dynamics_residual(const ArmDynamics& dynamics,
-                                                 const ChainKinematics<double>& k,
-                                                 const ChainTrajectory<double>& log) {
-  const Eigen::Index samples = log.size(), n = log.joints();
-  Eigen::MatrixXd external(samples, n);
-  ArmDynamics::Vector q(n), qd(n), qdd(n), id(n);
-  for (Eigen::Index i = 0; i < samples; ++i) {
-    q = k.q.row(i).transpose();
-    qd = k.qd.row(i).transpose();
-    qdd = k.qdd.row(i).transpose();
-    dynamics.inverse_dynamics(q, qd, qdd, id);
-    external.row(i) = (id - log.tau.row(i).transpose()).transpose();
-  }
-  return external;
+  if (o.effort_limit.size() != 0 && o.effort_limit.size() != n)
+    throw std::invalid_argument(who + "effort_limit takes one value per joint (" +
+                                std::to_string(n) + ") or none");
+  for (const double limit : o.effort_limit)
+    if (!(limit > 0.0 || std::isnan(limit)))
+      throw std::invalid_argument(who + "effort limits must be > 0 (NaN: not known)");
 }
 
 /// The momentum observer of rate gain run forwards, then the same first-order lag backwards.
@@ -191,6 +177,145 @@ inline Eigen::MatrixXd observed_external_torque(const ArmDynamics& dynamics,
   return external;
 }
 
+/// The observer's rate: the one given, else min(300, 1 / (2 dt), 2 pi x the slowest rate cutoff).
+/// No faster than the rates: above their cutoff the momentum's derivative has lost what the
+/// torque still carries, and a faster observer passes that difference as external torque.
+inline double observer_gain(const ExternalTorqueOptions& o, const ChainTrajectory<double>& log,
+                            const Eigen::VectorXd& rate_cutoff_hz) {
+  if (o.gain > 0.0) return o.gain;
+  constexpr double kPi = 3.14159265358979323846;
+  const double dt = (log.t[log.size() - 1] - log.t[0]) / static_cast<double>(log.size() - 1);
+  return std::min({300.0, 0.5 / dt, 2.0 * kPi * rate_cutoff_hz.minCoeff()});
+}
+
+/// The smoothing of a measured log's angles: the fit's cutoffs scaled by the half octave (from
+/// 1/2 to 4) at which the observer's estimate on this log is least, measured in the fit's own
+/// residual per joint (its mean square away from the ends, each sample's capped at the contact
+/// threshold's). On free motion the estimate is the model's error plus what the smoothing adds:
+/// the rates' noise when too little, the motion it removes when too much. The fit's cutoffs
+/// were chosen for accelerations on its own logs: on the double pendulum's swing-up, faster
+/// than the fitted runs, they smoothed away a reversal, which the observer then took for a
+/// push. The cap makes a contact count by its length alone, which a slower observer stretches.
+inline std::pair<Eigen::VectorXd, double> measured_log_cutoff(
+    const ExternalTorqueOptions& o, const ArmDynamics& dynamics,
+    const Eigen::VectorXd& fit_cutoff_hz, const Eigen::VectorXd& fit_residual_rms,
+    const ChainTrajectory<double>& log) {
+  const double h = (log.t[log.size() - 1] - log.t[0]) / static_cast<double>(log.size() - 1);
+  ChainIdentifyOptions smoothing;
+  smoothing.filter_torque = false;
+  std::pair<Eigen::VectorXd, double> best{fit_cutoff_hz, 1.0};
+  double least = std::numeric_limits<double>::infinity();
+  for (int step = -2; step <= 4; ++step) {
+    const double scale = std::pow(2.0, 0.5 * step);
+    const Eigen::VectorXd cutoff = (scale * fit_cutoff_hz).cwiseMin(0.25 / h);
+    const Eigen::MatrixXd external = observed_external_torque(
+        dynamics, smooth_chain_run(log, cutoff, smoothing), log, observer_gain(o, log, cutoff));
+    const double cap = o.threshold_factor * o.threshold_factor;
+    double size = 0.0;
+    for (Eigen::Index i = 0; i < log.size(); ++i)
+      if (log.t[i] >= log.t[0] + o.skip && log.t[i] <= log.t[log.size() - 1] - o.skip)
+        size += external.row(i)
+                    .cwiseQuotient(fit_residual_rms.transpose())
+                    .array()
+                    .square()
+                    .min(cap)
+                    .sum();
+    if (size < least) {
+      least = size;
+      best = {cutoff, scale};
+    }
+  }
+  return best;
+}
+
+/// The rates' cutoffs and, in words, how they were chosen.
+inline std::pair<Eigen::VectorXd, std::string> rate_cutoff(const ExternalTorqueOptions& o,
+                                                           const ChainModel& model,
+                                                           const ArmDynamics& dynamics,
+                                                           const Eigen::VectorXd& fit_cutoff_hz,
+                                                           const Eigen::VectorXd& fit_residual_rms,
+                                                           const ChainTrajectory<double>& run) {
+  const int n = model.joints();
+  if (o.fit_cutoffs) return {fit_cutoff_hz, "the fit's"};
+  if (o.cutoff_hz.empty() && o.method == ExternalTorqueMethod::InverseDynamicsResidual)
+    return {fit_cutoff_hz, "the fit's"};
+  if (o.cutoff_hz.empty()) {
+    const double h = (run.t[run.size() - 1] - run.t[0]) / static_cast<double>(run.size() - 1);
+    const Eigen::VectorXd gcv = gcv_rate_cutoff(run);
+    const std::string measured = measured_log(model, run, gcv, h);
+    if (measured.empty()) return {gcv, "GCV"};
+    const auto [cutoff, scale] =
+        measured_log_cutoff(o, dynamics, fit_cutoff_hz, fit_residual_rms, run);
+    return {cutoff, "the fit's x " + format_number("%.3g", scale) +
+                        ", where the estimate on this log is least: " + measured};
+  }
+  Eigen::VectorXd cutoff(n);
+  for (int j = 0; j < n; ++j) cutoff[j] = o.cutoff_hz[o.cutoff_hz.size() == 1 ? 0 : std::size_t(j)];
+  return {cutoff, "given"};
+}
+
+/// The excursion from sample first to last, with each joint's signed peak and the joints above
+/// their threshold.
+inline ExternalContact excursion(const ExternalTorque& r, Eigen::Index first, Eigen::Index last) {
+  ExternalContact c;
+  c.start = r.t[first];
+  c.end = r.t[last];
+  const Eigen::Index n = r.external.cols();
+  c.peak = Eigen::VectorXd::Zero(n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    for (Eigen::Index i = first; i <= last; ++i)
+      if (std::abs(r.external(i, j)) > std::abs(c.peak[j])) c.peak[j] = r.external(i, j);
+    if (std::abs(c.peak[j]) > r.thresholds[j]) c.joints.push_back(static_cast<int>(j));
+  }
+  return c;
+}
+
+/// The joint whose effort limit the excursion's peak exceeds, or -1.
+inline int beyond_effort_limit(const ExternalContact& c, const Eigen::VectorXd& effort_limit) {
+  for (Eigen::Index j = 0; j < effort_limit.size(); ++j)
+    if (std::abs(c.peak[j]) > effort_limit[j]) return static_cast<int>(j);
+  return -1;
+}
+
+/// The contacts above r.thresholds, less the excursions beyond a joint's effort limit, which
+/// are the model's failure: a drive cannot hold against more than it can give.
+inline void find_contacts(const ChainModel& model, const ExternalTorqueOptions& o,
+                          ExternalTorque& r) {
+  r.contact = Eigen::VectorXi::Zero(r.t.size());
+  for (const auto& [first, last] : contact_spans(r.t, r.external, r.thresholds, o)) {
+    ExternalContact c = excursion(r, first, last);
+    if (const int joint = beyond_effort_limit(c, o.effort_limit); joint >= 0) {
+      r.warnings.push_back(
+          "from " + format_number("%.3f", c.start) + " s to " + format_number("%.3f", c.end) +
+          " s the estimate on " + model.joint_names()[std::size_t(joint)] + " reaches " +
+          format_number("%.3g", c.peak[joint]) + ", beyond its effort limit " +
+          format_number("%.3g", o.effort_limit[joint]) +
+          ": the model's failure (an effect it lacks, a wrong transmission or unit), not a "
+          "contact");
+      r.beyond_effort.push_back(std::move(c));
+      continue;
+    }
+    r.contact.segment(first, last - first + 1).setOnes();
+    r.contacts.push_back(std::move(c));
+  }
+}
+
+/// Twice the model's own error: the estimate's noise, not the model, sets the thresholds.
+inline void warn_of_noise(const ChainModel& model, const Eigen::VectorXd& fit_residual_rms,
+                          ExternalTorque& r) {
+  for (int joint = 0; joint < model.joints(); ++joint)
+    if (r.noise[joint] > 2.0 * fit_residual_rms[joint]) {
+      r.warnings.push_back(
+          "the estimate's spread on " + model.joint_names()[static_cast<std::size_t>(joint)] +
+          " (" + format_number("%.3g", r.noise[joint]) +
+          " N m) is more than twice the fit's residual (" +
+          format_number("%.3g", fit_residual_rms[joint]) +
+          "): the rates are noisy (coarse encoders?), so only contacts above its threshold are "
+          "seen; lower rate cutoffs (the fit's, for one) and a lower gain quiet it");
+      return;
+    }
+}
+
 }  // namespace detail
 
 SID_INLINE ExternalTorque estimate_external_torque(const ChainModel& model,
@@ -200,21 +325,18 @@ SID_INLINE ExternalTorque estimate_external_torque(const ChainModel& model,
                                                    const ChainTrajectory<double>& log,
                                                    const ExternalTorqueOptions& o) {
   detail::check_external_torque_input(model, theta, fit_cutoff_hz, fit_residual_rms, log, o);
-  const int n = model.joints();
-  const Eigen::Index samples = log.size();
+  const ArmDynamics dynamics(model, theta);
   ExternalTorque r;
   std::tie(r.rate_cutoff_hz, r.rate_cutoff_choice) =
-      detail::rate_cutoff(o, model, fit_cutoff_hz, log);
+      detail::rate_cutoff(o, model, dynamics, fit_cutoff_hz, fit_residual_rms, log);
   ChainIdentifyOptions smoothing;
   smoothing.filter_torque = false;
   const ChainKinematics<double> k = smooth_chain_run(log, r.rate_cutoff_hz, smoothing);
   r.t = log.t;
-  const ArmDynamics dynamics(model, theta);
   if (o.method == ExternalTorqueMethod::InverseDynamicsResidual) {
     r.external = detail::inverse_dynamics_residual(dynamics, k, log);
   } else {
-    const double dt = (log.t[samples - 1] - log.t[0]) / static_cast<double>(samples - 1);
-    r.gain = o.gain > 0.0 ? o.gain : std::min(300.0, 0.5 / dt);
+    r.gain = detail::observer_gain(o, log, r.rate_cutoff_hz);
     r.external = detail::observed_external_torque(dynamics, k, log, r.gain);
   }
   // The model's own error sets what counts as a contact; where this log's estimate is noisier
@@ -223,32 +345,8 @@ SID_INLINE ExternalTorque estimate_external_torque(const ChainModel& model,
   // as they cover less than half the log.
   r.noise = detail::robust_spread(r.t, r.external, o.skip);
   r.thresholds = o.threshold_factor * fit_residual_rms.cwiseMax(r.noise);
-  r.contact = Eigen::VectorXi::Zero(samples);
-  for (const auto& [first, last] : detail::contact_spans(r.t, r.external, r.thresholds, o)) {
-    ExternalContact c;
-    c.start = r.t[first];
-    c.end = r.t[last];
-    r.contact.segment(first, last - first + 1).setOnes();
-    c.peak = Eigen::VectorXd::Zero(n);
-    for (int j = 0; j < n; ++j) {
-      for (Eigen::Index i = first; i <= last; ++i)
-        if (std::abs(r.external(i, j)) > std::abs(c.peak[j])) c.peak[j] = r.external(i, j);
-      if (std::abs(c.peak[j]) > r.thresholds[j]) c.joints.push_back(j);
-    }
-    r.contacts.push_back(std::move(c));
-  }
-  // Twice the model's own error: the estimate's noise, not the model, sets the thresholds.
-  for (int joint = 0; joint < n; ++joint)
-    if (r.noise[joint] > 2.0 * fit_residual_rms[joint]) {
-      r.warnings.push_back(
-          "the estimate's spread on " + model.joint_names()[static_cast<std::size_t>(joint)] +
-          " (" + detail::format_number("%.3g", r.noise[joint]) +
-          " N m) is more than twice the fit's residual (" +
-          detail::format_number("%.3g", fit_residual_rms[joint]) +
-          "): the rates are noisy (coarse encoders?), so only contacts above its threshold are "
-          "seen; lower rate cutoffs (the fit's, for one) and a lower gain quiet it");
-      break;
-    }
+  detail::find_contacts(model, o, r);
+  detail::warn_of_noise(model, fit_residual_rms, r);
   return r;
 }
 

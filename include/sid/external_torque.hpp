@@ -26,16 +26,18 @@ enum class ExternalTorqueMethod {
 /// @brief Options of estimate_external_torque().
 struct ExternalTorqueOptions {
   ExternalTorqueMethod method = ExternalTorqueMethod::MomentumObserver;
-  /// The observer's rate K [1/s]; 0: min(300, 1 / (2 dt)). 300 follows a 20 ms ramp to about 10 %
-  /// of its height at its corners on a simulated UR5 with 1e-6 rad of angle noise; a faster one
-  /// passes more of the rates' noise.
+  /// The observer's rate K [1/s]; 0: min(300, 1 / (2 dt), 2 pi x the slowest rate cutoff). 300
+  /// follows a 20 ms ramp to about 10 % of its height at its corners on a simulated UR5 with
+  /// 1e-6 rad of angle noise; a faster one passes more of the rates' noise, and one faster than
+  /// the rates' smoothing passes the torque the smoothed momentum no longer explains.
   double gain = 0.0;
   /// The smoothing of the angles before their rates are taken [Hz]: one value or one per joint.
   /// Empty: the fit's cutoffs for the residual; for the observer, those of the GCV spline of the
   /// log's angles (as much of the motion as their noise lets through: the fit's cutoffs are
   /// chosen for accelerations and smooth away a contact's jolt), unless the log is a measured one
   /// (angles on a grid, or GCV leaving them unsmoothed): GCV assumes white angle noise and takes
-  /// quantised angles for motion, so such a log takes the fit's.
+  /// quantised angles for motion, so such a log takes the fit's cutoffs scaled by the half octave
+  /// (1/2 to 4) at which the model best predicts its torque.
   std::vector<double> cutoff_hz;
   bool fit_cutoffs = false;  ///< the fit's cutoffs whatever the method
   /// Contact where |τ_ext| exceeds this many times the larger of the fit's residual RMS on its
@@ -45,6 +47,9 @@ struct ExternalTorqueOptions {
   double merge_gap = 0.05;     ///< [s]: contacts closer than this are one
   /// [s] at each end where no contact is looked for: the spline's rates are least sure there.
   double skip = 0.1;
+  /// Per joint, what its drive can give [N m or N] (a URDF's `<limit effort>`; NaN: not known;
+  /// empty: none known). An excursion beyond it is the model's failure, not a contact.
+  Eigen::VectorXd effort_limit;
 };
 
 /// @brief One contact: from the first to the last sample above threshold.
@@ -62,6 +67,9 @@ struct ExternalTorque {
   Eigen::VectorXd thresholds;  ///< per joint
   Eigen::VectorXd noise;       ///< per joint, the estimate's robust spread (1.4826 MAD)
   std::vector<ExternalContact> contacts;
+  /// Excursions above threshold whose estimate exceeds a joint's effort limit: not contacts
+  /// but the model's failure (each also a warning).
+  std::vector<ExternalContact> beyond_effort;
   double gain = 0.0;                  ///< the observer's K [1/s] (0 for the residual)
   Eigen::VectorXd rate_cutoff_hz;     ///< the angles' smoothing, per joint
   std::string rate_cutoff_choice;     ///< how it was chosen, in words

@@ -26,7 +26,7 @@ class Contact:
 
 class External:
     """What ``sid_external`` finds on a log: tau_ext (N, n) at the times t, the contact flag per
-    sample, each joint's threshold and the contacts."""
+    sample, each joint's threshold, the contacts and the excursions beyond an effort limit."""
 
     def __init__(self, d: Any) -> None:
         self.t: np.ndarray = np.asarray(d["t"])
@@ -39,10 +39,20 @@ class External:
         self.report: str = d["report"]
         self.warnings: list[str] = list(d["warnings"])
         self._json: str = d["json"]
-        self.contacts: list[Contact] = [
-            Contact(float(c["start"]), float(c["end"]), list(c["joints"]), np.asarray(c["peak"]))
-            for c in json.loads(self._json)["contacts"]
-        ]
+        found = json.loads(self._json)
+
+        def excursions(key: str) -> list[Contact]:
+            return [
+                Contact(
+                    float(c["start"]), float(c["end"]), list(c["joints"]), np.asarray(c["peak"])
+                )
+                for c in found[key]
+            ]
+
+        self.contacts: list[Contact] = excursions("contacts")
+        #: Excursions beyond a joint's effort limit (the URDF's): the model's failure, not
+        #: contacts.
+        self.beyond_effort_limit: list[Contact] = excursions("beyond_effort_limit")
 
     def to_dict(self) -> dict[str, Any]:
         """Everything ``sid_external --json`` writes, under the same keys."""

@@ -38,6 +38,7 @@ def test_gives_the_clis_contacts_and_torques(cli, logs):
         (pytest.approx(4.0, abs=0.03), pytest.approx(4.4, abs=0.05)),
     ]
     assert ext.tau_ext.shape == (len(pushed), 6) and ext.contact.sum() > 0
+    assert ext.beyond_effort_limit == []  # the UR5's drives give 150 N m; the pushes 11
 
     fit_json = logs / "arm.json"
     subprocess.run([str(cli), "--robot", str(UR5), "--tip", "tool0", "--json", str(fit_json),
