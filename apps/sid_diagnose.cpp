@@ -152,6 +152,7 @@ struct Options {
   std::string reference;
   std::string columns;
   std::string json;
+  std::string report;  ///< --robot: the diagnosis as one HTML page
   std::string plots;
   std::string candidates;
   std::optional<double> coulomb_epsilon;
@@ -186,6 +187,10 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--json", o.json,
                  "also write the diagnosis as JSON to FILE ('-': standard output)");
   cli.add_option("--plots", o.plots, "draw the figures (PNG via gnuplot) into DIR");
+  cli.add_option("--report", o.report,
+                 "--robot: write the diagnosis as one self-contained HTML page (the residual "
+                 "against the noise per joint, the named effects and their tests, what was not "
+                 "named and why, the free simulations; refuses to overwrite without --force)");
   cli.add_option("--candidates", o.candidates, "effect ids to try, comma-separated (default: all)");
   cli.add_option("--coulomb-epsilon", o.coulomb_epsilon,
                  "eps of the Coulomb term tanh(qd/eps) [rad/s], > 0 (default 0.01)");
@@ -340,6 +345,7 @@ int diagnose_robot(const Options& o) {
   chain.chain.rest_fraction = o.rest_fraction;
   chain.chain.coulomb_epsilon = o.coulomb_epsilon;
   chain.chain.json = o.json;
+  chain.chain.report = o.report;
   chain.chain.force = o.force;
   chain.candidates = o.candidates;
   chain.negligible_size = o.negligible_size;
@@ -351,9 +357,9 @@ int diagnose(const Options& o) {
   using sid::app::require;
   if (!o.robot.empty()) return diagnose_robot(o);
   require(o.base.empty() && o.tip.empty() && o.hold.empty() && o.transmission.empty() &&
-              o.drives.empty() && o.cutoff.empty() && !o.rest_fraction,
-          "--base, --tip, --hold, --transmission, --drives, --cutoff and --rest-fraction need "
-          "--robot");
+              o.drives.empty() && o.cutoff.empty() && !o.rest_fraction && o.report.empty(),
+          "--base, --tip, --hold, --transmission, --drives, --cutoff, --rest-fraction and "
+          "--report need --robot (the paper's arm as a DH table takes them too)");
   if (o.measured || o.inputs.size() > 1) return diagnose_measured_runs(o);
   require(o.validate.empty() && !o.gear_ratio,
           "--validate and --gear-ratio apply to measured runs (two files or more, or --measured)");

@@ -237,6 +237,10 @@ void write_json(const std::string& path, const nlohmann::json& value) {
     if (!std::cout) throw std::runtime_error("cannot write to standard output");
     return;
   }
+  write_text(path, text);
+}
+
+void write_text(const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);
   if (!out)
     throw std::runtime_error("cannot open '" + path + "' for writing: " + std::strerror(errno));

@@ -134,6 +134,11 @@ nlohmann::json to_json_rows(const Eigen::Ref<const Eigen::MatrixXd>& m);
 /// @throws std::runtime_error when the file cannot be written.
 void write_json(const std::string& path, const nlohmann::json& value);
 
+/// @brief Writes text as it is to the file path (a URDF, an MJCF, an HTML report). Overwrites:
+/// call ensure_writable first.
+/// @throws std::runtime_error when the file cannot be written.
+void write_text(const std::string& path, const std::string& text);
+
 /// @brief Parses a column map "t=time,q1=pos_meas1,q2=pos_meas2,tau1=tau_meas1,tau2=tau_meas2"
 /// (any subset, any order; the others keep their default names) for the option named option.
 /// @throws InputError on an unknown key, a key given twice, a missing '=' or an empty name.

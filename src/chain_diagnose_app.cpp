@@ -5,6 +5,7 @@
 #include <sid/diagnose_chain.hpp>
 
 #include "app.hpp"
+#include "diagnose_report_html.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -229,12 +230,14 @@ ChainDiagnoseResult diagnose_loaded(const ChainDiagnoseAppOptions& o, const Load
   }
   out.text = report_text(o, loaded.model, out.result);
   out.json = report_json(o, loaded.model, out.result);
+  out.html = diagnose_report_html(o, loaded, out);
   return out;
 }
 
 int diagnose_robot(const ChainDiagnoseAppOptions& o) {
   require(!o.chain.inputs.empty(), "no run given");
   if (!o.chain.json.empty()) ensure_writable(o.chain.json, o.chain.force);
+  if (!o.chain.report.empty()) ensure_writable(o.chain.report, o.chain.force);
   // The options are checked before the files are read.
   (void)chain_diagnose_options(o);
   const LoadedChain loaded =
@@ -242,6 +245,7 @@ int diagnose_robot(const ChainDiagnoseAppOptions& o) {
   const ChainDiagnoseResult r = diagnose_loaded(o, loaded);
   (o.chain.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
   if (!o.chain.json.empty()) write_json(o.chain.json, r.json);
+  if (!o.chain.report.empty()) write_text(o.chain.report, r.html);
   return kExitOk;
 }
 

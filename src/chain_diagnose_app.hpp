@@ -33,6 +33,7 @@ struct ChainDiagnoseResult {
   sid::RobotDiagnosis result;
   std::string text;     ///< the report sid_diagnose prints
   nlohmann::json json;  ///< what --json writes
+  std::string html;     ///< what --report writes: one self-contained page
 };
 
 /// @brief Diagnoses loaded's runs (loaded.model: the nominal model) with the options o gives

@@ -19,7 +19,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <initializer_list>
 #include <iostream>
 #include <sstream>
@@ -509,18 +508,13 @@ void write_identify_outputs(const ChainIdentifyAppOptions& o, const ChainIdentif
   (o.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
   for (const auto& w : r.result.warnings) std::cerr << app_name << ": warning: " << w << "\n";
   if (!o.json.empty()) write_json(o.json, r.json);
-  const auto write = [](const std::string& path, const std::string& text) {
-    std::ofstream file(path, std::ios::binary);
-    file << text;
-    if (!file) throw std::runtime_error("cannot write '" + path + "'");
-  };
   const auto refused = [](const InputError& e, const std::string& path) {
     return InputError(std::string(e.what()) + "; " + path + " is not written");
   };
-  if (!o.report.empty()) write(o.report, identify_report_html(r));
+  if (!o.report.empty()) write_text(o.report, identify_report_html(r));
   if (!o.write_urdf.empty()) {
     try {
-      write(o.write_urdf, consistent_urdf(r, "--write-urdf", o.consistency()));
+      write_text(o.write_urdf, consistent_urdf(r, "--write-urdf", o.consistency()));
     } catch (const InputError& e) {
       throw refused(e, o.write_urdf);
     }
@@ -533,7 +527,7 @@ void write_identify_outputs(const ChainIdentifyAppOptions& o, const ChainIdentif
     } catch (const InputError& e) {
       throw refused(e, o.write_mjcf);
     }
-    write(o.write_mjcf, mjcf.text);
+    write_text(o.write_mjcf, mjcf.text);
     if (!mjcf.left_out.empty())
       std::cerr << app_name << ": note: " << o.write_mjcf << " leaves out " << mjcf.left_out.size()
                 << " part(s) of the description (listed in its first comment), e.g. "

@@ -3,42 +3,16 @@
 #include <sid/identify_chain.hpp>
 #include <sid/model/link_inertia.hpp>
 
+#include "html_page.hpp"
 #include "svg_plot.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
 
 namespace sid::app {
 namespace {
-
-std::string fixed(double v, const char* format = "%.4g") {
-  char buffer[40];
-  std::snprintf(buffer, sizeof buffer, format, v);
-  return buffer;
-}
-
-std::string percent(double fraction) { return fixed(100.0 * fraction, "%.3g") + " %"; }
-
-std::string cell(const std::string& text) { return "<td>" + xml_escaped(text) + "</td>"; }
-
-std::string row(const std::string& head, const std::string& value) {
-  return "<tr><th>" + xml_escaped(head) + "</th>" + cell(value) + "</tr>\n";
-}
-
-const char* const kStyle = R"(body { font-family: sans-serif; margin: 2em auto; max-width: 64em;
-  color: #222; line-height: 1.4; }
-h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em; border-bottom: 1px solid #ccc; }
-table { border-collapse: collapse; margin: 0.5em 0; }
-th, td { border: 1px solid #ddd; padding: 0.2em 0.6em; text-align: left; font-size: 0.9em; }
-td.number { text-align: right; font-variant-numeric: tabular-nums; }
-.verdict { padding: 0.6em 1em; border-left: 4px solid #2a7; background: #f3faf6; }
-.verdict.bad { border-color: #c33; background: #fbf1f1; }
-.warning { color: #a40; }
-svg { display: block; margin: 0.3em 0 1em; font-size: 11px; font-family: sans-serif; }
-pre { background: #f6f6f6; padding: 1em; overflow-x: auto; font-size: 0.8em; })";
 
 /// Per joint, the measured and the model's torque, then their difference, over one run.
 std::string run_plots(const ChainIdentifyResult& r, const sid::NamedChainRun& run,
@@ -74,22 +48,25 @@ std::string summary(const ChainIdentifyResult& r) {
   std::string runs;
   for (const auto& run : r.result.fitted_runs)
     runs += (runs.empty() ? "" : ", ") + run.name + " (" + std::to_string(run.data.size()) +
-            " samples, " + fixed(run.data.t[run.data.size() - 1] - run.data.t[0], "%.3g") + " s)";
+            " samples, " + html_number(run.data.t[run.data.size() - 1] - run.data.t[0], "%.3g") +
+            " s)";
   std::string cutoffs;
   for (const auto& c : j["cutoff_hz"])
-    cutoffs += (cutoffs.empty() ? "" : ", ") + fixed(c.get<double>(), "%.3g");
-  std::string html =
-      "<table>\n" + row("robot", j.value("robot", std::string())) +
-      row("joints", std::to_string(r.loaded.model.joints())) + row("fitted runs", runs) +
-      row("estimator", j.value("estimator", "ls")) + row("angle smoothing cutoffs [Hz]", cutoffs) +
-      row("base parameters", std::to_string(j["theta"].size())) +
-      row("torque error, fitted equations", percent(j["relative_residual"].get<double>())) +
-      row("torque error, fitted runs as recorded",
-          percent(j["relative_residual_measured"].get<double>()));
+    cutoffs += (cutoffs.empty() ? "" : ", ") + html_number(c.get<double>(), "%.3g");
+  std::string html = "<table>\n" + html_row("robot", j.value("robot", std::string())) +
+                     html_row("joints", std::to_string(r.loaded.model.joints())) +
+                     html_row("fitted runs", runs) +
+                     html_row("estimator", j.value("estimator", "ls")) +
+                     html_row("angle smoothing cutoffs [Hz]", cutoffs) +
+                     html_row("base parameters", std::to_string(j["theta"].size())) +
+                     html_row("torque error, fitted equations",
+                              html_percent(j["relative_residual"].get<double>())) +
+                     html_row("torque error, fitted runs as recorded",
+                              html_percent(j["relative_residual_measured"].get<double>()));
   for (const auto& v : j["validation"])
-    html += row("held-out torque error: " + v["file"].get<std::string>(),
-                percent(v["relative_residual"].get<double>()) + " (as recorded " +
-                    percent(v["relative_residual_measured"].get<double>()) + ")");
+    html += html_row("held-out torque error: " + v["file"].get<std::string>(),
+                     html_percent(v["relative_residual"].get<double>()) + " (as recorded " +
+                         html_percent(v["relative_residual_measured"].get<double>()) + ")");
   return html + "</table>\n";
 }
 
@@ -99,9 +76,9 @@ std::string verdicts(const ChainIdentifyResult& r) {
   std::string html =
       std::string("<p class=\"verdict") + (written ? "" : " bad") + "\">" +
       "Physically consistent model (each link a real body): " +
-      percent(p["torque_error"].get<double>()) + " torque error on the " +
+      html_percent(p["torque_error"].get<double>()) + " torque error on the " +
       xml_escaped(p["torque_error_on"].get<std::string>()) + ", against " +
-      percent(p["estimate_torque_error"].get<double>()) + " for the estimate; " +
+      html_percent(p["estimate_torque_error"].get<double>()) + " for the estimate; " +
       (p.value("converged", false) ? "converged" : "did not converge") + "; " +
       (r.loaded.robot.urdf.empty() ? "--write-urdf and --write-mjcf need a URDF as the robot."
        : written                   ? "written by --write-urdf and --write-mjcf."
@@ -122,9 +99,10 @@ std::string parameters(const nlohmann::json& j) {
     const double value = j["theta"][i].get<double>(), std_dev = j["std_dev"][i].get<double>();
     html += "<tr><td title=\"" + xml_escaped(j["parameter_combinations"][i].get<std::string>()) +
             "\">" + xml_escaped(j["parameter_names"][i].get<std::string>()) +
-            "</td><td class=\"number\">" + fixed(value) + "</td><td class=\"number\">" +
-            fixed(std_dev) + "</td><td class=\"number\">" +
-            (value != 0.0 ? percent(std_dev / std::abs(value)) : std::string("-")) + "</td></tr>\n";
+            "</td><td class=\"number\">" + html_number(value) + "</td><td class=\"number\">" +
+            html_number(std_dev) + "</td><td class=\"number\">" +
+            (value != 0.0 ? html_percent(std_dev / std::abs(value)) : std::string("-")) +
+            "</td></tr>\n";
   }
   return html + "</table>\n";
 }
@@ -144,16 +122,16 @@ std::string consistent_model(const ChainIdentifyResult& r) {
     std::string com = "-";
     if (phi[0] > 0.0) {
       const Eigen::Vector3d c = phi.segment<3>(1) / phi[0];
-      com = fixed(c[0]) + ", " + fixed(c[1]) + ", " + fixed(c[2]);
+      com = html_number(c[0]) + ", " + html_number(c[1]) + ", " + html_number(c[2]);
     }
-    html += "<tr>" + cell(name) + "<td class=\"number\">" + fixed(phi[0]) + "</td>" + cell(com) +
-            "</tr>\n";
+    html += "<tr>" + html_cell(name) + "<td class=\"number\">" + html_number(phi[0]) + "</td>" +
+            html_cell(com) + "</tr>\n";
   }
   html += "</table>\n<table>\n<tr><th>drive term</th><th>value</th></tr>\n";
   const std::vector<std::string>& names = r.loaded.model.parameter_names();
   for (Eigen::Index i = 10 * n; i < theta.size(); ++i)
-    html += "<tr>" + cell(names[static_cast<std::size_t>(i)]) + "<td class=\"number\">" +
-            fixed(theta[i]) + "</td></tr>\n";
+    html += "<tr>" + html_cell(names[static_cast<std::size_t>(i)]) + "<td class=\"number\">" +
+            html_number(theta[i]) + "</td></tr>\n";
   return html + "</table>\n";
 }
 
@@ -162,10 +140,7 @@ std::string consistent_model(const ChainIdentifyResult& r) {
 std::string identify_report_html(const ChainIdentifyResult& r) {
   const std::string robot =
       std::filesystem::path(r.json.value("robot", std::string("the robot"))).filename().string();
-  std::string html = "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\"/>\n";
-  html += "<title>" + xml_escaped("sid identification: " + robot) + "</title>\n";
-  html += "<style>\n" + std::string(kStyle) + "\n</style>\n</head>\n<body>\n";
-  html += "<h1>" + xml_escaped("Identification of " + robot) + "</h1>\n";
+  std::string html = "<h1>" + xml_escaped("Identification of " + robot) + "</h1>\n";
   html += "<h2>Summary</h2>\n" + summary(r) + verdicts(r);
   html += "<h2>Torque, measured and predicted</h2>\n";
   for (const auto& run : r.result.fitted_runs) html += run_plots(r, run, "fitted");
@@ -173,7 +148,7 @@ std::string identify_report_html(const ChainIdentifyResult& r) {
   html += "<h2>Base parameters</h2>\n" + parameters(r.json);
   html += "<h2>Physically consistent model</h2>\n" + consistent_model(r);
   html += "<h2>The report</h2>\n<pre>" + xml_escaped(r.text) + "</pre>\n";
-  return html + "</body>\n</html>\n";
+  return html_document("sid identification: " + robot, html);
 }
 
 }  // namespace sid::app

@@ -12,7 +12,6 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdio>
-#include <fstream>
 #include <iostream>
 #include <set>
 #include <sstream>
@@ -245,11 +244,7 @@ int identify_payload_robot(const ChainIdentifyAppOptions& o, const std::string& 
   (o.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
   for (const auto& w : r.warnings) std::cerr << app_name << ": warning: " << w << "\n";
   if (!o.json.empty()) write_json(o.json, r.json);
-  if (!o.write_urdf.empty()) {
-    std::ofstream file(o.write_urdf, std::ios::binary);
-    file << urdf;
-    if (!file) throw std::runtime_error("cannot write '" + o.write_urdf + "'");
-  }
+  if (!o.write_urdf.empty()) write_text(o.write_urdf, urdf);
   return kExitOk;
 }
 

@@ -31,6 +31,49 @@ double tick_step(double span, int count) {
   return 10.0 * power;
 }
 
+/// The plotting area of an <svg> width x height, in pixels, and the value range of its y axis.
+struct Frame {
+  double left = 64, right = 12, top = 24, bottom = 38;
+  double width, height, low, high;
+  double plot_w() const { return width - left - right; }
+  double plot_h() const { return height - top - bottom; }
+  double py(double v) const { return top + (high - v) / (high - low) * plot_h(); }
+};
+
+/// The <svg> element's opening, the plot's box, the y axis's grid, ticks and label.
+std::string open_frame(const Frame& f, const std::string& y_label) {
+  const std::string width = std::to_string(static_cast<int>(f.width)),
+                    height = std::to_string(static_cast<int>(f.height));
+  std::string svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + width + "\" height=\"" +
+                    height + "\" viewBox=\"0 0 " + width + " " + height + "\">\n";
+  svg += "<rect x=\"" + coordinate(f.left) + "\" y=\"" + coordinate(f.top) + "\" width=\"" +
+         coordinate(f.plot_w()) + "\" height=\"" + coordinate(f.plot_h()) +
+         "\" fill=\"none\" stroke=\"#999\"/>\n";
+  const double y_step = tick_step(f.high - f.low, 4);
+  for (double v = std::ceil(f.low / y_step) * y_step; v <= f.high; v += y_step) {
+    svg += "<line x1=\"" + coordinate(f.left) + "\" x2=\"" + coordinate(f.left + f.plot_w()) +
+           "\" y1=\"" + coordinate(f.py(v)) + "\" y2=\"" + coordinate(f.py(v)) +
+           "\" stroke=\"#e4e4e4\"/>\n";
+    svg += "<text x=\"" + coordinate(f.left - 6) + "\" y=\"" + coordinate(f.py(v) + 4) +
+           "\" text-anchor=\"end\">" + tick_label(v) + "</text>\n";
+  }
+  const double middle = f.top + f.plot_h() / 2;
+  svg += "<text x=\"14\" y=\"" + coordinate(middle) +
+         "\" text-anchor=\"middle\" transform=\"rotate(-90 14 " + coordinate(middle) + ")\">" +
+         xml_escaped(y_label) + "</text>\n";
+  return svg;
+}
+
+/// One legend entry at x (moved past it): a swatch of the series' colour and its label.
+std::string legend_entry(const SvgSeries& s, double& x) {
+  const std::string svg = "<rect x=\"" + coordinate(x) +
+                          "\" y=\"8\" width=\"12\" height=\"4\" fill=\"" + xml_escaped(s.color) +
+                          "\"/><text x=\"" + coordinate(x + 16) + "\" y=\"14\">" +
+                          xml_escaped(s.label) + "</text>\n";
+  x += 24 + 7.0 * static_cast<double>(s.label.size());
+  return svg;
+}
+
 }  // namespace
 
 std::string xml_escaped(const std::string& text) {
@@ -79,35 +122,20 @@ std::string svg_line_plot(const Eigen::VectorXd& x, const std::vector<SvgSeries>
   const double pad = 0.05 * (high - low);
   low -= pad;
   high += pad;
-  const double left = 64, right = 12, top = 24, bottom = 38;
-  const double plot_w = width - left - right, plot_h = height - top - bottom;
+  const Frame f{64, 12, 24, 38, double(width), double(height), low, high};
+  const double left = f.left, top = f.top, plot_w = f.plot_w(), plot_h = f.plot_h();
   const double x0 = x[0], x1 = x[x.size() - 1];
   const double x_span = x1 > x0 ? x1 - x0 : 1.0;
   const auto px = [&](double v) { return left + (v - x0) / x_span * plot_w; };
-  const auto py = [&](double v) { return top + (high - v) / (high - low) * plot_h; };
+  const auto py = [&](double v) { return f.py(v); };
 
-  std::string svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + std::to_string(width) +
-                    "\" height=\"" + std::to_string(height) + "\" viewBox=\"0 0 " +
-                    std::to_string(width) + " " + std::to_string(height) + "\">\n";
-  svg += "<rect x=\"" + coordinate(left) + "\" y=\"" + coordinate(top) + "\" width=\"" +
-         coordinate(plot_w) + "\" height=\"" + coordinate(plot_h) +
-         "\" fill=\"none\" stroke=\"#999\"/>\n";
-  const double y_step = tick_step(high - low, 4);
-  for (double v = std::ceil(low / y_step) * y_step; v <= high; v += y_step) {
-    svg += "<line x1=\"" + coordinate(left) + "\" x2=\"" + coordinate(left + plot_w) + "\" y1=\"" +
-           coordinate(py(v)) + "\" y2=\"" + coordinate(py(v)) + "\" stroke=\"#e4e4e4\"/>\n";
-    svg += "<text x=\"" + coordinate(left - 6) + "\" y=\"" + coordinate(py(v) + 4) +
-           "\" text-anchor=\"end\">" + tick_label(v) + "</text>\n";
-  }
+  std::string svg = open_frame(f, y_label);
   const double x_step = tick_step(x_span, 6);
   for (double v = std::ceil(x0 / x_step) * x_step; v <= x1 + 1e-9 * x_span; v += x_step)
     svg += "<text x=\"" + coordinate(px(v)) + "\" y=\"" + coordinate(top + plot_h + 16) +
            "\" text-anchor=\"middle\">" + tick_label(v) + "</text>\n";
   svg += "<text x=\"" + coordinate(left + plot_w / 2) + "\" y=\"" + coordinate(height - 4.0) +
          "\" text-anchor=\"middle\">" + xml_escaped(x_label) + "</text>\n";
-  svg += "<text x=\"14\" y=\"" + coordinate(top + plot_h / 2) +
-         "\" text-anchor=\"middle\" transform=\"rotate(-90 14 " + coordinate(top + plot_h / 2) +
-         ")\">" + xml_escaped(y_label) + "</text>\n";
 
   const auto columns = static_cast<Eigen::Index>(plot_w);
   double legend_x = left + 8;
@@ -139,11 +167,48 @@ std::string svg_line_plot(const Eigen::VectorXd& x, const std::vector<SvgSeries>
     }
     svg += "<polyline fill=\"none\" stroke=\"" + xml_escaped(s.color) +
            "\" stroke-width=\"1.2\" points=\"" + points + "\"/>\n";
-    svg += "<rect x=\"" + coordinate(legend_x) + "\" y=\"8\" width=\"12\" height=\"4\" fill=\"" +
-           xml_escaped(s.color) + "\"/><text x=\"" + coordinate(legend_x + 16) + "\" y=\"14\">" +
-           xml_escaped(s.label) + "</text>\n";
-    legend_x += 24 + 7.0 * static_cast<double>(s.label.size());
+    svg += legend_entry(s, legend_x);
   }
+  return svg + "</svg>";
+}
+
+std::string svg_bar_chart(const std::vector<std::string>& categories,
+                          const std::vector<SvgSeries>& series, const std::string& y_label,
+                          int width, int height) {
+  const auto count = static_cast<Eigen::Index>(categories.size());
+  if (count == 0 || series.empty())
+    throw InputError("svg_bar_chart: needs a category and a series or more");
+  double high = 0.0;
+  for (const SvgSeries& s : series) {
+    if (s.y.size() != count)
+      throw InputError("svg_bar_chart: series '" + s.label + "' has " + std::to_string(s.y.size()) +
+                       " values for " + std::to_string(count) + " categories");
+    for (const double v : s.y)
+      if (std::isfinite(v)) high = std::max(high, v);
+  }
+  if (!(high > 0.0)) high = 1.0;
+  const Frame f{64, 12, 24, 38, double(width), double(height), 0.0, 1.05 * high};
+  std::string svg = open_frame(f, y_label);
+  const double group = f.plot_w() / static_cast<double>(count);
+  const double bar = 0.8 * group / static_cast<double>(series.size());
+  double legend_x = f.left + 8;
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    const SvgSeries& s = series[k];
+    for (Eigen::Index c = 0; c < count; ++c) {
+      if (!std::isfinite(s.y[c]) || s.y[c] <= 0.0) continue;
+      const double x = f.left + group * (static_cast<double>(c) + 0.1) + bar * double(k);
+      svg += "<rect x=\"" + coordinate(x) + "\" y=\"" + coordinate(f.py(s.y[c])) + "\" width=\"" +
+             coordinate(bar) + "\" height=\"" + coordinate(f.py(0.0) - f.py(s.y[c])) +
+             "\" fill=\"" + xml_escaped(s.color) + "\"><title>" +
+             xml_escaped(s.label + ", " + categories[std::size_t(c)] + ": ") + tick_label(s.y[c]) +
+             "</title></rect>\n";
+    }
+    svg += legend_entry(s, legend_x);
+  }
+  for (Eigen::Index c = 0; c < count; ++c)
+    svg += "<text x=\"" + coordinate(f.left + group * (static_cast<double>(c) + 0.5)) + "\" y=\"" +
+           coordinate(f.top + f.plot_h() + 16) + "\" text-anchor=\"middle\">" +
+           xml_escaped(categories[std::size_t(c)]) + "</text>\n";
   return svg + "</svg>";
 }
 

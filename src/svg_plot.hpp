@@ -1,6 +1,7 @@
 #pragma once
 /// @file
-/// @brief Line plots as inline SVG, for reports that must stand alone (no script, no network).
+/// @brief Line plots and bar charts as inline SVG, for reports that must stand alone (no script, no
+/// network).
 
 #include <Eigen/Core>
 
@@ -23,6 +24,14 @@ struct SvgSeries {
 std::string svg_line_plot(const Eigen::VectorXd& x, const std::vector<SvgSeries>& series,
                           const std::string& x_label, const std::string& y_label, int width = 760,
                           int height = 220);
+
+/// @brief An <svg> element of grouped bars from 0: per category, one bar of each series (whose
+/// values are one per category), with the y axis's ticks, the categories below and a legend.
+/// Non-finite or non-positive values draw no bar.
+/// @throws InputError when a series' length is not the categories' count, or there is none.
+std::string svg_bar_chart(const std::vector<std::string>& categories,
+                          const std::vector<SvgSeries>& series, const std::string& y_label,
+                          int width = 760, int height = 220);
 
 /// @brief Text with &, <, > and " written as XML entities.
 std::string xml_escaped(const std::string& text);

@@ -247,7 +247,7 @@ TEST_F(DiagnoseRobot, NamesTheSpringHiddenInASimulatedLog) {
             " --effect spring_j5:1.5 --sigma-q2 1e-8 -q -o sim.csv");
   ASSERT_EQ(sim.exit_code, 0) << sim.err;
   const sid_test::AppRun run =
-      shell(app("sid_diagnose") + " --robot " + urdf() + " --json d.json sim.csv");
+      shell(app("sid_diagnose") + " --robot " + urdf() + " --json d.json --report d.html sim.csv");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("spring_j5 = "), std::string::npos) << run.out;
   const nlohmann::json j = nlohmann::json::parse(read(file("d.json")));
@@ -279,11 +279,29 @@ TEST_F(DiagnoseRobot, NamesTheSpringHiddenInASimulatedLog) {
   EXPECT_NE(run.out.find("the final model follows the motion as an exact model does"),
             std::string::npos)
       << run.out;
+  // The page stands alone (no script, no file or address to fetch) and shows what the JSON
+  // holds: the residual chart, the free simulations' chart and verdict, each tested term.
+  const std::string html = read(file("d.html"));
+  EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
+  for (const char* outside : {"<script", "src=", "href=", "url("})
+    EXPECT_EQ(html.find(outside), std::string::npos) << outside;
+  std::size_t charts = 0;
+  for (std::size_t at = html.find("<svg"); at != std::string::npos; at = html.find("<svg", at + 1))
+    ++charts;
+  EXPECT_EQ(charts, 2u);
+  for (const char* list : {"named", "not_named"})
+    for (const auto& test : j[list])
+      EXPECT_NE(html.find("<td>" + test["id"].get<std::string>()), std::string::npos) << test["id"];
+  EXPECT_NE(html.find("follows the motion as an exact model does"), std::string::npos);
   // Nothing the user gave is overwritten.
-  const sid_test::AppRun again =
-      shell(app("sid_diagnose") + " --robot " + urdf() + " --json d.json sim.csv");
-  EXPECT_EQ(again.exit_code, 2);
-  EXPECT_NE(again.err.find("d.json"), std::string::npos) << again.err;
+  for (const char* output : {"--json d.json", "--report d.html"}) {
+    const sid_test::AppRun again =
+        shell(app("sid_diagnose") + " --robot " + urdf() + " " + output + " sim.csv");
+    EXPECT_EQ(again.exit_code, 2);
+    EXPECT_NE(again.err.find(std::string(output).substr(std::string(output).find(' ') + 1)),
+              std::string::npos)
+        << again.err;
+  }
 }
 
 // The real TX40 run (motor-side, 5 kHz, its transmission) with the defaults: GCV leaves its
@@ -334,6 +352,7 @@ TEST_F(DiagnoseRobot, RefusesOptionsThatDoNotApply) {
   };
   refused("--robot " + urdf() + " --plots p run.csv", "apply to two-link logs");
   refused("--tip tool0 run.csv", "need --robot");
+  refused("--report r.html run.csv", "need --robot");
   refused("--robot " + urdf() + " --candidates coulomb,wobble run.csv", "--candidates");
   refused("--robot " + urdf() + " --candidates angle_offset,coulomb,angle_offset run.csv",
           "angle_offset is given twice");

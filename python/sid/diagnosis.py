@@ -59,6 +59,12 @@ class Diagnosis:
         """Everything ``sid_diagnose --robot --json`` writes, under the same keys."""
         return json.loads(self._handle.json())
 
+    def report_html(self) -> str:
+        """What ``sid_diagnose --robot --report`` writes: one self-contained HTML page (the
+        residual against the noise per joint, the named terms and their tests, the others and
+        why, the free simulations)."""
+        return self._handle.report_html()
+
     def plot(self, ax: Any = None) -> Any:
         """Per joint: the torque residual of the nominal and the final model against the noise
         floor, with the named terms (matplotlib)."""

@@ -627,6 +627,7 @@ NB_MODULE(_sid, m) {
       .def_prop_ro("beyond", [](const Diagnosis& d) { return d.result.motion.beyond; })
       .def_prop_ro("motion_note", [](const Diagnosis& d) { return d.result.motion_note; })
       .def_prop_ro("report", [](const Diagnosis& d) { return d.text; })
+      .def("report_html", [](const Diagnosis& d) { return d.html; })
       .def("json", [](const Diagnosis& d) { return d.json.dump(); });
   m.def("diagnose", &diagnose, "robot"_a, "runs"_a, "options"_a,
         nb::call_guard<nb::gil_scoped_release>());

@@ -1,6 +1,7 @@
 """sid.diagnose gives sid_diagnose --robot's result on the same data; plots draw."""
 
 import json
+import re
 import subprocess
 
 import numpy as np
@@ -43,7 +44,8 @@ def test_gives_the_clis_result(tx40_csv, diagnosis, cli, tmp_path):
     out = tmp_path / "diagnosis.json"
     subprocess.run(
         [str(cli.parent / "sid_diagnose"), "--robot", str(tx40.URDF), "--transmission",
-         str(tx40.TRANSMISSION), "--json", str(out), str(tx40_csv)],
+         str(tx40.TRANSMISSION), "--json", str(out), "--report", str(tmp_path / "d.html"),
+         str(tx40_csv)],
         check=True, capture_output=True,
     )
     expected = json.loads(out.read_text())
@@ -55,6 +57,13 @@ def test_gives_the_clis_result(tx40_csv, diagnosis, cli, tmp_path):
     assert diagnosis.motion_not_explained == expected["free_simulation"]["beyond"]
     assert diagnosis.smoothing == expected["smoothing"]
     np.testing.assert_array_equal(diagnosis.cutoff_hz, expected["cutoff_hz"])
+    # The same page, but for the wall times it reports.
+    def timeless(page):
+        return re.sub(r"[0-9.]+ s \(the free simulations [0-9.]+ s\)", "", page)
+
+    page = diagnosis.report_html()
+    assert page.startswith("<!DOCTYPE html>") and "<svg" in page
+    assert timeless(page) == timeless((tmp_path / "d.html").read_text())
 
 
 def test_bad_input_raises_value_error(tx40_csv):
