@@ -20,13 +20,6 @@ namespace {
 
 std::string number(const char* format, double v) { return format_number(format, v); }
 
-/// " (vs = 0.1 rad/s)" for a Stribeck term: which of its widths was tried.
-std::string width(const sid::DriveTerm& term) {
-  return term.kind == sid::DriveTermKind::Stribeck
-             ? " (vs = " + number("%.3g", term.velocity) + " rad/s)"
-             : std::string();
-}
-
 /// The sid_excite call that designs a motion on which a named term and its look-alikes are told
 /// apart.
 std::string separating(const ChainDiagnoseAppOptions& o, const sid::ChainEffectTest& e) {
@@ -69,21 +62,18 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
     out << "  nothing: no tried term passes the tests and is of practical size\n";
   for (const auto& e : r.named)
     out << "  " << e.id << " = " << number("%.5g", e.value) << " +- " << number("%.2g", e.std)
-        << " " << e.unit << width(e.term) << "  (Wald " << number("%.3g", e.wald) << ", p (Holm) "
-        << number("%.2g", e.p_value) << ", BIC drop " << number("%.3g", e.bic_drop) << ", CV drop "
-        << number("%.2f", 100.0 * e.cv_drop) << " %, size "
+        << " " << e.unit << stribeck_width(e.term) << "  (Wald " << number("%.3g", e.wald)
+        << ", p (Holm) " << number("%.2g", e.p_value) << ", BIC drop " << number("%.3g", e.bic_drop)
+        << ", CV drop " << number("%.2f", 100.0 * e.cv_drop) << " %, size "
         << number("%.0f", 100.0 * e.practical_size.maxCoeff()) << " % of the noise)\n"
         << (e.caveat.empty() ? "" : "    but: " + e.caveat + "\n" + separating(o, e));
   out << "\nnot named:\n";
   for (const auto& t : r.not_named)
-    out << "  " << t.id << width(t.term) << ": " << t.reason
+    out << "  " << t.id << stribeck_width(t.term) << ": " << t.reason
         << (std::isfinite(t.detection_limit) ? "; this log shows it from about " +
                                                    number("%.2g", t.detection_limit) + " " + t.unit
                                              : "")
         << "\n";
-  double unexplained = 0.0;
-  for (Eigen::Index j = 0; j < r.unexplained_rms.size(); ++j)
-    unexplained = std::max(unexplained, r.unexplained_rms[j] / r.noise_floor[j]);
   const sid::ChainMotionCheck& m = whole.motion;
   if (m.final_error.size()) {
     out << "\nfree simulation (" << m.segments
@@ -114,7 +104,7 @@ std::string report_text(const ChainDiagnoseAppOptions& o, const sid::ChainModel&
   }
   if (!whole.motion_note.empty()) out << "\n" << whole.motion_note << "\n";
   out << "\n"
-      << (unexplained > 0.5
+      << (!remains_at_noise(r)
               ? "what remains above the noise (unexplained, per joint above) is not a tried drive "
                 "term: look at the rigid-body model, the kinematics or effects not in the library\n"
               : "what remains is at the noise\n")
@@ -213,6 +203,18 @@ sid::ChainDiagnoseOptions chain_diagnose_options(const ChainDiagnoseAppOptions& 
 }
 
 }  // namespace
+
+std::string stribeck_width(const sid::DriveTerm& term) {
+  return term.kind == sid::DriveTermKind::Stribeck
+             ? " (vs = " + number("%.3g", term.velocity) + " rad/s)"
+             : std::string();
+}
+
+bool remains_at_noise(const sid::ChainDiagnosis& diagnosis) {
+  for (Eigen::Index j = 0; j < diagnosis.unexplained_rms.size(); ++j)
+    if (diagnosis.unexplained_rms[j] > 0.5 * diagnosis.noise_floor[j]) return false;
+  return true;
+}
 
 ChainDiagnoseResult diagnose_loaded(const ChainDiagnoseAppOptions& o, const LoadedChain& loaded) {
   require(!loaded.runs.empty(), "no run given");

@@ -36,6 +36,13 @@ struct ChainDiagnoseResult {
   std::string html;     ///< what --report writes: one self-contained page
 };
 
+/// @brief " (vs = 0.1 rad/s)" for a Stribeck term: which of its widths was tried; "" otherwise.
+std::string stribeck_width(const sid::DriveTerm& term);
+
+/// @brief Whether what the final model leaves is at the noise: on no joint does the unexplained
+/// part exceed half the torque noise.
+bool remains_at_noise(const sid::ChainDiagnosis& diagnosis);
+
 /// @brief Diagnoses loaded's runs (loaded.model: the nominal model) with the options o gives
 /// (candidates, negligible_size).
 /// @throws InputError naming what is wrong.

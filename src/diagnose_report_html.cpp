@@ -18,13 +18,6 @@ std::string joint_name(const sid::ChainModel& model, Eigen::Index j) {
   return model.joint_names()[static_cast<std::size_t>(j)];
 }
 
-/// " (vs = 0.1 rad/s)" for a Stribeck term: which of its widths was tried.
-std::string stribeck_width(const sid::DriveTerm& term) {
-  return term.kind == sid::DriveTermKind::Stribeck
-             ? " (vs = " + html_number(term.velocity, "%.3g") + " rad/s)"
-             : std::string();
-}
-
 std::string summary(const ChainDiagnoseAppOptions& o, const LoadedChain& loaded,
                     const sid::RobotDiagnosis& whole) {
   const sid::ChainDiagnosis& r = whole.diagnosis;
@@ -48,12 +41,9 @@ std::string summary(const ChainDiagnoseAppOptions& o, const LoadedChain& loaded,
 
 /// The verdict the text report ends with: whether what remains is at the noise.
 std::string verdict(const sid::ChainDiagnosis& r) {
-  double unexplained = 0.0;
-  for (Eigen::Index j = 0; j < r.unexplained_rms.size(); ++j)
-    unexplained = std::max(unexplained, r.unexplained_rms[j] / r.noise_floor[j]);
   std::string named;
   for (const auto& e : r.named) named += (named.empty() ? "" : ", ") + e.id;
-  const bool at_noise = unexplained <= 0.5;
+  const bool at_noise = remains_at_noise(r);
   return std::string("<p class=\"verdict") + (at_noise ? "" : " bad") + "\">" +
          xml_escaped((named.empty() ? "No tried effect named. " : "Named: " + named + ". ") +
                      (at_noise ? "What remains is at the noise."

@@ -40,8 +40,9 @@ struct Frame {
   double py(double v) const { return top + (high - v) / (high - low) * plot_h(); }
 };
 
-/// The <svg> element's opening, the plot's box, the y axis's grid, ticks and label.
-std::string open_frame(const Frame& f, const std::string& y_label) {
+/// The <svg> element's opening, the plot's box, the y axis's grid and ticks, the x axis's
+/// markup as given, and the y axis's label.
+std::string open_frame(const Frame& f, const std::string& x_axis, const std::string& y_label) {
   const std::string width = std::to_string(static_cast<int>(f.width)),
                     height = std::to_string(static_cast<int>(f.height));
   std::string svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" + width + "\" height=\"" +
@@ -57,6 +58,7 @@ std::string open_frame(const Frame& f, const std::string& y_label) {
     svg += "<text x=\"" + coordinate(f.left - 6) + "\" y=\"" + coordinate(f.py(v) + 4) +
            "\" text-anchor=\"end\">" + tick_label(v) + "</text>\n";
   }
+  svg += x_axis;
   const double middle = f.top + f.plot_h() / 2;
   svg += "<text x=\"14\" y=\"" + coordinate(middle) +
          "\" text-anchor=\"middle\" transform=\"rotate(-90 14 " + coordinate(middle) + ")\">" +
@@ -129,13 +131,14 @@ std::string svg_line_plot(const Eigen::VectorXd& x, const std::vector<SvgSeries>
   const auto px = [&](double v) { return left + (v - x0) / x_span * plot_w; };
   const auto py = [&](double v) { return f.py(v); };
 
-  std::string svg = open_frame(f, y_label);
+  std::string x_axis;
   const double x_step = tick_step(x_span, 6);
   for (double v = std::ceil(x0 / x_step) * x_step; v <= x1 + 1e-9 * x_span; v += x_step)
-    svg += "<text x=\"" + coordinate(px(v)) + "\" y=\"" + coordinate(top + plot_h + 16) +
-           "\" text-anchor=\"middle\">" + tick_label(v) + "</text>\n";
-  svg += "<text x=\"" + coordinate(left + plot_w / 2) + "\" y=\"" + coordinate(height - 4.0) +
-         "\" text-anchor=\"middle\">" + xml_escaped(x_label) + "</text>\n";
+    x_axis += "<text x=\"" + coordinate(px(v)) + "\" y=\"" + coordinate(top + plot_h + 16) +
+              "\" text-anchor=\"middle\">" + tick_label(v) + "</text>\n";
+  x_axis += "<text x=\"" + coordinate(left + plot_w / 2) + "\" y=\"" + coordinate(height - 4.0) +
+            "\" text-anchor=\"middle\">" + xml_escaped(x_label) + "</text>\n";
+  std::string svg = open_frame(f, x_axis, y_label);
 
   const auto columns = static_cast<Eigen::Index>(plot_w);
   double legend_x = left + 8;
@@ -188,8 +191,14 @@ std::string svg_bar_chart(const std::vector<std::string>& categories,
   }
   if (!(high > 0.0)) high = 1.0;
   const Frame f{64, 12, 24, 38, double(width), double(height), 0.0, 1.05 * high};
-  std::string svg = open_frame(f, y_label);
   const double group = f.plot_w() / static_cast<double>(count);
+  std::string categories_axis;
+  for (Eigen::Index c = 0; c < count; ++c)
+    categories_axis += "<text x=\"" + coordinate(f.left + group * (static_cast<double>(c) + 0.5)) +
+                       "\" y=\"" + coordinate(f.top + f.plot_h() + 16) +
+                       "\" text-anchor=\"middle\">" + xml_escaped(categories[std::size_t(c)]) +
+                       "</text>\n";
+  std::string svg = open_frame(f, categories_axis, y_label);
   const double bar = 0.8 * group / static_cast<double>(series.size());
   double legend_x = f.left + 8;
   for (std::size_t k = 0; k < series.size(); ++k) {
@@ -205,10 +214,6 @@ std::string svg_bar_chart(const std::vector<std::string>& categories,
     }
     svg += legend_entry(s, legend_x);
   }
-  for (Eigen::Index c = 0; c < count; ++c)
-    svg += "<text x=\"" + coordinate(f.left + group * (static_cast<double>(c) + 0.5)) + "\" y=\"" +
-           coordinate(f.top + f.plot_h() + 16) + "\" text-anchor=\"middle\">" +
-           xml_escaped(categories[std::size_t(c)]) + "</text>\n";
   return svg + "</svg>";
 }
 

@@ -65,10 +65,15 @@ inline Eigen::VectorXd robust_spread(const Eigen::VectorXd& t, const Eigen::Matr
   return spread;
 }
 
+/// The log's mean sampling step [s].
+inline double mean_step(const ChainTrajectory<double>& log) {
+  return (log.t[log.size() - 1] - log.t[0]) / static_cast<double>(log.size() - 1);
+}
+
 /// Per joint, the cutoff [Hz] of the GCV smoothing spline of the log's angles.
 inline Eigen::VectorXd gcv_rate_cutoff(const ChainTrajectory<double>& run) {
   const Eigen::Index n = run.q.cols();
-  const double h = (run.t[run.size() - 1] - run.t[0]) / static_cast<double>(run.size() - 1);
+  const double h = mean_step(run);
   const SmoothingSpline<double> spline(run.t);
   Eigen::VectorXd cutoff(n);
   for (Eigen::Index j = 0; j < n; ++j) {
@@ -184,8 +189,7 @@ inline double observer_gain(const ExternalTorqueOptions& o, const ChainTrajector
                             const Eigen::VectorXd& rate_cutoff_hz) {
   if (o.gain > 0.0) return o.gain;
   constexpr double kPi = 3.14159265358979323846;
-  const double dt = (log.t[log.size() - 1] - log.t[0]) / static_cast<double>(log.size() - 1);
-  return std::min({300.0, 0.5 / dt, 2.0 * kPi * rate_cutoff_hz.minCoeff()});
+  return std::min({300.0, 0.5 / mean_step(log), 2.0 * kPi * rate_cutoff_hz.minCoeff()});
 }
 
 /// The smoothing of a measured log's angles: the fit's cutoffs scaled by the half octave (from
@@ -200,9 +204,10 @@ inline std::pair<Eigen::VectorXd, double> measured_log_cutoff(
     const ExternalTorqueOptions& o, const ArmDynamics& dynamics,
     const Eigen::VectorXd& fit_cutoff_hz, const Eigen::VectorXd& fit_residual_rms,
     const ChainTrajectory<double>& log) {
-  const double h = (log.t[log.size() - 1] - log.t[0]) / static_cast<double>(log.size() - 1);
+  const double h = mean_step(log);
   ChainIdentifyOptions smoothing;
   smoothing.filter_torque = false;
+  const double cap = o.threshold_factor * o.threshold_factor;
   std::pair<Eigen::VectorXd, double> best{fit_cutoff_hz, 1.0};
   double least = std::numeric_limits<double>::infinity();
   for (int step = -2; step <= 4; ++step) {
@@ -210,7 +215,6 @@ inline std::pair<Eigen::VectorXd, double> measured_log_cutoff(
     const Eigen::VectorXd cutoff = (scale * fit_cutoff_hz).cwiseMin(0.25 / h);
     const Eigen::MatrixXd external = observed_external_torque(
         dynamics, smooth_chain_run(log, cutoff, smoothing), log, observer_gain(o, log, cutoff));
-    const double cap = o.threshold_factor * o.threshold_factor;
     double size = 0.0;
     for (Eigen::Index i = 0; i < log.size(); ++i)
       if (log.t[i] >= log.t[0] + o.skip && log.t[i] <= log.t[log.size() - 1] - o.skip)
@@ -240,7 +244,7 @@ inline std::pair<Eigen::VectorXd, std::string> rate_cutoff(const ExternalTorqueO
   if (o.cutoff_hz.empty() && o.method == ExternalTorqueMethod::InverseDynamicsResidual)
     return {fit_cutoff_hz, "the fit's"};
   if (o.cutoff_hz.empty()) {
-    const double h = (run.t[run.size() - 1] - run.t[0]) / static_cast<double>(run.size() - 1);
+    const double h = mean_step(run);
     const Eigen::VectorXd gcv = gcv_rate_cutoff(run);
     const std::string measured = measured_log(model, run, gcv, h);
     if (measured.empty()) return {gcv, "GCV"};
