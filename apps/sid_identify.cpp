@@ -185,7 +185,9 @@ are left out and listed in its first comment); when that fit does
 not converge, or real bodies cannot reproduce the estimate within its uncertainty (a drive term
 the data have is missing), the report says so, with the torque error the real bodies add;
 both refuse them (exit 2) when the fit did not converge or they add more than 10 %
-(--strict-consistency: whenever they do not reproduce the estimate).
+(--strict-consistency: whenever they do not reproduce the estimate), measured on the held-out
+runs, else by blocked cross-validation (--consistency-folds: each span of time predicted by the
+fit of the others and by its real bodies).
 --estimator wls weights each joint by its residual variance; --estimator iv refines by IDIM-IV over all runs: angles smoothed by their
 GCV spline, torque as measured, least squares, then instruments from simulations (0.5 s
 segments from the smoothed state) of the physically consistent arm nearest to each estimate.
@@ -308,6 +310,10 @@ void define_options(CLI::App& cli, Options& o) {
                  "--robot: write the result as one self-contained HTML page (parameters and "
                  "std, torque errors, held-out prediction, the consistent model, plots per "
                  "joint; refuses to overwrite without --force)");
+  cli.add_option("--consistency-folds", o.chain.consistency_folds,
+                 "--robot without held-out runs: judge the consistent links' torque error by "
+                 "blocked cross-validation over N spans of time, each predicted from the others "
+                 "(default 5; 0: on the fitted equations, where least squares always wins)");
   cli.add_flag("--strict-consistency", o.chain.strict_consistency,
                "--write-urdf and --write-mjcf refuse real bodies that do not reproduce the "
                "estimate within its uncertainty too (by default only those that add more than "
@@ -391,8 +397,8 @@ void define_options(CLI::App& cli, Options& o) {
   group("Any serial chain (--robot)",
         {"--robot", "--base", "--tip", "--hold", "--transmission", "--validate-fraction",
          "--rest-fraction", "--no-default-effects", "--coulomb-epsilon", "--write-urdf",
-         "--write-mjcf", "--report", "--strict-consistency", "--payload-of", "--payload-frame",
-         "--currents", "--known-payload", "--payload-run"});
+         "--write-mjcf", "--report", "--consistency-folds", "--strict-consistency", "--payload-of",
+         "--payload-frame", "--currents", "--known-payload", "--payload-run"});
   group("The paper's two-link arm (without --robot)",
         {"--method", "--smoothing", "--sigma-q", "--S", "--lambda", "--true", "--reference-theta",
          "--gear-ratio"});
@@ -863,11 +869,10 @@ int identify(Options o) {
               o.chain.transmission.empty() && !o.chain.validate_fraction &&
               !o.chain.rest_fraction && !o.chain.coulomb_epsilon && o.chain.write_urdf.empty() &&
               o.chain.write_mjcf.empty() && o.chain.report.empty() && !o.chain.no_default_effects &&
-              !o.chain.strict_consistency,
+              !o.chain.strict_consistency && !o.chain.consistency_folds,
           "--base, --tip, --hold, --transmission, --validate-fraction, --rest-fraction, "
-          "--coulomb-epsilon, --write-urdf, --write-mjcf, --report, --strict-consistency and "
-          "--no-default-effects need "
-          "--robot");
+          "--coulomb-epsilon, --write-urdf, --write-mjcf, --report, --strict-consistency, "
+          "--consistency-folds and --no-default-effects need --robot");
   require(o.payload_of.empty(), "--payload-of needs --robot (the description of the arm)");
   require(o.payload_frame.empty(), "--payload-frame needs --robot (a URDF naming the link)");
   require(!o.gains.any(), "--currents, --known-payload and --payload-run need --robot");

@@ -218,6 +218,13 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
   if (cost.held_out)
     out << "  held-out torque: " << number("%.2f", 100.0 * cost.consistent)
         << " % error against the estimate's " << number("%.2f", 100.0 * cost.estimate) << " %\n";
+  else if (cost.folds > 0)
+    out << "  cross-validated torque (" << cost.measured_on()
+        << "): " << number("%.2f", 100.0 * cost.consistent) << " % error against the estimate's "
+        << number("%.2f", 100.0 * cost.estimate) << " %\n";
+  else if (!r.consistent_cross_validation.skipped.empty())
+    out << "  judged on the fitted equations: no cross-validation ("
+        << r.consistent_cross_validation.skipped << ")\n";
   const std::string problem = sid::consistent_links_problem(r, o.consistency());
   if (!consistent.converged)
     out << "  NOT CONVERGED in " << consistent.iterations
@@ -228,8 +235,7 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
         << " where noise alone gives at most " << number("%.3g", consistent.misfit_limit)
         << " (the model probably lacks a drive term the data have; see --effects): the links "
            "below are the nearest real bodies, not the arm's"
-        << (problem.empty() ? "; their " + std::string(cost.held_out ? "held-out" : "fitted") +
-                                  " torque error is within " +
+        << (problem.empty() ? "; their torque error (" + cost.measured_on() + ") is within " +
                                   number("%.0f", 100.0 * o.consistency().max_extra_error) +
                                   " % of the estimate's, so --write-urdf writes them "
                                   "(--strict-consistency refuses)\n"
@@ -305,7 +311,9 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
   const sid::ConsistentCost cost = sid::consistent_cost(r);
   physical["torque_error"] = cost.consistent;
   physical["estimate_torque_error"] = cost.estimate;
-  physical["torque_error_on"] = cost.held_out ? "held-out runs" : "fitted equations";
+  physical["torque_error_on"] = cost.measured_on();
+  if (!r.consistent_cross_validation.skipped.empty())
+    physical["cross_validation_skipped"] = r.consistent_cross_validation.skipped;
   physical["validation"] = nlohmann::json::array();
   for (const auto& v : r.consistent_validation)
     physical["validation"].push_back(prediction_json(v));
@@ -388,6 +396,9 @@ sid::RobotIdentifyOptions robot_identify_options(const ChainIdentifyAppOptions& 
   options.fit = loaded.options;
   options.estimator = estimator_named(o.estimator);
   options.validate_fraction = o.validate_fraction.value_or(0.0);
+  require(!o.consistency_folds || *o.consistency_folds == 0 || *o.consistency_folds >= 2,
+          "--consistency-folds must be 0 (judge on the fitted equations) or >= 2");
+  if (o.consistency_folds) options.consistency_folds = *o.consistency_folds;
   options.description = description_dynamics(loaded.robot);
   return options;
 }

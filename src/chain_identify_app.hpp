@@ -29,7 +29,10 @@ struct ChainIdentifyAppOptions {
   std::string columns;  ///< "t=time,q1=...,tau1=..." renames the log's columns
   std::vector<std::string> validate;
   std::optional<double> validate_fraction;  ///< fit the first 1 - f of one run, predict the rest
-  std::string cutoff;                       ///< one value or one per joint [Hz]; empty: chosen
+  /// Blocks of the blocked cross-validation that judges the consistent links without held-out
+  /// runs (0: the fitted equations judge); unset: the library's default.
+  std::optional<int> consistency_folds;
+  std::string cutoff;  ///< one value or one per joint [Hz]; empty: chosen
   /// Drive term kinds added to viscous friction and armature (or, with no_default_effects, the
   /// whole list); empty: coulomb,offset; "none": rigid bodies only.
   std::string effects;

@@ -23,17 +23,28 @@ sid::ChainPrediction prediction(double relative_residual) {
   return p;
 }
 
-TEST(ConsistentCost, IsTheHeldOutRunsMeanWhereThereAreAnyElseTheFittedEquations) {
+TEST(ConsistentCost, IsTheHeldOutRunsMeanElseTheCrossValidationElseTheFittedEquations) {
   sid::RobotIdentification r = fitted_only();
   sid::ConsistentCost cost = sid::consistent_cost(r);
   EXPECT_FALSE(cost.held_out);
+  EXPECT_EQ(cost.folds, 0);
+  EXPECT_EQ(cost.measured_on(), "fitted equations");
   EXPECT_DOUBLE_EQ(cost.consistent, 0.054);
   EXPECT_DOUBLE_EQ(cost.estimate, 0.050);
   EXPECT_NEAR(cost.extra(), 0.08, 1e-12);
+  r.consistent_cross_validation.folds = 5;
+  r.consistent_cross_validation.consistent = 0.061;
+  r.consistent_cross_validation.estimate = 0.066;
+  cost = sid::consistent_cost(r);
+  EXPECT_EQ(cost.folds, 5);
+  EXPECT_EQ(cost.measured_on(), "5 blocks of the fitted equations, each predicted from the others");
+  EXPECT_DOUBLE_EQ(cost.consistent, 0.061);
+  EXPECT_DOUBLE_EQ(cost.estimate, 0.066);
   r.validation = {prediction(0.10), prediction(0.20)};
   r.consistent_validation = {prediction(0.12), prediction(0.24)};
   cost = sid::consistent_cost(r);
   EXPECT_TRUE(cost.held_out);
+  EXPECT_EQ(cost.measured_on(), "held-out runs");
   EXPECT_DOUBLE_EQ(cost.consistent, 0.18);
   EXPECT_DOUBLE_EQ(cost.estimate, 0.15);
 }
@@ -48,12 +59,12 @@ TEST(ConsistentLinks, AreWrittenUnlessTheyCostMoreThanAllowedOrDidNotConverge) {
   sid::ConsistentLinksPolicy tight;
   tight.max_extra_error = 0.05;
   const std::string costly = sid::consistent_links_problem(r, tight);
-  EXPECT_NE(costly.find("fitted torque with 5.4 % error against the estimate's 5 %"),
+  EXPECT_NE(costly.find("torque (fitted equations) with 5.4 % error against the estimate's 5 %"),
             std::string::npos)
       << costly;
   r.validation = {prediction(0.10)};
   r.consistent_validation = {prediction(0.20)};
-  EXPECT_NE(sid::consistent_links_problem(r).find("held-out torque"), std::string::npos);
+  EXPECT_NE(sid::consistent_links_problem(r).find("torque (held-out runs)"), std::string::npos);
   r.consistent_validation = {prediction(0.09)};  // better than the estimate on held-out data
   EXPECT_EQ(sid::consistent_links_problem(r, tight), "");
   r.consistent.converged = false;

@@ -297,6 +297,43 @@ TEST(IdentifyChain, ChoosesCutoffsAndItsStdDevsCoverTheErrorWithNoisyTorques) {
   }
 }
 
+// Each fold holds out a span of every run's equations: together the blocks are every equation
+// once, and a fold's fit with its block gives back the whole fit's residual sum of squares
+// (RSS(θ) = RSS_train(θ_f) + ‖R (θ − θ_f)‖² + ‖y − X θ‖² over the block, exact for least
+// squares), which a row lost or counted twice would break.
+TEST(IdentifyChain, FoldsHoldOutEachEquationOnceAndRebuildTheWholeFit) {
+  const sid_test::SimulatedArm arm;
+  const std::vector<sid::ChainTrajectory<double>> runs = {arm.run(3.0, 1, 0.05),
+                                                          arm.run(2.0, 2, 0.05)};
+  sid::ChainIdentifyOptions options;
+  options.cutoff_hz = {8.0};
+  const sid::ChainIdentification id = sid::identify_chain(arm.model, runs, options);
+  ASSERT_TRUE(id.fit.ok()) << id.fit.message;
+  const std::vector<sid::ChainFold> folds = sid::chain_folds(arm.model, id, runs, options, 4);
+  ASSERT_EQ(folds.size(), 4u);
+  const Eigen::Index equations = id.fitted.equations.sum();
+  const double rss = id.fit.residual.squaredNorm();
+  Eigen::Index held = 0;
+  for (const sid::ChainFold& fold : folds) {
+    ASSERT_TRUE(fold.fit.fit.ok()) << fold.fit.fit.message;
+    EXPECT_GT(fold.x.rows(), equations / 8);
+    EXPECT_EQ(fold.fit.fit.residual.size() + fold.x.rows(), equations);
+    held += fold.x.rows();
+    const Eigen::MatrixXd r = fold.fit.fit.r * fold.fit.fit.column_scale.asDiagonal();
+    const double rebuilt = fold.fit.fit.residual.squaredNorm() +
+                           (r * (id.fit.theta - fold.fit.fit.theta)).squaredNorm() +
+                           fold.residual_sum_of_squares(id.fit.theta);
+    EXPECT_NEAR(rebuilt, rss, 1e-8 * rss);
+    // The block was not fitted: the fold's estimate predicts it worse than the whole fit.
+    EXPECT_GT(fold.residual_sum_of_squares(fold.fit.fit.theta),
+              fold.residual_sum_of_squares(id.fit.theta));
+  }
+  EXPECT_EQ(held, equations);
+  EXPECT_THROW((void)sid::chain_folds(arm.model, id, runs, options, 1), std::invalid_argument);
+  EXPECT_THROW((void)sid::chain_folds(arm.model, id, {arm.run(0.02, 3, 0.05)}, options, 5),
+               std::invalid_argument);
+}
+
 TEST(IdentifyChain, RegroupsWhatTheRunsDoNotTellApart) {
   // Equations at rest are left out, so |tanh(qd / eps)| is 1 in every equation used: the
   // asymmetric Coulomb level cannot be told from the torque offset in these data.

@@ -534,6 +534,40 @@ inline std::vector<ChainEquations> fit_at_cutoffs(const ChainModel& model,
   return equations;
 }
 
+inline void check_earlier(const ChainModel& model, const ChainIdentification& earlier,
+                          const char* who) {
+  if (!earlier.fit.ok() || earlier.cutoff_hz.size() != model.joints() ||
+      earlier.fit.theta.size() != earlier.base.rank() ||
+      static_cast<Eigen::Index>(earlier.base.independent.size() + earlier.base.dependent.size()) !=
+          model.parameters())
+    throw std::invalid_argument(std::string(who) +
+                                ": the earlier identification failed or is of another model");
+}
+
+/// An identification of earlier's base parameters at its cutoffs, not yet fitted.
+inline ChainIdentification same_parameters(const ChainIdentification& earlier) {
+  ChainIdentification id;
+  id.base = earlier.base;
+  id.structural_rank = earlier.structural_rank;
+  id.parameter_names = earlier.parameter_names;
+  id.parameter_combinations = earlier.parameter_combinations;
+  id.cutoff_hz = earlier.cutoff_hz;
+  id.cross_validation_score = std::nan("");
+  return id;
+}
+
+/// The rows of e from `begin` on, `count` of them.
+inline ChainEquations equation_rows(const ChainEquations& e, Eigen::Index begin,
+                                    Eigen::Index count) {
+  const auto first = static_cast<std::ptrdiff_t>(begin);
+  const auto last = static_cast<std::ptrdiff_t>(begin + count);
+  return {e.x.middleRows(begin, count),
+          e.y.segment(begin, count),
+          e.y_unfiltered.segment(begin, count),
+          {e.joint.begin() + first, e.joint.begin() + last},
+          {e.at.begin() + first, e.at.begin() + last}};
+}
+
 }  // namespace detail
 
 SID_INLINE ChainIdentification identify_chain(const ChainModel& model,
@@ -632,23 +666,66 @@ SID_INLINE ChainIdentification refit_chain(const ChainModel& model,
   const int n = model.joints();
   detail::check_chain_options(options, n, who);
   if (runs.empty()) throw std::invalid_argument(std::string(who) + ": no runs given");
-  if (!earlier.fit.ok() || earlier.cutoff_hz.size() != n ||
-      earlier.fit.theta.size() != earlier.base.rank() ||
-      static_cast<Eigen::Index>(earlier.base.independent.size() + earlier.base.dependent.size()) !=
-          model.parameters())
-    throw std::invalid_argument(std::string(who) +
-                                ": the earlier identification failed or is of another model");
+  detail::check_earlier(model, earlier, who);
   std::vector<detail::SmoothedChainRun> smoothed = detail::smoothed_runs(model, runs, options, who);
-  ChainIdentification id;
-  id.base = earlier.base;
-  id.structural_rank = earlier.structural_rank;
-  id.parameter_names = earlier.parameter_names;
-  id.parameter_combinations = earlier.parameter_combinations;
-  id.cutoff_hz = earlier.cutoff_hz;
-  id.cross_validation_score = std::nan("");
+  ChainIdentification id = detail::same_parameters(earlier);
   Eigen::VectorXd weight;
   (void)detail::fit_at_cutoffs(model, smoothed, options, who, id, weight);
   return id;
+}
+
+SID_INLINE std::vector<ChainFold> chain_folds(const ChainModel& model,
+                                              const ChainIdentification& identification,
+                                              const std::vector<ChainTrajectory<double>>& runs,
+                                              const ChainIdentifyOptions& options, int folds) {
+  const char* who = "sid::chain_folds";
+  const int n = model.joints();
+  detail::check_chain_options(options, n, who);
+  if (folds < 2) throw std::invalid_argument(std::string(who) + ": folds must be >= 2");
+  if (runs.empty()) throw std::invalid_argument(std::string(who) + ": no runs given");
+  detail::check_earlier(model, identification, who);
+  std::vector<detail::SmoothedChainRun> smoothed = detail::smoothed_runs(model, runs, options, who);
+  for (auto& s : smoothed)
+    for (int j = 0; j < n; ++j)
+      s.smooth_joint(j, identification.cutoff_hz[j], options.filter_torque);
+  const std::vector<detail::ChainEquations> equations = detail::all_equations(
+      model, smoothed, identification.base.independent, options.rest_fraction);
+  LeastSquaresOptions ls = options.least_squares;
+  ls.column_names = identification.parameter_names;
+  std::vector<ChainFold> out(static_cast<std::size_t>(folds));
+  for (int f = 0; f < folds; ++f) {
+    ChainFold& fold = out[static_cast<std::size_t>(f)];
+    std::vector<detail::ChainEquations> train, test;
+    for (const detail::ChainEquations& e : equations) {
+      // Rows run in time (sample position, then joint): a span of time is a span of rows.
+      const Eigen::Index positions = e.at.empty() ? 0 : e.at.back() + 1;
+      const auto row_at = [&](Eigen::Index position) {
+        return static_cast<Eigen::Index>(std::lower_bound(e.at.begin(), e.at.end(), position) -
+                                         e.at.begin());
+      };
+      const Eigen::Index begin = row_at(positions * f / folds);
+      const Eigen::Index end = row_at(positions * (f + 1) / folds);
+      train.push_back(detail::equation_rows(e, 0, begin));
+      train.push_back(detail::equation_rows(e, end, e.y.size() - end));
+      test.push_back(detail::equation_rows(e, begin, end - begin));
+    }
+    const detail::StackedChainEquations stacked = detail::stack_equations(train);
+    if (stacked.x.rows() <= stacked.x.cols())
+      throw std::invalid_argument(std::string(who) + ": fold " + std::to_string(f + 1) +
+                                  " leaves " + std::to_string(stacked.x.rows()) +
+                                  " equations for " + std::to_string(stacked.x.cols()) +
+                                  " base parameters; give longer or more runs, or fewer folds");
+    fold.fit = detail::same_parameters(identification);
+    Eigen::VectorXd weight;
+    fold.fit.fit = detail::chain_fit(train, stacked, n, options.weighted, ls, weight);
+    fold.fit.std_dev = fold.fit.fit.std_dev;
+    fold.fit.relative_std_dev = 100.0 * fold.fit.std_dev.array() / fold.fit.fit.theta.array().abs();
+    fold.fit.fitted = detail::chain_prediction(train, n, fold.fit.fit.theta);
+    detail::StackedChainEquations held = detail::stack_equations(test);
+    fold.x = std::move(held.x);
+    fold.y = std::move(held.y);
+  }
+  return out;
 }
 
 SID_INLINE Eigen::MatrixXd chain_torque(const ChainModel& model,

@@ -148,6 +148,35 @@ SID_INLINE ChainPrediction predict_chain(const ChainModel& model,
                                          const ChainTrajectory<double>& run,
                                          const ChainIdentifyOptions& options = {});
 
+/// @brief One block of a blocked cross-validation on an identification's own equations.
+struct ChainFold {
+  /// The fit of every equation outside the block: the same base parameters, cutoffs and
+  /// estimator; std_dev is the fit's own, as refit_chain's.
+  ChainIdentification fit;
+  /// The block's equations: regressor rows in the base parameters' columns and the torque they
+  /// predict (as fitted: filtered when the fit filters it).
+  Eigen::MatrixXd x;
+  Eigen::VectorXd y;
+
+  /// ‖y − x θ‖²: what the base parameters θ leave unexplained of the block.
+  double residual_sum_of_squares(const Eigen::VectorXd& theta) const {
+    return (y - x * theta).squaredNorm();
+  }
+};
+
+/// @brief The folds of a blocked cross-validation on the equations of runs at an identification's
+/// cutoffs: each run's equations cut in `folds` spans of equal time, fold k holding out span k of
+/// every run. The runs are smoothed whole, as for the fit, so a block has no edges of its own:
+/// it judges a model on the rows the fit used, without the fit having seen them. Smoothed
+/// neighbours leak a little across each cut; with a few blocks that is a few cuts in a run.
+/// @throws std::invalid_argument as refit_chain, or if folds < 2 or a fold leaves fewer
+///         equations than base parameters.
+SID_INLINE std::vector<ChainFold> chain_folds(const ChainModel& model,
+                                              const ChainIdentification& identification,
+                                              const std::vector<ChainTrajectory<double>>& runs,
+                                              const ChainIdentifyOptions& options = {},
+                                              int folds = 5);
+
 /// @brief Fits an earlier identification's base parameters to other runs of the same model at
 /// its cutoffs: the smoothing, the equations and least squares only. No base-parameter search, no
 /// cutoff choice, no HAC or jackknife deviations (std_dev is the fit's own) and no per-run or

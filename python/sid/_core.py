@@ -328,6 +328,7 @@ def identify(
     rest_fraction: Optional[float] = None,
     coulomb_epsilon: Optional[float] = None,
     validate_fraction: Optional[float] = None,
+    consistency_folds: Optional[int] = None,
 ) -> Fit:
     """Identifies the robot's base parameters from runs, as ``sid_identify --robot`` does.
 
@@ -335,7 +336,8 @@ def identify(
     kinds added to viscous friction and armature (default coulomb and offset; "none": rigid
     bodies only; with no_default_effects they are the whole list). cutoff: the smoothing [Hz],
     one or one per joint (default: chosen by held-out prediction). The other options are the
-    tool's --skip, --rest-fraction, --coulomb-epsilon and --validate-fraction.
+    tool's --skip, --rest-fraction, --coulomb-epsilon, --validate-fraction and
+    --consistency-folds.
     """
     _as_robot(robot)
     runs = [runs] if isinstance(runs, Run) else list(runs)
@@ -349,6 +351,7 @@ def identify(
     options.rest_fraction = rest_fraction
     options.coulomb_epsilon = coulomb_epsilon
     options.validate_fraction = validate_fraction
+    options.consistency_folds = consistency_folds
     data = [_as_run(r, "runs")._data() for r in runs]
     held = [_as_run(r, "validate")._data() for r in validate]
     return Fit(_sid.identify(robot._handle, data, held, options), robot)

@@ -110,6 +110,7 @@ struct IdentifyOptions {
   bool no_default_effects = false;
   std::string cutoff;
   std::optional<double> skip, rest_fraction, coulomb_epsilon, validate_fraction;
+  std::optional<int> consistency_folds;
 };
 
 /// An identification, as sid_identify --robot makes it.
@@ -174,6 +175,7 @@ Fit identify(const Robot& robot, const std::vector<RunData>& runs,
   o.rest_fraction = options.rest_fraction;
   o.coulomb_epsilon = options.coulomb_epsilon;
   o.validate_fraction = options.validate_fraction;
+  o.consistency_folds = options.consistency_folds;
   o.effects = options.effects;
   o.no_default_effects = options.no_default_effects;
   sid::app::require(!runs.empty(), "no run given");
@@ -531,7 +533,8 @@ NB_MODULE(_sid, m) {
       .def_rw("skip", &IdentifyOptions::skip)
       .def_rw("rest_fraction", &IdentifyOptions::rest_fraction)
       .def_rw("coulomb_epsilon", &IdentifyOptions::coulomb_epsilon)
-      .def_rw("validate_fraction", &IdentifyOptions::validate_fraction);
+      .def_rw("validate_fraction", &IdentifyOptions::validate_fraction)
+      .def_rw("consistency_folds", &IdentifyOptions::consistency_folds);
 
   nb::class_<Fit>(m, "_Fit")
       .def_prop_ro("parameter_names",

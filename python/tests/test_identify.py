@@ -101,6 +101,13 @@ def test_writes_a_urdf_only_when_asked_to_overwrite(data, tmp_path):
         assert "not" in str(e) and out.read_text() == "mine"
     else:
         assert "<robot" in out.read_text()
+    # One run and nothing held out: the real bodies are judged by blocked cross-validation,
+    # or on the fitted equations when asked.
+    consistent = fit.to_dict()["physically_consistent"]
+    assert consistent["torque_error_on"].startswith("5 blocks of the fitted equations")
+    on_fitted = sid.identify(robot, sid.Run.from_csv(data / "ndof" / "ident_tx40.csv"),
+                             effects="none", consistency_folds=0)
+    assert on_fitted.to_dict()["physically_consistent"]["torque_error_on"] == "fitted equations"
 
 
 def test_bad_input_raises_value_error_with_the_clis_message(data, tmp_path):
@@ -120,6 +127,8 @@ def test_bad_input_raises_value_error_with_the_clis_message(data, tmp_path):
         sid.identify(robot, run, effects="gravity_waves")
     with pytest.raises(ValueError, match="no run"):
         sid.identify(robot, [])
+    with pytest.raises(ValueError, match="--consistency-folds must be 0"):
+        sid.identify(robot, run, consistency_folds=1)
     with pytest.raises(ValueError, match="same number of rows"):
         sid.Run(run.t[:-1], run.q, run.tau)
     with pytest.raises(ValueError):

@@ -95,6 +95,52 @@ inline ChainIvRefinement refine_robot_by_iv(const ChainModel& model,
   return iv;
 }
 
+/// RobotIdentification::consistent_cross_validation.
+inline ConsistentCrossValidation cross_validate_consistency(
+    const ChainModel& model, const std::vector<ChainTrajectory<double>>& runs,
+    const Eigen::VectorXd& prior, const RobotIdentifyOptions& o, const RobotIdentification& out) {
+  ConsistentCrossValidation cv;
+  if (o.consistency_folds == 0) return cv;
+  if (out.iv.applied) {
+    cv.skipped = "the estimate is IV's, which the folds do not refit";
+    return cv;
+  }
+  const ChainIdentification& id = out.identification;
+  const Eigen::VectorXd inflation =
+      id.std_dev.cwiseQuotient(id.fit.std_dev).unaryExpr([](double v) {
+        return std::isfinite(v) ? v : 1.0;
+      });
+  std::vector<ChainFold> folds;
+  try {
+    folds = chain_folds(model, id, runs, o.fit, o.consistency_folds);
+  } catch (const std::invalid_argument& e) {
+    cv.skipped = e.what();
+    return cv;
+  }
+  double consistent = 0.0, estimate = 0.0, yy = 0.0;
+  for (std::size_t f = 0; f < folds.size(); ++f) {
+    ChainFold& fold = folds[f];
+    const std::string which = "fold " + std::to_string(f + 1) + "'s ";
+    if (!fold.fit.fit.ok()) {
+      cv.skipped = which + "fit failed (" + fold.fit.fit.message + ")";
+      return cv;
+    }
+    fold.fit.std_dev = fold.fit.fit.std_dev.cwiseProduct(inflation);
+    const ChainConsistentFit c = consistent_chain_parameters(model, fold.fit, prior);
+    if (!c.converged) {
+      cv.skipped = which + "consistent fit did not converge";
+      return cv;
+    }
+    estimate += fold.residual_sum_of_squares(fold.fit.fit.theta);
+    consistent += fold.residual_sum_of_squares(c.beta);
+    yy += fold.y.squaredNorm();
+  }
+  cv.folds = o.consistency_folds;
+  cv.consistent = std::sqrt(consistent / std::max(yy, 1e-300));
+  cv.estimate = std::sqrt(estimate / std::max(yy, 1e-300));
+  return cv;
+}
+
 }  // namespace detail
 
 SID_INLINE RobotIdentification identify_robot(const ChainModel& model,
@@ -102,6 +148,10 @@ SID_INLINE RobotIdentification identify_robot(const ChainModel& model,
                                               std::vector<NamedChainRun> held_out,
                                               const RobotIdentifyOptions& options) {
   if (runs.empty()) throw std::invalid_argument("sid::identify_robot: no run given");
+  if (options.consistency_folds < 0 || options.consistency_folds == 1)
+    throw std::invalid_argument(
+        "sid::identify_robot: consistency_folds must be 0 (none) or >= 2, not " +
+        std::to_string(options.consistency_folds));
   detail::hold_back_run_end(runs, held_out, options.validate_fraction);
   RobotIdentifyOptions o = options;
   o.fit.weighted = options.estimator == ChainEstimator::WeightedLeastSquares;
@@ -126,7 +176,11 @@ SID_INLINE RobotIdentification identify_robot(const ChainModel& model,
     }
     out.validation.back().source = r.name;
   }
-  out.consistent = consistent_chain_parameters(model, id, description_prior(model, o.description));
+  const Eigen::VectorXd prior = description_prior(model, o.description);
+  out.consistent = consistent_chain_parameters(model, id, prior);
+  if (held_out.empty())
+    out.consistent_cross_validation =
+        detail::cross_validate_consistency(model, data, prior, o, out);
   ChainIdentification physical = id;
   physical.fit.theta = out.consistent.beta;
   for (const auto& r : held_out) {
@@ -149,10 +203,25 @@ SID_INLINE std::vector<DriveTermKind> robot_drive_term_kinds(
   return kinds;
 }
 
+SID_INLINE std::string ConsistentCost::measured_on() const {
+  if (held_out) return "held-out runs";
+  if (folds > 0)
+    return std::to_string(folds) +
+           " blocks of the fitted equations, each predicted from the others";
+  return "fitted equations";
+}
+
 SID_INLINE ConsistentCost consistent_cost(const RobotIdentification& result) {
   ConsistentCost cost;
   if (result.validation.empty() ||
       result.consistent_validation.size() != result.validation.size()) {
+    const ConsistentCrossValidation& cv = result.consistent_cross_validation;
+    if (cv.folds > 0) {
+      cost.consistent = cv.consistent;
+      cost.estimate = cv.estimate;
+      cost.folds = cv.folds;
+      return cost;
+    }
     cost.consistent = result.consistent.relative_residual;
     cost.estimate = result.consistent.least_squares_relative_residual;
     return cost;
@@ -181,8 +250,7 @@ SID_INLINE std::string consistent_links_problem(const RobotIdentification& resul
            "; a drive term the data have may be missing from the effects)";
   const ConsistentCost cost = consistent_cost(result);
   if (!(cost.extra() <= policy.max_extra_error))
-    return "the nearest real bodies predict the " +
-           std::string(cost.held_out ? "held-out" : "fitted") + " torque with " +
+    return "the nearest real bodies predict the torque (" + cost.measured_on() + ") with " +
            detail::format_number("%.3g", 100.0 * cost.consistent) +
            " % error against the "
            "estimate's " +

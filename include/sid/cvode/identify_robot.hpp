@@ -16,6 +16,7 @@
 
 #include <Eigen/Core>
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,12 @@ struct RobotIdentifyOptions {
   /// Where it follows, IV moves the residual by under 20 % (1.16 on a real Staubli TX40 run,
   /// 1.00-1.01 on simulated arms with rotors).
   double weak_instruments = 1.5;
+  /// Without held-out runs, what the consistent links cost in torque error is judged by blocked
+  /// cross-validation on the fit's own equations (chain_folds): each of this many spans of time
+  /// predicted by the fit of the others and by that fit's consistent links. On the equations it
+  /// fitted, least squares always wins by what it fits of the noise; on a block it has not seen
+  /// it does not. 0: judged on the fitted equations.
+  int consistency_folds = 5;
 };
 
 /// @brief What the IV refinement did (estimator InstrumentalVariables).
@@ -65,6 +72,20 @@ struct ChainIvRefinement {
   std::string message;                ///< why it was not applied
   Eigen::VectorXd least_squares;      ///< the first fit on the IV's rows
   std::vector<ChainPrediction> runs;  ///< the IV estimate on each fitted run, when applied
+};
+
+/// @brief The blocked cross-validation of the consistent links (consistency_folds): the pooled
+/// relative torque error ‖τ − Yβ‖ / ‖τ‖ over every block, each block predicted by the fit of the
+/// others (estimate) and by the real bodies nearest that fit (consistent). The folds keep the
+/// whole fit's inflation of the variance by the residuals' correlation, which sets the prior's
+/// weight.
+struct ConsistentCrossValidation {
+  int folds = 0;  ///< 0: not made
+  double consistent = std::numeric_limits<double>::quiet_NaN();
+  double estimate = std::numeric_limits<double>::quiet_NaN();
+  /// Why it was not made though asked for (an IV estimate, runs too short for the folds, a
+  /// fold's consistent fit that did not converge); "" otherwise.
+  std::string skipped;
 };
 
 /// @brief What identify_robot() found.
@@ -81,6 +102,8 @@ struct RobotIdentification {
   ChainConsistentFit consistent;  ///< real bodies near the estimate and the prior
   /// The consistent model's prediction of each held-out run, beside `validation`'s.
   std::vector<ChainPrediction> consistent_validation;
+  /// Without held-out runs, the consistent links judged by blocked cross-validation.
+  ConsistentCrossValidation consistent_cross_validation;
   std::vector<std::string> warnings;  ///< an IV estimate not used; an ill-conditioned fit
 };
 
@@ -100,12 +123,17 @@ SID_INLINE std::vector<DriveTermKind> robot_drive_term_kinds(
     const std::vector<DriveTermKind>& added = {DriveTermKind::Coulomb, DriveTermKind::Offset});
 
 /// @brief What the consistent model's torque error costs against the estimate's: over the
-/// held-out runs where there are any (their relative residuals' mean), else over the fitted
-/// equations (ChainConsistentFit::relative_residual beside least squares').
+/// held-out runs where there are any (their relative residuals' mean), else by the blocked
+/// cross-validation where it was made, else over the fitted equations
+/// (ChainConsistentFit::relative_residual beside least squares').
 struct ConsistentCost {
   double consistent = 0.0;  ///< the consistent model's relative torque error
   double estimate = 0.0;    ///< the estimate's
   bool held_out = false;    ///< measured on held-out runs
+  int folds = 0;            ///< > 0: by blocked cross-validation over this many blocks
+  /// What the errors were measured on, in words: "held-out runs", "N blocks of the fitted
+  /// equations, each predicted from the others" or "fitted equations".
+  std::string measured_on() const;
   /// consistent / estimate − 1: the share of error the real bodies add.
   double extra() const noexcept { return estimate > 0.0 ? consistent / estimate - 1.0 : 0.0; }
 };
