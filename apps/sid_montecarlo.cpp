@@ -112,7 +112,8 @@ are the combinations the data can tell apart, as sid_identify --robot names them
 squares; css_tcv is sid_identify --robot's own pipeline on the run (cutoffs chosen by held-out
 torque prediction, torques filtered alike, equations at rest left out); css_iv takes its
 instruments from simulations of the physically consistent arm nearest to each estimate, at
-GCV's own lambda. The report gives, per level and method, the median and largest |bias| and
+GCV's own lambda, and a run where that iteration does not converge or leaves more than 1.5 times
+the first fit's residual keeps the first (css_gcv) fit, counted as declined. The report gives, per level and method, the median and largest |bias| and
 std over the base parameters in % of each true value (parameters whose true value is 0 have
 none), the RMS relative error, and how the estimate predicts the true torque at the true
 motion (100 |tau - Y beta-hat| / |tau|, mean and largest over the runs). --json FILE writes

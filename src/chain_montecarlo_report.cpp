@@ -72,6 +72,13 @@ std::string fixed(double v, int width, int digits) {
   return text.size() >= static_cast<std::size_t>(width) ? " " + text : text;
 }
 
+/// The first non-empty reason of a list.
+std::string first_reason(const std::vector<std::string>& reasons) {
+  for (const std::string& r : reasons)
+    if (!r.empty()) return r;
+  return {};
+}
+
 }  // namespace
 
 std::string chain_montecarlo_header(const sid::ChainMonteCarloOptions& options,
@@ -126,9 +133,14 @@ std::string chain_montecarlo_tables(const sid::ChainMonteCarloResult& result) {
           << fixed(s.rms_rel_error_pct, 10, 2) << fixed(f.mean_torque, 14, 3)
           << fixed(f.max_torque, 8, 3) << failed << "  " << f.max_bias_name << "\n";
     }
-    for (const auto& s : level.methods)
+    for (const auto& s : level.methods) {
       for (const auto& why : s.failures)
         out << "  " << sid::study_method_name(s.method) << " failed: " << why << "\n";
+      if (s.declined_runs() > 0)
+        out << "  " << sid::study_method_name(s.method) << ": the IV step declined on "
+            << s.declined_runs() << " of " << s.declined.size()
+            << " runs, which keep the css_gcv fit (" << first_reason(s.declined) << ")\n";
+    }
   }
   if (zero > 0) {
     out << "\nzero in truth (no relative figures; their mean and variance are in the JSON):";
@@ -193,6 +205,10 @@ nlohmann::json chain_montecarlo_json(const sid::ChainMonteCarloResult& result,
       m["torque_error_pct"] = to_json_array(s.torque_error_pct);
       m["mean_torque_error_pct"] = number_or_null(f.mean_torque);
       m["max_torque_error_pct"] = number_or_null(f.max_torque);
+      if (s.method == sid::StudyMethod::CssIv) {
+        m["declined_runs"] = s.declined_runs();
+        m["declined"] = s.declined;
+      }
       ms[sid::study_method_name(s.method)] = m;
     }
     l["methods"] = ms;

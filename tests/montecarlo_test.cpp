@@ -325,11 +325,31 @@ TEST(ChainMonteCarlo, CssIvPredictsTheTorqueBetterThanCssGcvAtTheHighNoiseLevel)
                            &iv = summary_of(r, sid::StudyMethod::CssIv);
   ASSERT_EQ(iv.failed_runs, 0) << iv.failures.front();
   ASSERT_EQ(gcv.failed_runs, 0);
+  EXPECT_EQ(iv.declined_runs(), 0);  // the IV estimate is used on every run
   std::cout << "[chain css_iv] mean torque error " << iv.torque_error_pct.mean() << " % (css_gcv "
             << gcv.torque_error_pct.mean() << " %), RMS relative error " << iv.rms_rel_error_pct
             << " % (" << gcv.rms_rel_error_pct << " %)\n";
   EXPECT_LT(iv.torque_error_pct.mean(), 0.8 * gcv.torque_error_pct.mean());
   EXPECT_LT(iv.rms_rel_error_pct, gcv.rms_rel_error_pct);
+}
+
+// Where the IV step judges its estimate no better than the first fit, the run keeps the first
+// fit (css_gcv's), and the study says so. Least squares has the least residual on its rows, so
+// an IV estimate never leaves less: a limit below 1 declines every run.
+TEST(ChainMonteCarlo, CssIvKeepsTheFirstFitWhereTheIvStepDeclines) {
+  const StudyArm& arm = StudyArm::get();
+  sid::ChainMonteCarloOptions o =
+      small_study({sid::StudyMethod::CssGcv, sid::StudyMethod::CssIv}, 3);
+  o.sigma_q2_levels = {1e-6};
+  o.refine = sid::chain_instrumental_variable_step({}, 0.999);
+  const auto r = sid::run_chain_monte_carlo(arm.model, arm.theta, arm.truth, o);
+  const sid::MethodSummary &gcv = summary_of(r, sid::StudyMethod::CssGcv),
+                           &iv = summary_of(r, sid::StudyMethod::CssIv);
+  ASSERT_EQ(iv.failed_runs, 0);
+  EXPECT_EQ(iv.declined_runs(), 3);
+  EXPECT_NE(iv.declined.front().find("weak instruments"), std::string::npos) << iv.declined[0];
+  EXPECT_TRUE(iv.estimates.cwiseEqual(gcv.estimates).all());
+  EXPECT_EQ(gcv.declined_runs(), 0);
 }
 
 TEST(ChainInstrumentalVariables, ReturnTheTruthFromExactData) {

@@ -76,10 +76,19 @@ inline ChainRegression chain_regression(const ChainModel& model,
   return r;
 }
 
+/// @brief Thrown by a refinement that judged its own estimate no better than the first fit
+/// (an IV iteration that did not converge, weak instruments): the first fit stands, and what()
+/// says why.
+class RefinementDeclined : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 /// @brief A refinement of a chain's first fit, such as the IDIM-IV step of
 /// sid/cvode/chain_instrumental_variables.hpp: (model, base parameters, windowed kinematics, the
 /// samples of its rows, first fit) -> refined fit. The chain study takes it as a function so as
-/// to stay free of SUNDIALS. It may throw to fail a run.
+/// to stay free of SUNDIALS. It throws RefinementDeclined to keep the first fit, anything else
+/// to fail a run.
 using ChainEstimateRefinement = std::function<LeastSquaresResult<double>(
     const ChainModel&, const BaseParameters<double>&, const ChainKinematics<double>&,
     const std::vector<Eigen::Index>&, const LeastSquaresResult<double>&)>;

@@ -29,10 +29,12 @@ inline std::pair<double, double> chain_study_window(StudyMethod method,
 
 }  // namespace detail
 
-SID_INLINE LeastSquaresResult<double> fit_chain_study_method(
-    StudyMethod method, const ChainModel& model, const BaseParameters<double>& base,
-    const ChainKinematics<double>& truth, const ChainTrajectory<double>& measured, double sigma_q2,
-    const ChainMonteCarloOptions& options) {
+SID_INLINE ChainStudyFit fit_chain_study_method(StudyMethod method, const ChainModel& model,
+                                                const BaseParameters<double>& base,
+                                                const ChainKinematics<double>& truth,
+                                                const ChainTrajectory<double>& measured,
+                                                double sigma_q2,
+                                                const ChainMonteCarloOptions& options) {
   const char* who = "sid::fit_chain_study_method";
   LeastSquaresOptions ls = options.least_squares;
   if (method == StudyMethod::CssIv && !options.refine)
@@ -48,7 +50,7 @@ SID_INLINE LeastSquaresResult<double> fit_chain_study_method(
       throw std::invalid_argument(std::string(who) + ": the run leaves " +
                                   std::to_string(base.rank() - id.base.rank()) +
                                   " base parameters undetermined");
-    return id.fit;
+    return {id.fit, {}};
   }
   const ChainKinematics<double> k = detail::method_kinematics(
       method, truth, measured, sigma_q2, options.kinematics, kChainInstrumentalVariableLambdaScale);
@@ -63,16 +65,21 @@ SID_INLINE LeastSquaresResult<double> fit_chain_study_method(
                                 " base parameters; the window is too short");
   const auto joints = static_cast<Eigen::Index>(model.joints());
   LeastSquaresResult<double> fit = least_squares(r.x, r.y, joints, ls);
-  if (method == StudyMethod::CssIv && fit.ok())
-    return options.refine(model, base, kept, samples, fit);
+  if (method == StudyMethod::CssIv && fit.ok()) {
+    try {
+      return {options.refine(model, base, kept, samples, fit), {}};
+    } catch (const RefinementDeclined& e) {
+      return {std::move(fit), e.what()};
+    }
+  }
   if (method != StudyMethod::CssWls || !fit.ok() || !(fit.sigma2_per_joint.array() > 0.0).all())
-    return fit;
+    return {std::move(fit), {}};
   // Gautier's IDIM-WLS, as fit_two_link_weighted: each joint's rows by 1/σ̂_j² of a first fit.
   const Eigen::Index m = r.y.size() / joints;
   Eigen::VectorXd weights(r.y.size());
   for (Eigen::Index j = 0; j < joints; ++j)
     weights.segment(j * m, m).setConstant(1.0 / fit.sigma2_per_joint[j]);
-  return weighted_least_squares(r.x, r.y, weights, joints, ls);
+  return {weighted_least_squares(r.x, r.y, weights, joints, ls), {}};
 }
 
 namespace detail {
@@ -148,9 +155,11 @@ SID_INLINE ChainMonteCarloResult run_chain_monte_carlo(const ChainModel& model,
 
   result.levels = detail::empty_levels(options, base.rank());
   for (auto& level : result.levels)
-    for (auto& summary : level.methods)
+    for (auto& summary : level.methods) {
       summary.torque_error_pct =
           Eigen::VectorXd::Constant(options.runs, std::numeric_limits<double>::quiet_NaN());
+      summary.declined.assign(static_cast<std::size_t>(options.runs), std::string());
+    }
   const ChainTrajectory<double> exact_run{truth.t, truth.q, truth.tau};
   result.threads_used = detail::run_study_jobs(
       options, result.levels,
@@ -163,8 +172,10 @@ SID_INLINE ChainMonteCarloResult run_chain_monte_carlo(const ChainModel& model,
           MethodSummary& summary = result.levels[l].methods[m];
           std::string failure;
           try {
-            const LeastSquaresResult<double> fit = fit_chain_study_method(
-                options.methods[m], model, base, truth, measured, sigma_q2, options);
+            ChainStudyFit study_fit = fit_chain_study_method(options.methods[m], model, base, truth,
+                                                             measured, sigma_q2, options);
+            const LeastSquaresResult<double>& fit = study_fit.fit;
+            summary.declined[static_cast<std::size_t>(run)] = std::move(study_fit.declined);
             if (fit.ok() && fit.theta.allFinite()) {
               summary.estimates.row(run) = fit.theta.transpose();
               summary.torque_error_pct[run] =

@@ -80,14 +80,23 @@ struct ChainMonteCarloResult {
   int threads_used = 1;
 };
 
+/// @brief One method's estimate on one noisy data set of the chain study.
+struct ChainStudyFit {
+  LeastSquaresResult<double> fit;
+  /// Why the refinement (css_iv's IV step) declined, so that fit is the first one; "" otherwise.
+  std::string declined;
+};
+
 /// @brief β̂ of one method on one noisy data set (windowed as options say); NaN-free on success.
 /// @param base the base parameters (chain_base_parameters(model, options.identify)).
 /// @throws std::invalid_argument for css_iv without options.refine, too few equations, or a
 ///         css_tcv fit whose run leaves a base parameter undetermined.
-SID_INLINE LeastSquaresResult<double> fit_chain_study_method(
-    StudyMethod method, const ChainModel& model, const BaseParameters<double>& base,
-    const ChainKinematics<double>& truth, const ChainTrajectory<double>& measured, double sigma_q2,
-    const ChainMonteCarloOptions& options);
+SID_INLINE ChainStudyFit fit_chain_study_method(StudyMethod method, const ChainModel& model,
+                                                const BaseParameters<double>& base,
+                                                const ChainKinematics<double>& truth,
+                                                const ChainTrajectory<double>& measured,
+                                                double sigma_q2,
+                                                const ChainMonteCarloOptions& options);
 
 /// @brief Runs the study on the true trajectory of model at parameters theta (t, q, q̇, q̈, τ at
 /// the samples, τ = Y θ).

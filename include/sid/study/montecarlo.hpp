@@ -103,6 +103,15 @@ struct MethodSummary {
   /// Per run (NaN where it failed): how the estimate predicts the true torque over the window,
   /// 100 ‖τ − Y θ̂‖ / ‖τ‖ at the true motion. Filled by the chain study, empty in the two-link one.
   Eigen::VectorXd torque_error_pct;
+  /// Per run: why the method's refinement (the chain study's css_iv) declined, so that its first
+  /// fit stands; "" where it was used. Filled by the chain study, empty in the two-link one.
+  std::vector<std::string> declined;
+
+  /// The runs where the refinement declined.
+  int declined_runs() const {
+    return static_cast<int>(std::count_if(declined.begin(), declined.end(),
+                                          [](const std::string& s) { return !s.empty(); }));
+  }
 };
 
 struct LevelSummary {
