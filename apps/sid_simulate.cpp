@@ -125,6 +125,8 @@ struct Options {
   std::vector<std::string> pushes;
   double push_ramp = 0.02;
   std::string push_point;
+  std::string encoder_bits, encoder_ratio;
+  double torque_delay = 0.0;
 };
 
 // The effect list of --help, written from the library so that it cannot fall out of step.
@@ -234,6 +236,15 @@ void define_options(CLI::App& cli, Options& o) {
   cli.add_option("--push-point", o.push_point,
                  "--robot --push: X,Y,Z [m]: where on the tip link the push acts, in its frame "
                  "(default its origin)");
+  cli.add_option("--encoder-bits", o.encoder_bits,
+                 "--robot: B or B1,...,Bn: the encoders' bits per turn; the logged angles are "
+                 "rounded to 2 pi / (2^B R) (12 bits on the joint: 1.5e-3 rad, a hobby servo's)");
+  cli.add_option("--encoder-ratio", o.encoder_ratio,
+                 "--robot --encoder-bits: R or R1,...,Rn: turns of each encoder per turn of its "
+                 "joint (the gear ratio of an encoder on the motor; default 1)");
+  cli.add_option("--torque-delay", o.torque_delay,
+                 "--robot: D [s]: the torque channel lags the angles by D (the torque logged at "
+                 "t is the drives' at t - D; negative: the angles lag)");
 }
 
 std::string short_number(double v) {
@@ -367,6 +378,9 @@ int simulate_robot(const Options& o) {
   c.pushes = o.pushes;
   c.push_ramp = o.push_ramp;
   c.push_point = o.push_point;
+  c.encoder_bits = o.encoder_bits;
+  c.encoder_ratio = o.encoder_ratio;
+  c.torque_delay = o.torque_delay;
   c.coulomb_epsilon = o.coulomb_epsilon;
   c.rtol = o.rtol;
   c.atol = o.atol;
@@ -386,6 +400,9 @@ int simulate(const Options& o) {
   require(o.trajectory.empty() || !o.robot.empty(), "--trajectory needs --robot");
   require(o.torque.empty() || !o.robot.empty(), "--torque needs --robot");
   require(o.q0.empty() || !o.torque.empty(), "--q0 needs --torque (and --robot)");
+  require((o.encoder_bits.empty() && o.encoder_ratio.empty() && o.torque_delay == 0.0) ||
+              !o.robot.empty(),
+          "--encoder-bits, --encoder-ratio and --torque-delay need --robot");
   if (!o.robot.empty()) return simulate_robot(o);
   const std::uint64_t seed = sid::app::parse_seed(o.seed);
   const std::vector<sid::EffectSpec> effects = parse_effects(o.effects);

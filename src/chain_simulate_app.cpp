@@ -128,6 +128,27 @@ DrivingTorque read_driving_torque(const ChainSimulateOptions& o, int n) {
   return torque;
 }
 
+/// A per-joint option's values: one for every joint or one per joint.
+std::vector<double> per_joint_values(const std::string& text, const std::string& option, int n) {
+  if (text.empty()) return {};
+  std::vector<double> v = parse_doubles(text, option);
+  require(v.size() == 1 || v.size() == static_cast<std::size_t>(n),
+          option + ": give one value or one per joint (" + std::to_string(n) + "), not " +
+              std::to_string(v.size()));
+  return v;
+}
+
+/// --encoder-bits: whole numbers of bits per turn, 1..52.
+std::vector<int> encoder_bits(const std::string& text, int n) {
+  std::vector<int> bits;
+  for (const double b : per_joint_values(text, "--encoder-bits", n)) {
+    require(b >= 1.0 && b <= 52.0 && b == std::floor(b),
+            "--encoder-bits: bits per turn are whole numbers 1..52, not " + shortest_number(b));
+    bits.push_back(static_cast<int>(b));
+  }
+  return bits;
+}
+
 /// The library's settings of the run the options describe on robot.
 RobotSimulationOptions robot_simulation_options(const ChainSimulateOptions& o,
                                                 const RobotDescription& robot) {
@@ -144,6 +165,14 @@ RobotSimulationOptions robot_simulation_options(const ChainSimulateOptions& o,
   s.simulator.rtol = o.rtol;
   s.simulator.atol = o.atol;
   s.noise = MeasurementNoise<double>{o.sigma_q2, o.sigma_tau2};
+  s.encoder_bits = encoder_bits(o.encoder_bits, n);
+  s.encoder_ratio = per_joint_values(o.encoder_ratio, "--encoder-ratio", n);
+  for (const double r : s.encoder_ratio)
+    require(r > 0.0, "--encoder-ratio: turns of the encoder per turn of the joint must be > 0");
+  require(o.encoder_ratio.empty() || !o.encoder_bits.empty(),
+          "--encoder-ratio needs --encoder-bits");
+  require(std::isfinite(o.torque_delay), "--torque-delay must be finite [s]");
+  s.torque_delay = o.torque_delay;
   return s;
 }
 
@@ -287,7 +316,15 @@ long simulate_robot(const ChainSimulateOptions& o) {
                 " s, samples = " + std::to_string(measured.size())
           : "the torque file's times, samples = " + std::to_string(measured.size()),
       "seed = " + std::to_string(o.seed) + " (std::mt19937_64), sigma_q2 = " +
-          shortest_number(o.sigma_q2) + ", sigma_tau2 = " + shortest_number(o.sigma_tau2),
+          shortest_number(o.sigma_q2) + ", sigma_tau2 = " + shortest_number(o.sigma_tau2) +
+          (o.encoder_bits.empty() ? std::string()
+                                  : ", encoder bits per turn = " + o.encoder_bits +
+                                        (o.encoder_ratio.empty() ? std::string(" (on the joints)")
+                                                                 : " at " + o.encoder_ratio +
+                                                                       " turns per joint turn")) +
+          (o.torque_delay == 0.0
+               ? std::string()
+               : ", torque logged " + shortest_number(o.torque_delay) + " s behind the angles"),
       "drive terms = " + (parameters.empty() ? std::string("none") : parameters) +
           " (coulomb_epsilon = " + shortest_number(o.coulomb_epsilon) + ")",
       "effects = " + (effect_list.empty() ? std::string("none") : effect_list)};

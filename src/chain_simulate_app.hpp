@@ -44,6 +44,10 @@ struct ChainSimulateOptions {
   std::vector<std::string> pushes;
   double push_ramp = 0.02;
   std::string push_point;  ///< "X,Y,Z" [m] in the tip link's frame; empty: its origin
+  /// The sensors of a cheap arm: encoder bits per turn and the encoders' gear ratio ("B" or
+  /// "B1,...,Bn"; empty: not quantised, on the joint) and the torque channel's lag [s].
+  std::string encoder_bits, encoder_ratio;
+  double torque_delay = 0.0;
 };
 
 /// @brief sid::excitation_room, its refusal naming the description's file (source).

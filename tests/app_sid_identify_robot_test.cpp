@@ -650,6 +650,33 @@ TEST_F(IdentifyRobot, SimulateRobotRefusesWhatItCannotSimulate) {
   refused("--robot " + urdf + " --effect coulomb_j2:-1", "coulomb must be > 0");
   refused("--robot " + urdf + " --excitation multisine", "random Fourier series");
   refused("--robot '" SID_SOURCE_DIR "/examples/dfki_double_pendulum.dh'", "give a URDF");
+  const std::string rotor = " --effect armature_j6:0.01";
+  refused("--robot " + urdf + rotor + " --encoder-bits 12,12", "one value or one per joint (6)");
+  refused("--robot " + urdf + rotor + " --encoder-bits 12.5", "whole numbers 1..52");
+  refused("--robot " + urdf + rotor + " --encoder-ratio 50",
+          "--encoder-ratio needs --encoder-bits");
+  refused("--encoder-bits 12", "need --robot");
+  refused("--torque-delay 0.002", "need --robot");
+}
+
+// A cheap arm's sensors from the command line: 12-bit encoders on the joints put every logged
+// angle on the 2 pi / 4096 grid, and the file's comments say so and name the torque's lag.
+TEST_F(IdentifyRobot, SimulateRobotLogsCoarseEncodersAndALaggingTorque) {
+  const sid_test::AppRun r =
+      shell(app("sid_simulate") + " --robot " + data("tx40_mdh_modified.urdf") +
+            " --effect armature_j6:0.01 --T 1 --encoder-bits 12 --torque-delay 0.002 -q -o x.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const sid::app::CsvTable table = sid::app::read_csv(file("x.csv"));
+  const double step = 2.0 * M_PI / 4096.0;
+  for (std::size_t c = 0; c < table.names.size(); ++c)
+    if (table.names[c].rfind("q", 0) == 0)
+      for (Eigen::Index k = 0; k < table.columns[c].size(); ++k) {
+        const double steps = table.columns[c][k] / step;
+        ASSERT_NEAR(steps, std::round(steps), 1e-6) << table.names[c] << ", row " << k;
+      }
+  const std::string text = read(file("x.csv"));
+  EXPECT_NE(text.find("encoder bits per turn = 12 (on the joints)"), std::string::npos);
+  EXPECT_NE(text.find("torque logged 0.002 s behind the angles"), std::string::npos);
 }
 
 // A run that needs more torque than a drive's <limit effort> is written, with a warning naming

@@ -107,6 +107,45 @@ TEST(SimulateRobot, TheLogIsTheTruthWithTheSensorsFaultsAndNoise) {
   EXPECT_EQ(exact.measured.q.col(0), exact.simulated.truth.q.col(0));
 }
 
+// A cheap arm's sensors: each encoder rounds its angle to 2π / (2^bits · ratio) (on the motor,
+// through the gear ratio), and the torque channel lags the angles: the torque logged at t is
+// the truth at t − delay, linear between samples (checked here against the two samples around
+// t − delay, by hand), the first sample's before the start.
+TEST(SimulateRobot, EncodersRoundTheAnglesAndTheTorqueChannelLags) {
+  sid::RobotSimulationOptions o = short_run();
+  o.noise = {1e-8, 0.0};
+  const sid::SimulatedRobotLog plain = sid::simulate_robot(ur5(), o, 5);
+  o.encoder_bits = {10};
+  o.encoder_ratio = {1.0, 50.0, 1.0, 1.0, 1.0, 1.0};
+  o.torque_delay = 0.004;  // 1.6 samples of 2.5 ms
+  const sid::SimulatedRobotLog log = sid::simulate_robot(ur5(), o, 5);
+  for (Eigen::Index j = 0; j < 6; ++j) {
+    const double step = 2.0 * M_PI / (1024.0 * (j == 1 ? 50.0 : 1.0));
+    for (Eigen::Index k = 0; k < log.measured.size(); ++k) {
+      const double steps = log.measured.q(k, j) / step;
+      ASSERT_NEAR(steps, std::round(steps), 1e-6) << "joint " << j + 1 << ", sample " << k;
+      // The same noise is drawn, then rounded.
+      ASSERT_LE(std::abs(log.measured.q(k, j) - plain.measured.q(k, j)), 0.5 * step * (1 + 1e-9));
+    }
+  }
+  const Eigen::MatrixXd& tau = log.simulated.truth.tau;
+  const Eigen::Index k = 100;  // t − 0.004 lies 0.4 of the way from sample 98 to sample 99
+  const Eigen::RowVectorXd expected = 0.6 * tau.row(98) + 0.4 * tau.row(99);
+  EXPECT_LT((log.measured.tau.row(k) - expected).norm(), 1e-9 * expected.norm());
+  EXPECT_EQ(log.measured.tau.row(0), tau.row(0));  // before the start: the first sample's
+  EXPECT_EQ(log.measured.tau.row(1), tau.row(0));
+  o.torque_delay = -0.0025;  // one sample's lead
+  EXPECT_EQ(sid::simulate_robot(ur5(), o, 5).measured.tau.row(k), tau.row(k + 1));
+
+  o.encoder_bits = {10, 10};
+  EXPECT_THROW((void)sid::simulate_robot(ur5(), o, 5), std::invalid_argument);
+  o.encoder_bits = {0};
+  EXPECT_THROW((void)sid::simulate_robot(ur5(), o, 5), std::invalid_argument);
+  o.encoder_bits = {12};
+  o.encoder_ratio = {-1.0};
+  EXPECT_THROW((void)sid::simulate_robot(ur5(), o, 5), std::invalid_argument);
+}
+
 // A push is J(q)^T F for the point's Jacobian, here by central differences of its position.
 TEST(SimulateRobot, APushAtTheToolIsTheTransposedJacobianTimesItsForce) {
   sid::ToolPushes pushes;
