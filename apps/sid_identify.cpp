@@ -310,6 +310,10 @@ void define_options(CLI::App& cli, Options& o) {
                  "--robot: write the result as one self-contained HTML page (parameters and "
                  "std, torque errors, held-out prediction, the consistent model, plots per "
                  "joint; refuses to overwrite without --force)");
+  cli.add_option("--torque-delay", o.chain.torque_delay,
+                 "--robot: D [s]: the logs' torque lags their angles by D (servo currents and "
+                 "positions over separate paths): each torque is paired with the angles' spline "
+                 "D earlier (negative: the angles lag); |D| at most --skip");
   cli.add_option("--consistency-folds", o.chain.consistency_folds,
                  "--robot without held-out runs: judge the consistent links' torque error by "
                  "blocked cross-validation over N spans of time, each predicted from the others "
@@ -394,11 +398,26 @@ void define_options(CLI::App& cli, Options& o) {
   };
   group("Every arm", {"--columns", "--validate", "--cutoff", "--effects", "--skip", "--estimator",
                       "--json", "--force"});
-  group("Any serial chain (--robot)",
-        {"--robot", "--base", "--tip", "--hold", "--transmission", "--validate-fraction",
-         "--rest-fraction", "--no-default-effects", "--coulomb-epsilon", "--write-urdf",
-         "--write-mjcf", "--report", "--consistency-folds", "--strict-consistency", "--payload-of",
-         "--payload-frame", "--currents", "--known-payload", "--payload-run"});
+  group("Any serial chain (--robot)", {"--robot",
+                                       "--base",
+                                       "--tip",
+                                       "--hold",
+                                       "--transmission",
+                                       "--validate-fraction",
+                                       "--rest-fraction",
+                                       "--no-default-effects",
+                                       "--coulomb-epsilon",
+                                       "--write-urdf",
+                                       "--write-mjcf",
+                                       "--report",
+                                       "--torque-delay",
+                                       "--consistency-folds",
+                                       "--strict-consistency",
+                                       "--payload-of",
+                                       "--payload-frame",
+                                       "--currents",
+                                       "--known-payload",
+                                       "--payload-run"});
   group("The paper's two-link arm (without --robot)",
         {"--method", "--smoothing", "--sigma-q", "--S", "--lambda", "--true", "--reference-theta",
          "--gear-ratio"});
@@ -869,10 +888,10 @@ int identify(Options o) {
               o.chain.transmission.empty() && !o.chain.validate_fraction &&
               !o.chain.rest_fraction && !o.chain.coulomb_epsilon && o.chain.write_urdf.empty() &&
               o.chain.write_mjcf.empty() && o.chain.report.empty() && !o.chain.no_default_effects &&
-              !o.chain.strict_consistency && !o.chain.consistency_folds,
+              !o.chain.strict_consistency && !o.chain.consistency_folds && !o.chain.torque_delay,
           "--base, --tip, --hold, --transmission, --validate-fraction, --rest-fraction, "
           "--coulomb-epsilon, --write-urdf, --write-mjcf, --report, --strict-consistency, "
-          "--consistency-folds and --no-default-effects need --robot");
+          "--consistency-folds, --torque-delay and --no-default-effects need --robot");
   require(o.payload_of.empty(), "--payload-of needs --robot (the description of the arm)");
   require(o.payload_frame.empty(), "--payload-frame needs --robot (a URDF naming the link)");
   require(!o.gains.any(), "--currents, --known-payload and --payload-run need --robot");

@@ -76,6 +76,13 @@ sid::ChainIdentifyOptions make_options(const ChainIdentifyAppOptions& o, int joi
     require(*o.skip >= 0.0 && std::isfinite(*o.skip), "--skip must be finite and >= 0 s");
     options.skip = options.skip_end = *o.skip;
   }
+  if (o.torque_delay) {
+    require(std::isfinite(*o.torque_delay) &&
+                std::abs(*o.torque_delay) <= std::min(options.skip, options.skip_end),
+            "--torque-delay must be finite and at most --skip (" +
+                format_number("%g", std::min(options.skip, options.skip_end)) + " s) either way");
+    options.torque_delay = *o.torque_delay;
+  }
   require(o.estimator == "ls" || o.estimator == "wls" || o.estimator == "iv",
           "--estimator: the estimators are ls, wls and iv, not '" + o.estimator + "'");
   options.weighted = o.estimator == "wls";
@@ -142,8 +149,11 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
   out << "smoothing cutoff per joint [Hz]"
       << (id.cutoff_chosen ? " (chosen by held-out torque prediction)" : "") << ":";
   for (int j = 0; j < model.joints(); ++j) out << " " << number("%.3g", id.cutoff_hz[j]);
-  out << "\n"
-      << id.base.rank() << " base parameters of " << model.parameters() << " (rank gap "
+  out << "\n";
+  if (o.torque_delay && *o.torque_delay != 0.0)
+    out << "torque paired with the angles " << number("%.4g", 1e3 * *o.torque_delay)
+        << " ms before it was logged (--torque-delay)\n";
+  out << id.base.rank() << " base parameters of " << model.parameters() << " (rank gap "
       << number("%.2g", id.base.rank_gap) << "), condition number "
       << number("%.4g", id.fit.condition_number) << "\n";
   {
@@ -278,6 +288,7 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
   j["coulomb_epsilon"] = model.coulomb_epsilon();
   j["cutoff_hz"] = to_json_array(id.cutoff_hz);
   j["cutoff_chosen"] = id.cutoff_chosen;
+  if (o.torque_delay && *o.torque_delay != 0.0) j["torque_delay"] = *o.torque_delay;
   j["residual_rms"] = to_json_array(id.fitted.residual_rms);
   j["relative_residual"] = id.fitted.relative_residual;
   j["relative_residual_per_joint"] = to_json_array(id.fitted.relative_per_joint);

@@ -32,6 +32,8 @@ struct ChainIdentifyAppOptions {
   /// Blocks of the blocked cross-validation that judges the consistent links without held-out
   /// runs (0: the fitted equations judge); unset: the library's default.
   std::optional<int> consistency_folds;
+  /// [s] How far the logs' torque lags their angles (sid::ChainIdentifyOptions::torque_delay).
+  std::optional<double> torque_delay;
   std::string cutoff;  ///< one value or one per joint [Hz]; empty: chosen
   /// Drive term kinds added to viscous friction and armature (or, with no_default_effects, the
   /// whole list); empty: coulomb,offset; "none": rigid bodies only.

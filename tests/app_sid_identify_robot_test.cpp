@@ -487,6 +487,8 @@ TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
   refused("--robot arm.dh --validate-fraction 0.3 run.csv run.csv", "one run");
   refused("--robot arm.dh --consistency-folds 1 run.csv", "--consistency-folds must be 0");
   refused("--consistency-folds 5 run.csv", "need --robot");
+  refused("--robot arm.dh --torque-delay 0.5 run.csv", "--torque-delay must be finite and at most");
+  refused("--torque-delay 0.002 run.csv", "need --robot");
   refused("--robot arm.dh --effects viscous,stiction run.csv", "stiction");
   refused("--robot arm.dh --no-default-effects run.csv", "--no-default-effects: name every");
   refused("--no-default-effects --effects coulomb run.csv", "need --robot");

@@ -39,7 +39,9 @@ struct SimulatedArm {
     theta.tail(12) << 1.5, 2.0, 0.3, 0.2, 1.0, 1.2, -0.2, 0.1, 0.5, 0.6, 0.1, 0.05;
   }
 
-  sid::ChainTrajectory<double> run(double duration, unsigned seed, double torque_noise) const {
+  /// torque_delay [s]: the torque logged at t is the one at t − torque_delay.
+  sid::ChainTrajectory<double> run(double duration, unsigned seed, double torque_noise,
+                                   double torque_delay = 0.0) const {
     std::mt19937 g(seed);
     std::uniform_real_distribution<double> jitter(-0.3e-3, 0.3e-3);
     std::normal_distribution<double> noise(0.0, torque_noise);
@@ -49,9 +51,8 @@ struct SimulatedArm {
     r.q.resize(n, 3);
     r.tau.resize(n, 3);
     Eigen::MatrixXd y(3, model.parameters());
-    for (Eigen::Index k = 0; k < n; ++k) {
-      const double t = 1e-3 * static_cast<double>(k) + (k > 0 ? jitter(g) : 0.0);
-      Eigen::Vector3d q, qd, qdd;
+    Eigen::Vector3d q, qd, qdd;
+    const auto state_at = [&](double t) {
       for (int j = 0; j < 3; ++j) {  // two harmonics per joint
         q[j] = qd[j] = qdd[j] = 0.0;
         for (int h = 1; h <= 2; ++h) {
@@ -61,9 +62,14 @@ struct SimulatedArm {
           qdd[j] -= a * w * w * std::sin(w * t + phase);
         }
       }
-      model.regressor(q, qd, qdd, y);
+    };
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const double t = 1e-3 * static_cast<double>(k) + (k > 0 ? jitter(g) : 0.0);
+      state_at(t);
       r.t[k] = t;
       r.q.row(k) = q.transpose();
+      if (torque_delay != 0.0) state_at(t - torque_delay);
+      model.regressor(q, qd, qdd, y);
       r.tau.row(k) = (y * theta).transpose();
       for (int j = 0; j < 3; ++j) r.tau(k, j) += noise(g);
     }

@@ -29,11 +29,12 @@ struct SmoothedChainRun {
   const ChainTrajectory<double>* run = nullptr;
   SmoothingSpline<double> spline;
   double mean_period = 0.0;
+  double torque_delay = 0.0;
   ChainKinematics<double> k;
   std::vector<Eigen::Index> samples;  ///< the samples equations are taken at
 
   SmoothedChainRun(const ChainTrajectory<double>& r, const ChainIdentifyOptions& o)
-      : run(&r), spline(r.t) {
+      : run(&r), spline(r.t), torque_delay(o.torque_delay) {
     const Eigen::Index n = r.size(), joints = r.joints();
     mean_period = (r.t[n - 1] - r.t[0]) / static_cast<double>(n - 1);
     k.t = r.t;
@@ -50,9 +51,18 @@ struct SmoothedChainRun {
   void smooth_joint(int j, double cutoff_hz, bool filter_torque) {
     const double p = 1.0 / smoothing_lambda_for_cutoff(cutoff_hz, mean_period);
     const auto fit = spline.fit_penalized(run->q.col(j), 1.0, p);
-    fit.spline.derivatives_at_knots(0, k.q.col(j));
-    fit.spline.derivatives_at_knots(1, k.qd.col(j));
-    fit.spline.derivatives_at_knots(2, k.qdd.col(j));
+    if (torque_delay != 0.0) {
+      // The angles when the logged torque was applied; the skips keep every sample an
+      // equation is taken at inside the log.
+      const Eigen::VectorXd at = run->t.array() - torque_delay;
+      k.q.col(j) = fit.spline.evaluate(at, 0);
+      k.qd.col(j) = fit.spline.evaluate(at, 1);
+      k.qdd.col(j) = fit.spline.evaluate(at, 2);
+    } else {
+      fit.spline.derivatives_at_knots(0, k.q.col(j));
+      fit.spline.derivatives_at_knots(1, k.qd.col(j));
+      fit.spline.derivatives_at_knots(2, k.qdd.col(j));
+    }
     if (filter_torque)
       spline.fit_penalized(run->tau.col(j), 1.0, p).spline.derivatives_at_knots(0, k.tau.col(j));
   }
@@ -182,6 +192,10 @@ inline void check_chain_options(const ChainIdentifyOptions& o, int joints, const
     throw std::invalid_argument(prefix + "give one cutoff or one per joint (" +
                                 std::to_string(joints) + "), not " +
                                 std::to_string(o.cutoff_hz.size()));
+  if (!(std::isfinite(o.torque_delay) &&
+        std::abs(o.torque_delay) <= std::min(o.skip, o.skip_end) + 1e-12))
+    throw std::invalid_argument(prefix + "torque_delay must be finite and within the skips (" +
+                                std::to_string(std::min(o.skip, o.skip_end)) + " s)");
   for (const double c : o.cutoff_hz)
     if (!positive(c)) throw std::invalid_argument(prefix + "a cutoff must be finite and > 0 Hz");
   if (!positive(o.min_cutoff_hz) || !positive(o.max_cutoff_hz) || o.max_cutoff_hz < o.min_cutoff_hz)

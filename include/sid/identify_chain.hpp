@@ -54,6 +54,11 @@ struct ChainIdentifyOptions {
   double rest_fraction = 0.1;
   /// Smooth the measured torques as their joints' angles (see the file comment).
   bool filter_torque = true;
+  /// [s] How far the logged torque lags the angles (a servo's current and position sent over
+  /// separate paths): the torque logged at t is paired with the angles' spline at t − delay,
+  /// q, q̇ and q̈ alike, so that the torque itself is not interpolated; negative: the angles
+  /// lag. |delay| at most the skips.
+  double torque_delay = 0.0;
   /// Weighted least squares with each joint's equations weighted by 1/σ_j² from an unweighted
   /// fit first (Gautier's WLS).
   bool weighted = false;

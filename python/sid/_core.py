@@ -329,6 +329,7 @@ def identify(
     coulomb_epsilon: Optional[float] = None,
     validate_fraction: Optional[float] = None,
     consistency_folds: Optional[int] = None,
+    torque_delay: Optional[float] = None,
 ) -> Fit:
     """Identifies the robot's base parameters from runs, as ``sid_identify --robot`` does.
 
@@ -336,8 +337,8 @@ def identify(
     kinds added to viscous friction and armature (default coulomb and offset; "none": rigid
     bodies only; with no_default_effects they are the whole list). cutoff: the smoothing [Hz],
     one or one per joint (default: chosen by held-out prediction). The other options are the
-    tool's --skip, --rest-fraction, --coulomb-epsilon, --validate-fraction and
-    --consistency-folds.
+    tool's --skip, --rest-fraction, --coulomb-epsilon, --validate-fraction,
+    --consistency-folds and --torque-delay [s].
     """
     _as_robot(robot)
     runs = [runs] if isinstance(runs, Run) else list(runs)
@@ -352,6 +353,7 @@ def identify(
     options.coulomb_epsilon = coulomb_epsilon
     options.validate_fraction = validate_fraction
     options.consistency_folds = consistency_folds
+    options.torque_delay = torque_delay
     data = [_as_run(r, "runs")._data() for r in runs]
     held = [_as_run(r, "validate")._data() for r in validate]
     return Fit(_sid.identify(robot._handle, data, held, options), robot)

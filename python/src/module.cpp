@@ -111,6 +111,7 @@ struct IdentifyOptions {
   std::string cutoff;
   std::optional<double> skip, rest_fraction, coulomb_epsilon, validate_fraction;
   std::optional<int> consistency_folds;
+  std::optional<double> torque_delay;
 };
 
 /// An identification, as sid_identify --robot makes it.
@@ -176,6 +177,7 @@ Fit identify(const Robot& robot, const std::vector<RunData>& runs,
   o.coulomb_epsilon = options.coulomb_epsilon;
   o.validate_fraction = options.validate_fraction;
   o.consistency_folds = options.consistency_folds;
+  o.torque_delay = options.torque_delay;
   o.effects = options.effects;
   o.no_default_effects = options.no_default_effects;
   sid::app::require(!runs.empty(), "no run given");
@@ -534,7 +536,8 @@ NB_MODULE(_sid, m) {
       .def_rw("rest_fraction", &IdentifyOptions::rest_fraction)
       .def_rw("coulomb_epsilon", &IdentifyOptions::coulomb_epsilon)
       .def_rw("validate_fraction", &IdentifyOptions::validate_fraction)
-      .def_rw("consistency_folds", &IdentifyOptions::consistency_folds);
+      .def_rw("consistency_folds", &IdentifyOptions::consistency_folds)
+      .def_rw("torque_delay", &IdentifyOptions::torque_delay);
 
   nb::class_<Fit>(m, "_Fit")
       .def_prop_ro("parameter_names",
