@@ -314,6 +314,10 @@ void define_options(CLI::App& cli, Options& o) {
                  "--robot: D [s]: the logs' torque lags their angles by D (servo currents and "
                  "positions over separate paths): each torque is paired with the angles' spline "
                  "D earlier (negative: the angles lag); |D| at most --skip");
+  cli.add_option("--estimate-torque-delay", o.chain.estimate_torque_delay,
+                 "--robot: MAX [s]: estimate how far the torque lags the angles, within ±MAX "
+                 "(at most --skip), as the delay whose fit explains the torque best (every joint "
+                 "smoothed at one cutoff); report it with its standard deviation and fit with it");
   cli.add_option("--consistency-folds", o.chain.consistency_folds,
                  "--robot without held-out runs: judge the consistent links' torque error by "
                  "blocked cross-validation over N spans of time, each predicted from the others "
@@ -888,10 +892,12 @@ int identify(Options o) {
               o.chain.transmission.empty() && !o.chain.validate_fraction &&
               !o.chain.rest_fraction && !o.chain.coulomb_epsilon && o.chain.write_urdf.empty() &&
               o.chain.write_mjcf.empty() && o.chain.report.empty() && !o.chain.no_default_effects &&
-              !o.chain.strict_consistency && !o.chain.consistency_folds && !o.chain.torque_delay,
+              !o.chain.strict_consistency && !o.chain.consistency_folds && !o.chain.torque_delay &&
+              !o.chain.estimate_torque_delay,
           "--base, --tip, --hold, --transmission, --validate-fraction, --rest-fraction, "
           "--coulomb-epsilon, --write-urdf, --write-mjcf, --report, --strict-consistency, "
-          "--consistency-folds, --torque-delay and --no-default-effects need --robot");
+          "--consistency-folds, --torque-delay, --estimate-torque-delay and "
+          "--no-default-effects need --robot");
   require(o.payload_of.empty(), "--payload-of needs --robot (the description of the arm)");
   require(o.payload_frame.empty(), "--payload-frame needs --robot (a URDF naming the link)");
   require(!o.gains.any(), "--currents, --known-payload and --payload-run need --robot");

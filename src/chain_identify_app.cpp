@@ -150,8 +150,13 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
       << (id.cutoff_chosen ? " (chosen by held-out torque prediction)" : "") << ":";
   for (int j = 0; j < model.joints(); ++j) out << " " << number("%.3g", id.cutoff_hz[j]);
   out << "\n";
-  if (o.torque_delay && *o.torque_delay != 0.0)
-    out << "torque paired with the angles " << number("%.4g", 1e3 * *o.torque_delay)
+  if (const auto& d = r.torque_delay_estimate)
+    out << "torque's delay behind the angles: " << number("%.3g", 1e3 * d->delay) << " ± "
+        << number("%.2g", 1e3 * d->std_dev) << " ms (estimated within ±"
+        << number("%g", 1e3 * d->delays.maxCoeff()) << " ms, every joint smoothed at "
+        << number("%.3g", d->cutoff_hz) << " Hz); each torque paired with the angles then\n";
+  else if (r.torque_delay != 0.0)
+    out << "torque paired with the angles " << number("%.4g", 1e3 * r.torque_delay)
         << " ms before it was logged (--torque-delay)\n";
   out << id.base.rank() << " base parameters of " << model.parameters() << " (rank gap "
       << number("%.2g", id.base.rank_gap) << "), condition number "
@@ -288,7 +293,12 @@ nlohmann::json report_json(const ChainIdentifyAppOptions& o, const sid::ChainMod
   j["coulomb_epsilon"] = model.coulomb_epsilon();
   j["cutoff_hz"] = to_json_array(id.cutoff_hz);
   j["cutoff_chosen"] = id.cutoff_chosen;
-  if (o.torque_delay && *o.torque_delay != 0.0) j["torque_delay"] = *o.torque_delay;
+  if (r.torque_delay != 0.0 || r.torque_delay_estimate) j["torque_delay"] = r.torque_delay;
+  if (const auto& d = r.torque_delay_estimate) {
+    j["torque_delay_std_dev"] = d->std_dev;
+    j["torque_delay_cutoff_hz"] = d->cutoff_hz;
+    j["torque_delay_at_bound"] = d->at_bound;
+  }
   j["residual_rms"] = to_json_array(id.fitted.residual_rms);
   j["relative_residual"] = id.fitted.relative_residual;
   j["relative_residual_per_joint"] = to_json_array(id.fitted.relative_per_joint);
@@ -410,12 +420,21 @@ sid::RobotIdentifyOptions robot_identify_options(const ChainIdentifyAppOptions& 
   require(!o.consistency_folds || *o.consistency_folds == 0 || *o.consistency_folds >= 2,
           "--consistency-folds must be 0 (judge on the fitted equations) or >= 2");
   if (o.consistency_folds) options.consistency_folds = *o.consistency_folds;
+  if (o.estimate_torque_delay) {
+    require(!o.torque_delay, "--torque-delay and --estimate-torque-delay exclude each other");
+    const double reach = std::min(options.fit.skip, options.fit.skip_end);
+    require(*o.estimate_torque_delay > 0.0 && *o.estimate_torque_delay <= reach,
+            "--estimate-torque-delay must be > 0 and at most --skip (" +
+                format_number("%g", reach) + " s)");
+    options.estimate_torque_delay = sid::TorqueDelaySearch{*o.estimate_torque_delay};
+  }
   options.description = description_dynamics(loaded.robot);
   return options;
 }
 
 ChainIdentifyResult identify_report(const ChainIdentifyAppOptions& o, LoadedChain loaded,
                                     sid::RobotIdentification result) {
+  loaded.options.torque_delay = result.torque_delay;  // estimated, the plots pair at it too
   std::string text = report_text(o, loaded.model, result, loaded.robot.link_names);
   nlohmann::json json = report_json(o, loaded.model, result);
   return {std::move(loaded), std::move(result), std::move(text), std::move(json)};

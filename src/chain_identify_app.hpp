@@ -34,6 +34,8 @@ struct ChainIdentifyAppOptions {
   std::optional<int> consistency_folds;
   /// [s] How far the logs' torque lags their angles (sid::ChainIdentifyOptions::torque_delay).
   std::optional<double> torque_delay;
+  /// [s] Estimate the torque's lag within ±this (sid::RobotIdentifyOptions::estimate_torque_delay).
+  std::optional<double> estimate_torque_delay;
   std::string cutoff;  ///< one value or one per joint [Hz]; empty: chosen
   /// Drive term kinds added to viscous friction and armature (or, with no_default_effects, the
   /// whole list); empty: coulomb,offset; "none": rigid bodies only.

@@ -489,6 +489,13 @@ TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
   refused("--consistency-folds 5 run.csv", "need --robot");
   refused("--robot arm.dh --torque-delay 0.5 run.csv", "--torque-delay must be finite and at most");
   refused("--torque-delay 0.002 run.csv", "need --robot");
+  refused("--robot arm.dh --estimate-torque-delay 0.5 run.csv",
+          "--estimate-torque-delay must be > 0 and at most --skip");
+  refused("--robot arm.dh --estimate-torque-delay 0 run.csv",
+          "--estimate-torque-delay must be > 0");
+  refused("--robot arm.dh --estimate-torque-delay 0.01 --torque-delay 0.002 run.csv",
+          "--torque-delay and --estimate-torque-delay exclude each other");
+  refused("--estimate-torque-delay 0.01 run.csv", "need --robot");
   refused("--robot arm.dh --effects viscous,stiction run.csv", "stiction");
   refused("--robot arm.dh --no-default-effects run.csv", "--no-default-effects: name every");
   refused("--no-default-effects --effects coulomb run.csv", "need --robot");
@@ -679,6 +686,43 @@ TEST_F(IdentifyRobot, SimulateRobotLogsCoarseEncodersAndALaggingTorque) {
   const std::string text = read(file("x.csv"));
   EXPECT_NE(text.find("encoder bits per turn = 12 (on the joints)"), std::string::npos);
   EXPECT_NE(text.find("torque logged 0.002 s behind the angles"), std::string::npos);
+}
+
+// A light arm's servo log, 12-bit encoders and the torque 2 ms behind the angles: the tool finds
+// the lag, says it with its standard deviation, fits with it, and warns when the lag found is
+// at the edge of the search.
+TEST_F(IdentifyRobot, EstimatesHowFarTheTorqueLagsTheAngles) {
+  const std::string robot =
+      "--robot '" SID_TEST_DATA_DIR "/urdf/real/so101.urdf' --tip gripper_frame_link";
+  ASSERT_EQ(shell(app("sid_simulate") + " " + robot +
+                  " --T 6 --sigma-q2 0 --sigma-tau2 1e-6 --encoder-bits 12 --torque-delay 0.002"
+                  " --seed 2 -q -o servo.csv")
+                .exit_code,
+            0);
+  const sid_test::AppRun r = shell(app("sid_identify") + " " + robot +
+                                   " --estimate-torque-delay 0.01 --json fit.json servo.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("torque's delay behind the angles: "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("(estimated within ±10 ms, every joint smoothed at "), std::string::npos)
+      << r.out;
+  const nlohmann::json fit = nlohmann::json::parse(read(file("fit.json")));
+  // 6 s of slow motion: the lag is known to about half a millisecond (the library's test has
+  // the accuracy on 10 s).
+  const double found = fit["torque_delay"].get<double>();
+  const double std_dev = fit["torque_delay_std_dev"].get<double>();
+  EXPECT_GT(std_dev, 0.0);
+  EXPECT_LT(std_dev, 1e-3);
+  EXPECT_LT(std::abs(found - 0.002), 3.0 * std_dev);
+  EXPECT_FALSE(fit["torque_delay_at_bound"].get<bool>());
+
+  const sid_test::AppRun edge = shell(app("sid_identify") + " " + robot +
+                                      " --estimate-torque-delay 0.001 --json edge.json servo.csv");
+  ASSERT_EQ(edge.exit_code, 0) << edge.err;
+  EXPECT_NE(edge.err.find("warning: the torque's delay behind the angles was found at the "
+                          "search's edge"),
+            std::string::npos)
+      << edge.err;
+  EXPECT_TRUE(nlohmann::json::parse(read(file("edge.json")))["torque_delay_at_bound"].get<bool>());
 }
 
 // A run that needs more torque than a drive's <limit effort> is written, with a warning naming

@@ -310,6 +310,22 @@ TEST(IdentifyChain, PairsALaggingTorqueWithTheAnglesWhenItWasApplied) {
                std::invalid_argument);
 }
 
+// Angles from 12-bit encoders move by about one step per sample: a staircase, whose error a
+// joint's own cutoff can follow unseen by the held-out torque. Every joint keeps the one shared
+// cutoff (the light arm of torque_delay_test shows what that is worth).
+TEST(IdentifyChain, KeepsOneCutoffForAnglesThatMoveAsAStaircase) {
+  const sid_test::SimulatedArm arm;
+  const auto quantised = [&](int bits) {
+    sid::ChainTrajectory<double> run = arm.run(4.0, 6, 0.2);
+    const double step = 2.0 * M_PI / std::pow(2.0, bits);
+    run.q = (run.q / step).array().round().matrix() * step;
+    return run;
+  };
+  const sid::ChainIdentification coarse = sid::identify_chain(arm.model, {quantised(12)});
+  ASSERT_TRUE(coarse.fit.ok()) << coarse.fit.message;
+  EXPECT_EQ(coarse.cutoff_hz.minCoeff(), coarse.cutoff_hz.maxCoeff());
+}
+
 TEST(IdentifyChain, ChoosesCutoffsAndItsStdDevsCoverTheErrorWithNoisyTorques) {
   const sid_test::SimulatedArm arm;
   const std::vector<sid::ChainTrajectory<double>> runs = {

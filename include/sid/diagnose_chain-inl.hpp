@@ -2,6 +2,7 @@
 // Definitions of sid/diagnose_chain.hpp (see sid/config.hpp). The compiled library holds them in
 // the same unit as identify_chain's, whose equation builders they share.
 
+#include <sid/detail/golden_section.hpp>
 #include <sid/detail/parallel.hpp>
 #include <sid/diagnose_chain.hpp>
 #include <sid/diagnosis/hac.hpp>
@@ -348,26 +349,8 @@ double fitted_stribeck_width(const ChainDiagnosisEquations& d, const Eigen::Matr
       best = k;
     }
   }
-  double left = a + std::max(best - 1, 0) * step, right = a + std::min(best + 1, kScan - 1) * step;
-  const double ratio = (std::sqrt(5.0) - 1.0) / 2.0;
-  double x1 = right - ratio * (right - left), x2 = left + ratio * (right - left);
-  double f1 = rss(x1), f2 = rss(x2);
-  while (right - left > 5e-3) {
-    if (f1 < f2) {
-      right = x2;
-      x2 = x1;
-      f2 = f1;
-      x1 = right - ratio * (right - left);
-      f1 = rss(x1);
-    } else {
-      left = x1;
-      x1 = x2;
-      f1 = f2;
-      x2 = left + ratio * (right - left);
-      f2 = rss(x2);
-    }
-  }
-  const double found = 0.5 * (left + right);
+  const double found = golden_section_minimum(rss, a + std::max(best - 1, 0) * step,
+                                              a + std::min(best + 1, kScan - 1) * step, 5e-3);
   return rss(found) < best_rss ? std::exp(found) : std::exp(a + best * step);
 }
 

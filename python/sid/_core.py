@@ -330,6 +330,7 @@ def identify(
     validate_fraction: Optional[float] = None,
     consistency_folds: Optional[int] = None,
     torque_delay: Optional[float] = None,
+    estimate_torque_delay: Optional[float] = None,
 ) -> Fit:
     """Identifies the robot's base parameters from runs, as ``sid_identify --robot`` does.
 
@@ -338,7 +339,9 @@ def identify(
     bodies only; with no_default_effects they are the whole list). cutoff: the smoothing [Hz],
     one or one per joint (default: chosen by held-out prediction). The other options are the
     tool's --skip, --rest-fraction, --coulomb-epsilon, --validate-fraction,
-    --consistency-folds and --torque-delay [s].
+    --consistency-folds, --torque-delay [s] and --estimate-torque-delay [s] (the largest lag
+    searched; the estimate is to_dict()["torque_delay"], its standard deviation
+    "torque_delay_std_dev").
     """
     _as_robot(robot)
     runs = [runs] if isinstance(runs, Run) else list(runs)
@@ -354,6 +357,7 @@ def identify(
     options.validate_fraction = validate_fraction
     options.consistency_folds = consistency_folds
     options.torque_delay = torque_delay
+    options.estimate_torque_delay = estimate_torque_delay
     data = [_as_run(r, "runs")._data() for r in runs]
     held = [_as_run(r, "validate")._data() for r in validate]
     return Fit(_sid.identify(robot._handle, data, held, options), robot)

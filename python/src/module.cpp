@@ -111,7 +111,7 @@ struct IdentifyOptions {
   std::string cutoff;
   std::optional<double> skip, rest_fraction, coulomb_epsilon, validate_fraction;
   std::optional<int> consistency_folds;
-  std::optional<double> torque_delay;
+  std::optional<double> torque_delay, estimate_torque_delay;
 };
 
 /// An identification, as sid_identify --robot makes it.
@@ -178,6 +178,7 @@ Fit identify(const Robot& robot, const std::vector<RunData>& runs,
   o.validate_fraction = options.validate_fraction;
   o.consistency_folds = options.consistency_folds;
   o.torque_delay = options.torque_delay;
+  o.estimate_torque_delay = options.estimate_torque_delay;
   o.effects = options.effects;
   o.no_default_effects = options.no_default_effects;
   sid::app::require(!runs.empty(), "no run given");
@@ -537,7 +538,8 @@ NB_MODULE(_sid, m) {
       .def_rw("coulomb_epsilon", &IdentifyOptions::coulomb_epsilon)
       .def_rw("validate_fraction", &IdentifyOptions::validate_fraction)
       .def_rw("consistency_folds", &IdentifyOptions::consistency_folds)
-      .def_rw("torque_delay", &IdentifyOptions::torque_delay);
+      .def_rw("torque_delay", &IdentifyOptions::torque_delay)
+      .def_rw("estimate_torque_delay", &IdentifyOptions::estimate_torque_delay);
 
   nb::class_<Fit>(m, "_Fit")
       .def_prop_ro("parameter_names",

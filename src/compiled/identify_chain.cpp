@@ -3,3 +3,5 @@
 #include <sid/identify_chain-inl.hpp>
 // The chain diagnosis shares identify_chain's equation builders: compiled in the same unit.
 #include <sid/diagnose_chain-inl.hpp>
+// The delay search too.
+#include <sid/torque_delay-inl.hpp>

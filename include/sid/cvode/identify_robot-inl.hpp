@@ -158,6 +158,16 @@ SID_INLINE RobotIdentification identify_robot(const ChainModel& model,
   RobotIdentification out;
   std::vector<ChainTrajectory<double>> data;
   for (auto& r : runs) data.push_back(std::move(r.data));
+  if (o.estimate_torque_delay) {
+    out.torque_delay_estimate = estimate_torque_delay(model, data, o.fit, *o.estimate_torque_delay);
+    o.fit.torque_delay = out.torque_delay_estimate->delay;
+    if (out.torque_delay_estimate->at_bound)
+      out.warnings.push_back(
+          "the torque's delay behind the angles was found at the search's edge (" +
+          detail::format_number(1e3 * o.fit.torque_delay) +
+          " ms): it may be larger; search further");
+  }
+  out.torque_delay = o.fit.torque_delay;
   ChainIdentification& id = out.identification;
   id = identify_chain(model, data, o.fit);
   if (!id.fit.ok())

@@ -13,10 +13,12 @@
 #include <sid/description_prior.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/model/chain_model.hpp>
+#include <sid/torque_delay.hpp>
 
 #include <Eigen/Core>
 
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,6 +62,9 @@ struct RobotIdentifyOptions {
   /// fitted, least squares always wins by what it fits of the noise; on a block it has not seen
   /// it does not. 0: judged on the fitted equations.
   int consistency_folds = 5;
+  /// Estimate how far the torque lags the angles (estimate_torque_delay) and fit, validate and
+  /// judge with the torque paired at that delay; fit.torque_delay is then not used.
+  std::optional<TorqueDelaySearch> estimate_torque_delay;
 };
 
 /// @brief What the IV refinement did (estimator InstrumentalVariables).
@@ -104,7 +109,12 @@ struct RobotIdentification {
   std::vector<ChainPrediction> consistent_validation;
   /// Without held-out runs, the consistent links judged by blocked cross-validation.
   ConsistentCrossValidation consistent_cross_validation;
-  std::vector<std::string> warnings;  ///< an IV estimate not used; an ill-conditioned fit
+  /// [s] The torque's lag behind the angles the runs were fitted and predicted with: the
+  /// options' fit.torque_delay, or the estimate.
+  double torque_delay = 0.0;
+  std::optional<TorqueDelayEstimate> torque_delay_estimate;  ///< when asked for
+  /// An IV estimate not used; an ill-conditioned fit; a delay estimate at the search's edge.
+  std::vector<std::string> warnings;
 };
 
 /// @brief Identifies model from runs (joint side) and predicts held_out with the estimate.
