@@ -77,6 +77,31 @@ struct ChainEquations {
   std::vector<Eigen::Index> at;
 };
 
+/// The model's regressor on the rows of e (joint, sample) from the run as smoothed now, on the
+/// base columns.
+inline Eigen::MatrixXd regressor_on_rows(const ChainModel& model, const SmoothedChainRun& s,
+                                         const ChainEquations& e,
+                                         const std::vector<Eigen::Index>& columns) {
+  const int n = model.joints();
+  Eigen::MatrixXd y(n, model.parameters());
+  Eigen::VectorXd q(n), qd(n), qdd(n);
+  Eigen::MatrixXd x(e.y.size(), static_cast<Eigen::Index>(columns.size()));
+  Eigen::Index last = -1;
+  for (Eigen::Index r = 0; r < e.y.size(); ++r) {
+    const Eigen::Index a = e.at[static_cast<std::size_t>(r)];
+    if (a != last) {
+      const Eigen::Index i = s.samples[static_cast<std::size_t>(a)];
+      q = s.k.q.row(i).transpose();
+      qd = s.k.qd.row(i).transpose();
+      qdd = s.k.qdd.row(i).transpose();
+      model.regressor(q, qd, qdd, y);
+      last = a;
+    }
+    x.row(r) = y.row(e.joint[static_cast<std::size_t>(r)])(columns);
+  }
+  return x;
+}
+
 inline ChainEquations chain_equations(const ChainModel& model, const SmoothedChainRun& s,
                                       const std::vector<Eigen::Index>& columns,
                                       double rest_fraction) {
@@ -94,28 +119,17 @@ inline ChainEquations chain_equations(const ChainModel& model, const SmoothedCha
         rows.emplace_back(static_cast<Eigen::Index>(a), j);
   ChainEquations e;
   const auto m = static_cast<Eigen::Index>(rows.size());
-  e.x.resize(m, static_cast<Eigen::Index>(columns.size()));
   e.y.resize(m);
   e.y_unfiltered.resize(m);
-  Eigen::MatrixXd y(n, model.parameters());
-  Eigen::VectorXd q(n), qd(n), qdd(n);
-  Eigen::Index last = -1;
   for (Eigen::Index r = 0; r < m; ++r) {
     const auto [a, j] = rows[static_cast<std::size_t>(r)];
     const Eigen::Index i = s.samples[static_cast<std::size_t>(a)];
-    if (a != last) {
-      q = s.k.q.row(i).transpose();
-      qd = s.k.qd.row(i).transpose();
-      qdd = s.k.qdd.row(i).transpose();
-      model.regressor(q, qd, qdd, y);
-      last = a;
-    }
-    e.x.row(r) = y.row(j)(columns);
     e.y[r] = s.k.tau(i, j);
     e.y_unfiltered[r] = s.run->tau(i, j);
     e.joint.push_back(j);
     e.at.push_back(a);
   }
+  e.x = regressor_on_rows(model, s, e, columns);
   return e;
 }
 

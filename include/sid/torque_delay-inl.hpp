@@ -30,31 +30,6 @@ inline void smooth_delayed(std::vector<SmoothedChainRun>& runs, const Eigen::Vec
   }
 }
 
-/// The model's regressor on the rows of e (joint, sample) from the run as smoothed now, on the
-/// base columns.
-inline Eigen::MatrixXd regressor_on_rows(const ChainModel& model, const SmoothedChainRun& s,
-                                         const ChainEquations& e,
-                                         const std::vector<Eigen::Index>& columns) {
-  const int n = model.joints();
-  Eigen::MatrixXd y(n, model.parameters());
-  Eigen::VectorXd q(n), qd(n), qdd(n);
-  Eigen::MatrixXd x(e.y.size(), static_cast<Eigen::Index>(columns.size()));
-  Eigen::Index last = -1;
-  for (Eigen::Index r = 0; r < e.y.size(); ++r) {
-    const Eigen::Index a = e.at[static_cast<std::size_t>(r)];
-    if (a != last) {
-      const Eigen::Index i = s.samples[static_cast<std::size_t>(a)];
-      q = s.k.q.row(i).transpose();
-      qd = s.k.qd.row(i).transpose();
-      qdd = s.k.qdd.row(i).transpose();
-      model.regressor(q, qd, qdd, y);
-      last = a;
-    }
-    x.row(r) = y.row(e.joint[static_cast<std::size_t>(r)])(columns);
-  }
-  return x;
-}
-
 /// The equations of `rows` (their joints, samples and torque) with the regressor of the angles
 /// `delay` earlier. The rows stay those of no delay: rows left out at rest that moved with the
 /// delay would move the residual by more than the delay's own effect.
