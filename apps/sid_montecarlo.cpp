@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <iostream>
+#include <optional>
 #include <random>
 #include <sid/cvode/experiment.hpp>
 #include <sid/cvode/chain_instrumental_variables.hpp>
@@ -151,6 +152,9 @@ struct Options {
   int harmonics = 5;
   double base_frequency = 0.1, q_range = 1.0, qd_max = 1.5;
   double duration = 10.0, rate = 400.0;
+  std::string encoder_bits, encoder_ratio;
+  double torque_delay = 0.0;
+  std::optional<double> estimate_torque_delay;
   std::vector<const CLI::Option*> chain_only;  ///< the options that need --robot
 };
 
@@ -196,7 +200,19 @@ void define_options(CLI::App& cli, Options& o) {
       cli.add_option("--duration", o.duration, "--robot: duration of the experiment [s]")
           ->capture_default_str(),
       cli.add_option("--rate", o.rate, "--robot: sampling rate of the experiment [Hz], >= 50")
-          ->capture_default_str()};
+          ->capture_default_str(),
+      cli.add_option("--encoder-bits", o.encoder_bits,
+                     "--robot: B or B1,...,Bn: the logged angles rounded to encoders of B bits "
+                     "per turn (as sid_simulate)"),
+      cli.add_option(
+          "--encoder-ratio", o.encoder_ratio,
+          "--robot: R or R1,...,Rn: turns of each encoder per joint turn (on the motor)"),
+      cli.add_option("--torque-delay", o.torque_delay,
+                     "--robot: the torque logged this long behind the angles [s]")
+          ->capture_default_str(),
+      cli.add_option("--estimate-torque-delay", o.estimate_torque_delay,
+                     "--robot: css_tcv estimates the torque's delay within +-MAX [s] and fits "
+                     "paired at it (as sid_identify --robot --estimate-torque-delay)")};
 }
 
 sid::MonteCarloOptions study_options(const Options& o) {
@@ -272,8 +288,13 @@ void report_plots(const Options& o, const std::vector<sid::app::PlotResult>& plo
 }
 
 sid::app::ChainStudyOptions chain_options(const Options& o) {
-  return {o.robot,          o.base,    o.tip,    o.hold,     o.harmonics,
-          o.base_frequency, o.q_range, o.qd_max, o.duration, o.rate};
+  return {o.robot,        o.base,
+          o.tip,          o.hold,
+          o.harmonics,    o.base_frequency,
+          o.q_range,      o.qd_max,
+          o.duration,     o.rate,
+          o.encoder_bits, o.encoder_ratio,
+          o.torque_delay, o.estimate_torque_delay};
 }
 
 sid::ChainMonteCarloOptions chain_study_options(const Options& o) {
@@ -282,7 +303,7 @@ sid::ChainMonteCarloOptions chain_study_options(const Options& o) {
 }
 
 int chain_study(const Options& o) {
-  const sid::ChainMonteCarloOptions checked = chain_study_options(o);
+  sid::ChainMonteCarloOptions checked = chain_study_options(o);
   const bool json_to_stdout = o.json == "-";
   if (!o.json.empty()) for_option("--json", [&] { sid::app::ensure_writable(o.json, o.force); });
   if (!o.csv_dir.empty())
@@ -290,6 +311,7 @@ int chain_study(const Options& o) {
       sid::app::ensure_output_directory(o.csv_dir, sid::app::montecarlo_csv_files(checked),
                                         o.force);
     });
+  // Sets checked.sensors, which need the chain's joints.
   const sid::app::ChainStudyTruth truth = sid::app::chain_study_truth(chain_options(o), checked);
   const sid::SimulatedRobot& sim = truth.simulated;
   const sid::app::ChainStudySetup& setup = truth.setup;

@@ -79,6 +79,45 @@ std::string first_reason(const std::vector<std::string>& reasons) {
   return {};
 }
 
+/// css_tcv's estimates of the torque's delay at one level: their mean and spread over runs.
+std::string delay_line(const Eigen::VectorXd& delays) {
+  std::vector<double> found;
+  for (const double d : delays)
+    if (std::isfinite(d)) found.push_back(1e3 * d);
+  if (found.empty()) return "  css_tcv found no torque delay (every run failed)\n";
+  const Eigen::Map<const Eigen::VectorXd> ms(found.data(), static_cast<Eigen::Index>(found.size()));
+  const double mean = ms.mean();
+  const double spread =
+      found.size() > 1 ? std::sqrt((ms.array() - mean).square().sum() / (ms.size() - 1.0)) : 0.0;
+  char text[128];
+  std::snprintf(text, sizeof text,
+                "  css_tcv's torque delay found: %.3f ms, std %.3f ms over %zu runs\n", mean,
+                spread, found.size());
+  return text;
+}
+
+/// The header's lines on the sensors and on css_tcv's delay search; "" for plain sensors.
+std::string sensors_lines(const sid::ChainMonteCarloOptions& options,
+                          const ChainStudySetup& setup) {
+  std::string out;
+  const sid::LoggedSensors& s = options.sensors;
+  if (s.quantised() || s.torque_delay != 0.0) {
+    std::string what;
+    if (s.quantised())
+      what = setup.encoder_bits + "-bit encoders " +
+             (setup.encoder_ratio.empty() ? std::string("on the joints")
+                                          : "at " + setup.encoder_ratio + " turns per joint turn");
+    if (s.torque_delay != 0.0)
+      what += (what.empty() ? "" : ", ") + std::string("torque logged ") +
+              shortest_number(1e3 * s.torque_delay) + " ms behind the angles";
+    out += "  sensors          " + what + "\n";
+  }
+  if (options.estimate_torque_delay)
+    out += "  css_tcv          estimates the torque's delay within +-" +
+           shortest_number(1e3 * options.estimate_torque_delay->max_delay) + " ms\n";
+  return out;
+}
+
 }  // namespace
 
 std::string chain_montecarlo_header(const sid::ChainMonteCarloOptions& options,
@@ -102,7 +141,7 @@ std::string chain_montecarlo_header(const sid::ChainMonteCarloOptions& options,
       << "  runs per level   " << options.runs << "\n"
       << "  sigma_q2 levels  " << levels << " rad^2\n"
       << "  sigma_tau2       " << level_label(options.sigma_tau2) << " (N m)^2\n"
-      << "  methods          " << methods << "\n"
+      << sensors_lines(options, setup) << "  methods          " << methods << "\n"
       << "  seed             " << options.seed
       << " (the excitation; a run's noise depends on seed, level, run only)\n";
   return out.str();
@@ -118,7 +157,8 @@ std::string chain_montecarlo_tables(const sid::ChainMonteCarloResult& result) {
       << "|bias| and std: over runs, in % of each true value";
   if (zero > 0) out << " (not for the " << zero << " whose true value is 0, listed below)";
   out << "\ntorque: 100 |tau - Y beta-hat| / |tau| at the true motion, over runs\n";
-  for (const auto& level : result.levels) {
+  for (std::size_t l = 0; l < result.levels.size(); ++l) {
+    const sid::LevelSummary& level = result.levels[l];
     out << "\nsigma_q2 = " << level_label(level.sigma_q2) << " rad^2\n"
         << "  method     |bias| median       max   std median       max   rms err   torque mean"
            "     max  failed  largest |bias|\n";
@@ -141,6 +181,7 @@ std::string chain_montecarlo_tables(const sid::ChainMonteCarloResult& result) {
             << s.declined_runs() << " of " << s.declined.size()
             << " runs, which keep the css_gcv fit (" << first_reason(s.declined) << ")\n";
     }
+    if (!result.torque_delays.empty()) out << delay_line(result.torque_delays[l]);
   }
   if (zero > 0) {
     out << "\nzero in truth (no relative figures; their mean and variance are in the JSON):";
@@ -176,6 +217,11 @@ nlohmann::json chain_montecarlo_json(const sid::ChainMonteCarloResult& result,
                      {"base_frequency", setup.base_frequency},
                      {"q_range", setup.q_range},
                      {"qd_max", setup.qd_max}};
+  j["sensors"] = {{"encoder_bits", options.sensors.encoder_bits},
+                  {"encoder_ratio", options.sensors.encoder_ratio},
+                  {"torque_delay", options.sensors.torque_delay}};
+  if (options.estimate_torque_delay)
+    j["estimate_torque_delay"] = options.estimate_torque_delay->max_delay;
   j["runs"] = result.runs;
   j["seed"] = result.seed;
   j["sigma_tau2"] = number_or_null(options.sigma_tau2);
@@ -190,9 +236,11 @@ nlohmann::json chain_montecarlo_json(const sid::ChainMonteCarloResult& result,
   j["zero_in_truth"] = result.zero_in_truth;
   j["true_theta"] = to_json_array(result.theta);
   nlohmann::json levels = nlohmann::json::array();
-  for (const auto& level : result.levels) {
+  for (std::size_t k = 0; k < result.levels.size(); ++k) {
+    const sid::LevelSummary& level = result.levels[k];
     nlohmann::json l;
     l["sigma_q2"] = level.sigma_q2;
+    if (!result.torque_delays.empty()) l["torque_delays"] = to_json_array(result.torque_delays[k]);
     nlohmann::json ms = nlohmann::json::object();
     for (const auto& s : level.methods) {
       const MethodFigures f = figures_of(s, result.parameter_names);

@@ -25,6 +25,7 @@ struct ChainStudySetup {
   double duration = 0.0, sample_time = 0.0;
   int harmonics = 0;
   double base_frequency = 0.0, q_range = 0.0, qd_max = 0.0;
+  std::string encoder_bits, encoder_ratio;  ///< as given; empty: not quantised, on the joint
 };
 
 /// @brief The settings header printed before the study runs (no thread count).

@@ -149,6 +149,23 @@ std::vector<int> encoder_bits(const std::string& text, int n) {
   return bits;
 }
 
+}  // namespace
+
+LoggedSensors logged_sensors(const ChainSimulateOptions& o, int n) {
+  LoggedSensors sensors;
+  sensors.encoder_bits = encoder_bits(o.encoder_bits, n);
+  sensors.encoder_ratio = per_joint_values(o.encoder_ratio, "--encoder-ratio", n);
+  for (const double r : sensors.encoder_ratio)
+    require(r > 0.0, "--encoder-ratio: turns of the encoder per turn of the joint must be > 0");
+  require(o.encoder_ratio.empty() || !o.encoder_bits.empty(),
+          "--encoder-ratio needs --encoder-bits");
+  require(std::isfinite(o.torque_delay), "--torque-delay must be finite [s]");
+  sensors.torque_delay = o.torque_delay;
+  return sensors;
+}
+
+namespace {
+
 /// The library's settings of the run the options describe on robot.
 RobotSimulationOptions robot_simulation_options(const ChainSimulateOptions& o,
                                                 const RobotDescription& robot) {
@@ -165,14 +182,7 @@ RobotSimulationOptions robot_simulation_options(const ChainSimulateOptions& o,
   s.simulator.rtol = o.rtol;
   s.simulator.atol = o.atol;
   s.noise = MeasurementNoise<double>{o.sigma_q2, o.sigma_tau2};
-  s.encoder_bits = encoder_bits(o.encoder_bits, n);
-  s.encoder_ratio = per_joint_values(o.encoder_ratio, "--encoder-ratio", n);
-  for (const double r : s.encoder_ratio)
-    require(r > 0.0, "--encoder-ratio: turns of the encoder per turn of the joint must be > 0");
-  require(o.encoder_ratio.empty() || !o.encoder_bits.empty(),
-          "--encoder-ratio needs --encoder-bits");
-  require(std::isfinite(o.torque_delay), "--torque-delay must be finite [s]");
-  s.torque_delay = o.torque_delay;
+  s.sensors = logged_sensors(o, n);
   return s;
 }
 

@@ -50,6 +50,10 @@ struct ChainSimulateOptions {
   double torque_delay = 0.0;
 };
 
+/// @brief The sensors of options.encoder_bits, encoder_ratio and torque_delay on n joints.
+/// @throws InputError naming the option at fault.
+LoggedSensors logged_sensors(const ChainSimulateOptions& options, int n);
+
 /// @brief sid::excitation_room, its refusal naming the description's file (source).
 /// @throws InputError when a joint's <limit> range is empty.
 ExcitationRoom excitation_room(const RobotDescription& robot, const std::string& source,

@@ -9,6 +9,7 @@
 #include "csv.hpp"
 #include "montecarlo_report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <stdexcept>
@@ -91,6 +92,17 @@ sid::ChainMonteCarloOptions chain_study_options(const PaperStudyOptions& shared,
               short_number(o.duration));
   require(std::isfinite(o.rate) && o.rate >= 50.0 && o.rate <= 100000.0,
           "--rate must be in [50, 100000] Hz, got " + short_number(o.rate));
+  if (o.estimate_torque_delay) {
+    const double reach = std::min(chain.identify.skip, chain.identify.skip_end);
+    require(std::find(chain.methods.begin(), chain.methods.end(), sid::StudyMethod::CssTorqueCv) !=
+                chain.methods.end(),
+            "--estimate-torque-delay is css_tcv's: add css_tcv to --methods");
+    require(std::isfinite(*o.estimate_torque_delay) && *o.estimate_torque_delay > 0.0 &&
+                *o.estimate_torque_delay <= reach,
+            "--estimate-torque-delay must be in (0, " + short_number(reach) + "] s, got " +
+                short_number(*o.estimate_torque_delay));
+    chain.estimate_torque_delay = sid::TorqueDelaySearch{*o.estimate_torque_delay};
+  }
   auto& f = chain.kinematics.filters;
   const double scale = 400.0 / o.rate;
   f.q_cutoff *= scale;
@@ -100,7 +112,7 @@ sid::ChainMonteCarloOptions chain_study_options(const PaperStudyOptions& shared,
 }
 
 ChainStudyTruth chain_study_truth(const ChainStudyOptions& o,
-                                  const sid::ChainMonteCarloOptions& options) {
+                                  sid::ChainMonteCarloOptions& options) {
   ChainSimulateOptions c;
   c.robot = o.robot;
   c.base = o.base;
@@ -112,8 +124,17 @@ ChainStudyTruth chain_study_truth(const ChainStudyOptions& o,
   c.base_frequency = o.base_frequency;
   c.q_range = o.q_range;
   c.qd_max = o.qd_max;
+  c.encoder_bits = o.encoder_bits;
+  c.encoder_ratio = o.encoder_ratio;
+  c.torque_delay = o.torque_delay;
   std::mt19937_64 rng(options.seed);
   const RobotDescription robot = read_simulated_robot(c);
+  options.sensors = logged_sensors(c, robot.chain.joints());
+  try {
+    (void)sid::encoder_steps(options.sensors, robot.chain, "--encoder-bits");
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
   SimulatedRobot simulated = simulate_robot_truth(c, robot, rng);
   ChainStudySetup setup;
   setup.robot = o.robot;
@@ -127,6 +148,8 @@ ChainStudyTruth chain_study_truth(const ChainStudyOptions& o,
   setup.base_frequency = o.base_frequency;
   setup.q_range = o.q_range;
   setup.qd_max = o.qd_max;
+  setup.encoder_bits = o.encoder_bits;
+  setup.encoder_ratio = o.encoder_ratio;
   return {std::move(simulated), std::move(setup)};
 }
 

@@ -10,6 +10,7 @@
 #include "chain_montecarlo_report.hpp"
 #include "chain_simulate_app.hpp"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,12 @@ struct ChainStudyOptions {
   int harmonics = 5;
   double base_frequency = 0.1, q_range = 1.0, qd_max = 1.5;
   double duration = 10.0, rate = 400.0;  ///< [s], [Hz]
+  /// The sensors each run is logged through (as sid_simulate's --encoder-bits,
+  /// --encoder-ratio, --torque-delay).
+  std::string encoder_bits, encoder_ratio;
+  double torque_delay = 0.0;  ///< [s]
+  /// css_tcv estimates the torque's delay within ± this [s]; unset: it pairs at no delay.
+  std::optional<double> estimate_torque_delay;
 };
 
 /// @brief The library's options of the chain study: the shared ones, the chain's IV step, and
@@ -58,8 +65,9 @@ struct ChainStudyTruth {
   ChainStudySetup setup;
 };
 
-/// @throws InputError as simulate_robot_truth.
+/// Sets options.sensors, which need the chain's joints.
+/// @throws InputError as simulate_robot_truth, and naming a sensor option at fault.
 ChainStudyTruth chain_study_truth(const ChainStudyOptions& chain,
-                                  const sid::ChainMonteCarloOptions& options);
+                                  sid::ChainMonteCarloOptions& options);
 
 }  // namespace sid::app

@@ -350,6 +350,19 @@ TEST(ChainMonteCarlo, CssIvKeepsTheFirstFitWhereTheIvStepDeclines) {
   EXPECT_NE(iv.declined.front().find("weak instruments"), std::string::npos) << iv.declined[0];
   EXPECT_TRUE(iv.estimates.cwiseEqual(gcv.estimates).all());
   EXPECT_EQ(gcv.declined_runs(), 0);
+
+  // A simulation that fails stops the iteration: the run keeps the first fit too, as
+  // sid::identify_robot keeps least squares.
+  sid::ChainInstrumentalVariableOptions stalled;
+  stalled.simulator.max_steps = 1;
+  o.refine = sid::chain_instrumental_variable_step(stalled);
+  const auto s = sid::run_chain_monte_carlo(arm.model, arm.theta, arm.truth, o);
+  const sid::MethodSummary& failed_iv = summary_of(s, sid::StudyMethod::CssIv);
+  ASSERT_EQ(failed_iv.failed_runs, 0) << failed_iv.failures.front();
+  EXPECT_EQ(failed_iv.declined_runs(), 3);
+  EXPECT_NE(failed_iv.declined.front().find("the IV step failed"), std::string::npos)
+      << failed_iv.declined[0];
+  EXPECT_TRUE(failed_iv.estimates.cwiseEqual(gcv.estimates).all());
 }
 
 TEST(ChainInstrumentalVariables, ReturnTheTruthFromExactData) {
@@ -456,4 +469,65 @@ TEST(ChainMonteCarlo, RefusesCssIvWithoutItsStepAndSettingsThatDoNotFit) {
   too_long_skips.kinematics.skip = 2.0;
   too_long_skips.kinematics.skip_end = 2.0;
   refused(too_long_skips, arm.theta, arm.truth);
+}
+
+// A cheap arm's sensors between the truth and each run's log: 12-bit encoders and a torque
+// channel 10 ms (two samples) behind the angles. The oracle keeps the exact motion and the
+// torque without the delay, so its figures are those of the study without the sensors, draw
+// for draw. css smooths with the rounding's variance added to the noise's and stays near the
+// oracle; with the delay ignored its error grows ten-fold, and css_tcv, which estimates the
+// delay (to within 2 ms) and fits paired at it, recovers most of that.
+TEST(ChainMonteCarlo, LogsEachRunThroughACheapArmsSensors) {
+  const StudyArm& arm = StudyArm::get();
+  using M = sid::StudyMethod;
+  sid::ChainMonteCarloOptions o = small_study({M::Css, M::CssTorqueCv, M::Oracle}, 4);
+  o.sigma_q2_levels = {1e-10};
+  const auto plain = sid::run_chain_monte_carlo(arm.model, arm.theta, arm.truth, o);
+  o.sensors.encoder_bits = {12};
+  const auto quantised = sid::run_chain_monte_carlo(arm.model, arm.theta, arm.truth, o);
+  o.sensors.torque_delay = 0.01;
+  const auto delayed = sid::run_chain_monte_carlo(arm.model, arm.theta, arm.truth, o);
+  o.estimate_torque_delay = sid::TorqueDelaySearch{0.05};
+  const auto estimated = sid::run_chain_monte_carlo(arm.model, arm.theta, arm.truth, o);
+  for (const auto* r : {&plain, &quantised, &delayed, &estimated})
+    for (const auto& s : r->levels.front().methods)
+      ASSERT_EQ(s.failed_runs, 0) << sid::study_method_name(s.method) << ": " << s.failures.front();
+  const auto mean_error = [](const sid::ChainMonteCarloResult& r, M m) {
+    return summary_of(r, m).torque_error_pct.mean();
+  };
+  for (const auto* r : {&quantised, &delayed, &estimated})
+    EXPECT_EQ(summary_of(*r, M::Oracle).torque_error_pct,
+              summary_of(plain, M::Oracle).torque_error_pct);
+  const double oracle = mean_error(plain, M::Oracle);
+  EXPECT_LT(mean_error(quantised, M::Css), 1.2 * oracle);
+  EXPECT_GT(mean_error(delayed, M::Css), 5.0 * oracle);
+  EXPECT_LT(mean_error(estimated, M::CssTorqueCv), 0.5 * mean_error(delayed, M::CssTorqueCv));
+  EXPECT_TRUE(delayed.torque_delays.empty());
+  ASSERT_EQ(estimated.torque_delays.size(), 1U);
+  for (const double d : estimated.torque_delays.front()) EXPECT_NEAR(d, 0.01, 0.002);
+}
+
+TEST(ChainMonteCarlo, RefusesSensorsThatDoNotFitTheChain) {
+  const StudyArm& arm = StudyArm::get();
+  const auto refused = [&](const sid::ChainMonteCarloOptions& o) {
+    EXPECT_THROW((void)sid::run_chain_monte_carlo(arm.model, arm.theta, arm.truth, o),
+                 std::invalid_argument);
+  };
+  const auto study = small_study({sid::StudyMethod::Css, sid::StudyMethod::CssTorqueCv}, 2);
+  for (const std::vector<int>& bits : {std::vector<int>{0}, {53}, {12, 12, 12}}) {
+    auto o = study;
+    o.sensors.encoder_bits = bits;
+    refused(o);
+  }
+  auto o = study;
+  o.sensors.encoder_ratio = {50.0};  // a ratio without bits
+  refused(o);
+  o = study;
+  o.sensors.torque_delay = std::nan("");
+  refused(o);
+  for (const double max : {0.0, 0.5}) {  // beyond the identification's skips
+    o = study;
+    o.estimate_torque_delay = sid::TorqueDelaySearch{max};
+    refused(o);
+  }
 }

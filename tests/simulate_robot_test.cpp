@@ -115,9 +115,9 @@ TEST(SimulateRobot, EncodersRoundTheAnglesAndTheTorqueChannelLags) {
   sid::RobotSimulationOptions o = short_run();
   o.noise = {1e-8, 0.0};
   const sid::SimulatedRobotLog plain = sid::simulate_robot(ur5(), o, 5);
-  o.encoder_bits = {10};
-  o.encoder_ratio = {1.0, 50.0, 1.0, 1.0, 1.0, 1.0};
-  o.torque_delay = 0.004;  // 1.6 samples of 2.5 ms
+  o.sensors.encoder_bits = {10};
+  o.sensors.encoder_ratio = {1.0, 50.0, 1.0, 1.0, 1.0, 1.0};
+  o.sensors.torque_delay = 0.004;  // 1.6 samples of 2.5 ms
   const sid::SimulatedRobotLog log = sid::simulate_robot(ur5(), o, 5);
   for (Eigen::Index j = 0; j < 6; ++j) {
     const double step = 2.0 * M_PI / (1024.0 * (j == 1 ? 50.0 : 1.0));
@@ -134,15 +134,15 @@ TEST(SimulateRobot, EncodersRoundTheAnglesAndTheTorqueChannelLags) {
   EXPECT_LT((log.measured.tau.row(k) - expected).norm(), 1e-9 * expected.norm());
   EXPECT_EQ(log.measured.tau.row(0), tau.row(0));  // before the start: the first sample's
   EXPECT_EQ(log.measured.tau.row(1), tau.row(0));
-  o.torque_delay = -0.0025;  // one sample's lead
+  o.sensors.torque_delay = -0.0025;  // one sample's lead
   EXPECT_EQ(sid::simulate_robot(ur5(), o, 5).measured.tau.row(k), tau.row(k + 1));
 
-  o.encoder_bits = {10, 10};
+  o.sensors.encoder_bits = {10, 10};
   EXPECT_THROW((void)sid::simulate_robot(ur5(), o, 5), std::invalid_argument);
-  o.encoder_bits = {0};
+  o.sensors.encoder_bits = {0};
   EXPECT_THROW((void)sid::simulate_robot(ur5(), o, 5), std::invalid_argument);
-  o.encoder_bits = {12};
-  o.encoder_ratio = {-1.0};
+  o.sensors.encoder_bits = {12};
+  o.sensors.encoder_ratio = {-1.0};
   EXPECT_THROW((void)sid::simulate_robot(ur5(), o, 5), std::invalid_argument);
 }
 

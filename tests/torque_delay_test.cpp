@@ -125,10 +125,10 @@ TEST(TorqueDelay, RefusesASearchItCannotMake) {
 TEST(TorqueDelay, FindsA2msLagOfALightArmWith12BitEncoders) {
   sid::RobotSimulationOptions o;
   o.noise = {0.0, 1e-6};
-  o.encoder_bits = {12};
+  o.sensors.encoder_bits = {12};
   // The same draws of noise: the torque as logged without the delay.
   const sid::SimulatedRobotLog plain = sid::simulate_robot(so101(), o, 1);
-  o.torque_delay = 0.002;
+  o.sensors.torque_delay = 0.002;
   const sid::SimulatedRobotLog log = sid::simulate_robot(so101(), o, 1);
   const sid::ChainModel& model = log.simulated.model;
 

@@ -17,6 +17,7 @@
 #include <sid/identify.hpp>
 #include <sid/identify_runs.hpp>
 #include <sid/least_squares.hpp>
+#include <sid/logged_sensors.hpp>
 #include <sid/measurement_noise.hpp>
 #include <sid/model/chain_dynamics.hpp>
 #include <sid/model/chain_regressor.hpp>

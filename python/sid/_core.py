@@ -316,6 +316,18 @@ def _join(value: Union[None, str, Iterable[Any]]) -> str:
     return ",".join(str(v) for v in value)
 
 
+def _per_joint(value: Union[None, float, Sequence[float]]) -> str:
+    if value is None:
+        return ""
+    return _join([value] if isinstance(value, (int, float)) else value)
+
+
+def _set_sensors(options: Any, encoder_bits: Any, encoder_ratio: Any, torque_delay: float) -> None:
+    options.encoder_bits = _per_joint(encoder_bits)
+    options.encoder_ratio = _per_joint(encoder_ratio)
+    options.torque_delay = float(torque_delay)
+
+
 def identify(
     robot: Robot,
     runs: Union[Run, Sequence[Run]],
@@ -457,6 +469,9 @@ def simulate(
     truth: bool = False,
     rtol: float = 1e-10,
     atol: float = 1e-10,
+    encoder_bits: Union[None, int, Sequence[int]] = None,
+    encoder_ratio: Union[None, float, Sequence[float]] = None,
+    torque_delay: float = 0.0,
 ) -> Any:
     """A log of the robot's URDF simulated with CVODE, as ``sid_simulate --robot``: computed
     torque tracking a random Fourier excitation (or trajectory: a sid.excite result or the
@@ -464,7 +479,9 @@ def simulate(
     description's links with viscous friction, Coulomb friction and armature, and the effects
     hidden, e.g. ["coulomb_j2:0.5", "spring_j3:2", "angle_offset_q4:0.05"]; white noise of
     variance sigma_q2 on the angles and sigma_tau2 on the torques, drawn from seed; CVODE at
-    tolerances rtol and atol.
+    tolerances rtol and atol. A cheap arm's sensors: encoder_bits per turn (one, or one per
+    joint) round the noisy angles, on the motor through encoder_ratio turns per joint turn; the
+    torque is logged torque_delay [s] behind the angles.
 
     Returns the Run; with truth=True, (run, Truth).
     """
@@ -484,6 +501,7 @@ def simulate(
     options.qd_max = float(qd_max)
     options.rtol = float(rtol)
     options.atol = float(atol)
+    _set_sensors(options, encoder_bits, encoder_ratio, torque_delay)
     with tempfile.TemporaryDirectory() as folder:
         if isinstance(trajectory, Excitation):
             path = os.path.join(folder, "excitation.csv")
@@ -586,13 +604,19 @@ def montecarlo(
     base_frequency: float = 0.1,
     q_range: float = 1.0,
     qd_max: float = 1.5,
+    encoder_bits: Union[None, int, Sequence[int]] = None,
+    encoder_ratio: Union[None, float, Sequence[float]] = None,
+    torque_delay: float = 0.0,
+    estimate_torque_delay: Optional[float] = None,
 ) -> dict[str, Any]:
     """The Monte Carlo study of ``sid_montecarlo``: runs noisy data sets per angle-noise
     variance in levels [rad^2], each method's estimates, their mean, variance, bias and RMS
     relative error. Without robot, the paper's two-link arm (seven parameters); with a robot
     (a URDF), its arm under a random Fourier excitation of duration [s] at rate [Hz] (the
-    harmonics, base_frequency, q_range and qd_max of sid.simulate), its base parameters.
-    Returns the tool's JSON summary (``--json``) as a dict, the same for any threads (0: every
+    harmonics, base_frequency, q_range and qd_max of sid.simulate), its base parameters, each
+    run logged through the sensors of sid.simulate (encoder_bits, encoder_ratio,
+    torque_delay); with estimate_torque_delay [s], css_tcv estimates the torque's delay within
+    that bound and fits paired at it. Returns the tool's JSON summary (``--json``) as a dict, the same for any threads (0: every
     core).
     """
     options = _sid._PaperStudyOptions()
@@ -605,6 +629,10 @@ def montecarlo(
     options.seed = str(int(seed))
     options.threads = int(threads)
     if robot is None:
+        if encoder_bits is not None or encoder_ratio is not None or torque_delay != 0.0 or (
+            estimate_torque_delay is not None
+        ):
+            raise ValueError("the sensors and the delay's estimate are the study of a robot's")
         return json.loads(_sid.montecarlo(options))
     _as_robot(robot)
     chain = _sid._ChainStudyOptions()
@@ -614,4 +642,7 @@ def montecarlo(
     chain.base_frequency = float(base_frequency)
     chain.q_range = float(q_range)
     chain.qd_max = float(qd_max)
+    _set_sensors(chain, encoder_bits, encoder_ratio, torque_delay)
+    if estimate_torque_delay is not None:
+        chain.estimate_torque_delay = float(estimate_torque_delay)
     return json.loads(_sid.chain_montecarlo(robot._handle, options, chain))

@@ -304,6 +304,8 @@ struct SimulateOptions {
   double base_frequency = 0.1, q_range = 1.0, qd_max = 1.5;
   double rtol = 1e-10, atol = 1e-10;  // sid_simulate's defaults
   std::string trajectory;
+  std::string encoder_bits, encoder_ratio;  // as --encoder-bits, --encoder-ratio
+  double torque_delay = 0.0;
 };
 
 nb::dict simulate(const Robot& robot, const SimulateOptions& options) {
@@ -341,6 +343,9 @@ nb::dict simulate(const Robot& robot, const SimulateOptions& options) {
   o.trajectory = options.trajectory;
   o.rtol = options.rtol;
   o.atol = options.atol;
+  o.encoder_bits = options.encoder_bits;
+  o.encoder_ratio = options.encoder_ratio;
+  o.torque_delay = options.torque_delay;
   const sid::app::SimulatedLog log = [&] {
     nb::gil_scoped_release release;
     return sid::app::simulate_robot_log(o);
@@ -415,7 +420,7 @@ std::string chain_montecarlo(const Robot& robot, const sid::app::PaperStudyOptio
   chain.base = robot.source.base;
   chain.tip = robot.source.tip;
   chain.hold = robot.source.hold;
-  const sid::ChainMonteCarloOptions options = sid::app::chain_study_options(shared, chain);
+  sid::ChainMonteCarloOptions options = sid::app::chain_study_options(shared, chain);
   const sid::app::ChainStudyTruth truth = sid::app::chain_study_truth(chain, options);
   const sid::ChainMonteCarloResult result = sid::run_chain_monte_carlo(
       truth.simulated.model, truth.simulated.theta, truth.simulated.truth, options);
@@ -654,7 +659,10 @@ NB_MODULE(_sid, m) {
       .def_rw("qd_max", &SimulateOptions::qd_max)
       .def_rw("rtol", &SimulateOptions::rtol)
       .def_rw("atol", &SimulateOptions::atol)
-      .def_rw("trajectory", &SimulateOptions::trajectory);
+      .def_rw("trajectory", &SimulateOptions::trajectory)
+      .def_rw("encoder_bits", &SimulateOptions::encoder_bits)
+      .def_rw("encoder_ratio", &SimulateOptions::encoder_ratio)
+      .def_rw("torque_delay", &SimulateOptions::torque_delay);
   m.def("simulate", &simulate, "robot"_a, "options"_a);
 
   nb::class_<ExciteOptions>(m, "_ExciteOptions")
@@ -702,7 +710,11 @@ NB_MODULE(_sid, m) {
       .def_rw("q_range", &ChainStudy::q_range)
       .def_rw("qd_max", &ChainStudy::qd_max)
       .def_rw("duration", &ChainStudy::duration)
-      .def_rw("rate", &ChainStudy::rate);
+      .def_rw("rate", &ChainStudy::rate)
+      .def_rw("encoder_bits", &ChainStudy::encoder_bits)
+      .def_rw("encoder_ratio", &ChainStudy::encoder_ratio)
+      .def_rw("torque_delay", &ChainStudy::torque_delay)
+      .def_rw("estimate_torque_delay", &ChainStudy::estimate_torque_delay);
   m.def("chain_montecarlo", &chain_montecarlo, "robot"_a, "options"_a, "chain"_a,
         nb::call_guard<nb::gil_scoped_release>());
 

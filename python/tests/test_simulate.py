@@ -128,3 +128,45 @@ def test_montecarlo_of_a_chain_gives_the_clis_study(data, cli, tmp_path):
                                                                    sort_keys=True)
     with pytest.raises(ValueError, match="--rate must be"):
         sid.montecarlo(robot=arm, rate=10)
+
+
+def test_a_cheap_arms_sensors_as_the_cli(data, cli, tmp_path):
+    urdf = data / "urdf" / "arm_hand.urdf"
+    arm = sid.Robot.from_urdf(urdf, tip="link2")
+    out = tmp_path / "run.csv"
+    subprocess.run(
+        [str(cli.parent / "sid_simulate"), "-q", "--robot", str(urdf), "--tip", "link2", "--T",
+         "2", "--seed", "4", "--encoder-bits", "12,14", "--encoder-ratio", "1,50",
+         "--torque-delay", "0.004", "-o", str(out)],
+        check=True, capture_output=True,
+    )
+    expected = sid.Run.from_csv(out)
+    run = sid.simulate(arm, duration=2, seed=4, encoder_bits=[12, 14], encoder_ratio=[1, 50],
+                       torque_delay=0.004)
+    np.testing.assert_allclose(run.q, expected.q, rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(run.tau, expected.tau, rtol=1e-15, atol=1e-15)
+    step = 2 * np.pi / 4096
+    np.testing.assert_allclose(run.q[:, 0] / step, np.round(run.q[:, 0] / step), atol=1e-6)
+
+    study = tmp_path / "study.json"
+    subprocess.run(
+        [str(cli.parent / "sid_montecarlo"), "--robot", str(urdf), "--tip", "link2", "--runs",
+         "2", "--levels", "1e-8", "--methods", "css,css_tcv", "--duration", "3", "--rate", "200",
+         "--seed", "3", "--encoder-bits", "12", "--torque-delay", "0.01",
+         "--estimate-torque-delay", "0.05", "--json", str(study)],
+        check=True, capture_output=True,
+    )
+    import json
+
+    expected = json.loads(study.read_text())
+    got = sid.montecarlo(robot=arm, runs=2, levels=[1e-8], methods="css,css_tcv", duration=3,
+                         rate=200, seed=3, threads=1, encoder_bits=12, torque_delay=0.01,
+                         estimate_torque_delay=0.05)
+    assert got["sensors"] == expected["sensors"]
+    assert json.dumps(got["levels"], sort_keys=True) == json.dumps(expected["levels"],
+                                                                   sort_keys=True)
+    assert len(got["levels"][0]["torque_delays"]) == 2
+    with pytest.raises(ValueError, match="study of a robot"):
+        sid.montecarlo(encoder_bits=12)
+    with pytest.raises(ValueError, match="add css_tcv"):
+        sid.montecarlo(robot=arm, estimate_torque_delay=0.01)

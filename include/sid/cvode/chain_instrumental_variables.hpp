@@ -224,8 +224,9 @@ inline ChainIvIdentification identify_chain_iv(const ChainModel& model,
 /// the first fit's residual on the same rows; otherwise it throws RefinementDeclined and the
 /// study keeps the first fit. On a light arm (an SO-100, 6 joints of 0.02-0.16 kg) the
 /// iteration wanders for want of strong instruments: unconverged after 10 steps, 1.2-3.1 times
-/// the residual, 64 % torque error where the first fit has 2 %. It throws std::runtime_error
-/// when the iteration stopped on a failure, so that the study counts the run as failed.
+/// the residual, 64 % torque error where the first fit has 2 %. An iteration stopped by a failed
+/// simulation (the iterate's arm too stiff or unstable to follow the motion) declines alike, as
+/// sid::identify_robot keeps least squares then.
 inline ChainEstimateRefinement chain_instrumental_variable_step(
     const ChainInstrumentalVariableOptions& options = {}, double weak_instruments = 1.5) {
   return [options, weak_instruments](const ChainModel& model, const BaseParameters<double>& base,
@@ -234,7 +235,7 @@ inline ChainEstimateRefinement chain_instrumental_variable_step(
                                      const LeastSquaresResult<double>& first) {
     InstrumentalVariableResult iv =
         refine_chain_instrumental_variables(model, base, k, samples, first, options);
-    if (!iv.ok()) throw std::runtime_error(iv.message);
+    if (!iv.ok()) throw RefinementDeclined("the IV step failed (" + iv.message + ")");
     if (!iv.converged) throw RefinementDeclined("the IV iteration did not converge");
     const ChainRegression r = chain_regression(model, base.independent, k, samples);
     const double ratio =

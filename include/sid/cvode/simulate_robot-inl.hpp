@@ -60,65 +60,6 @@ inline void check_robot_simulation_options(const RobotSimulationOptions& o) {
   require_simulable(!(o.trajectory && o.torque), "a trajectory and a torque are two inputs");
   require_simulable(!(o.torque && !o.pushes.pushes.empty()),
                     "pushes apply to a tracked excitation, not to a driving torque");
-  require_simulable(std::isfinite(o.torque_delay), "the torque delay must be finite [s]");
-  for (const int bits : o.encoder_bits)
-    require_simulable(bits >= 1 && bits <= 52,
-                      "encoder bits must be 1..52, not " + std::to_string(bits));
-  for (const double ratio : o.encoder_ratio)
-    require_simulable(std::isfinite(ratio) && ratio > 0.0, "an encoder ratio must be > 0");
-}
-
-/// A per-joint setting given once for every joint or once per joint.
-template <typename T>
-T per_joint(const std::vector<T>& values, int joint, int joints, T otherwise,
-            const std::string& what) {
-  if (values.empty()) return otherwise;
-  require_simulable(values.size() == 1 || values.size() == static_cast<std::size_t>(joints),
-                    what + " needs one value or one per joint (" + std::to_string(joints) +
-                        "), not " + std::to_string(values.size()));
-  return values[values.size() == 1 ? 0 : static_cast<std::size_t>(joint)];
-}
-
-/// The torque logged by a channel `delay` seconds behind: linear between samples, the first
-/// sample's before the start.
-inline Eigen::MatrixXd delayed(const Eigen::VectorXd& t, const Eigen::MatrixXd& tau, double delay) {
-  if (delay == 0.0) return tau;
-  Eigen::MatrixXd out(tau.rows(), tau.cols());
-  const Eigen::Index last = t.size() - 1;
-  Eigen::Index k = 0;
-  for (Eigen::Index i = 0; i < t.size(); ++i) {
-    const double at = t[i] - delay;
-    if (at <= t[0]) {
-      out.row(i) = tau.row(0);
-      continue;
-    }
-    if (at >= t[last]) {
-      out.row(i) = tau.row(last);
-      continue;
-    }
-    // Times increase, so the bracketing interval only moves forward (or back, for a lead).
-    while (k + 1 < last && t[k + 1] <= at) ++k;
-    while (k > 0 && t[k] > at) --k;
-    const double w = (at - t[k]) / (t[k + 1] - t[k]);
-    out.row(i) = (1.0 - w) * tau.row(k) + w * tau.row(k + 1);
-  }
-  return out;
-}
-
-/// The encoders' rounding of the logged angles (RobotSimulationOptions::encoder_bits).
-inline void quantise_angles(const RobotSimulationOptions& o, const SerialChain<double>& chain,
-                            Eigen::MatrixXd& q) {
-  const int n = chain.joints();
-  for (int j = 0; j < n; ++j) {
-    const int bits = per_joint(o.encoder_bits, j, n, 0, "encoder_bits");
-    if (bits == 0) continue;
-    require_simulable(
-        chain.placements()[static_cast<std::size_t>(j)].type == JointType::Revolute,
-        "encoder bits are per turn: joint " + std::to_string(j + 1) + " is prismatic");
-    const double ratio = per_joint(o.encoder_ratio, j, n, 1.0, "encoder_ratio");
-    const double step = 2.0 * 3.14159265358979323846 / (std::ldexp(1.0, bits) * ratio);
-    q.col(j) = (q.col(j) / step).array().round().matrix() * step;
-  }
 }
 
 /// The run under a given torque: open loop from rest at q0, at the torque's times.
@@ -288,10 +229,8 @@ SID_INLINE SimulatedRobot simulate_robot_truth(const RobotDescription& robot,
 SID_INLINE SimulatedRobotLog simulate_robot(const RobotDescription& robot,
                                             const RobotSimulationOptions& options,
                                             std::uint64_t seed) {
-  for (int j = 0; j < robot.chain.joints(); ++j) {  // before the simulation, not after it
-    (void)detail::per_joint(options.encoder_bits, j, robot.chain.joints(), 0, "encoder_bits");
-    (void)detail::per_joint(options.encoder_ratio, j, robot.chain.joints(), 1.0, "encoder_ratio");
-  }
+  // The sensors are checked before the simulation, not after it.
+  const Eigen::VectorXd steps = encoder_steps(options.sensors, robot.chain, "sid::simulate_robot");
   std::mt19937_64 rng(seed);
   SimulatedRobot s = simulate_robot_truth(robot, options, rng);
   std::vector<JointLimitExcess> beyond = detail::joints_beyond_limits(robot, s.truth);
@@ -302,9 +241,9 @@ SID_INLINE SimulatedRobotLog simulate_robot(const RobotDescription& robot,
     sensed.tau.col(j).array() += s.torque_offset[j];
     sensed.q.col(j).array() -= s.angle_offset[j];
   }
-  sensed.tau = detail::delayed(sensed.t, sensed.tau, options.torque_delay);
+  sensed.tau = delayed_channel(sensed.t, sensed.tau, options.sensors.torque_delay);
   ChainTrajectory<double> measured = add_measurement_noise(sensed, options.noise, rng);
-  detail::quantise_angles(options, robot.chain, measured.q);
+  round_to_encoders(steps, measured.q);
   return {std::move(s), std::move(measured), std::move(beyond)};
 }
 

@@ -9,6 +9,7 @@
 #include <sid/config.hpp>
 #include <sid/cvode/chain_experiment.hpp>
 #include <sid/fourier_trajectory.hpp>
+#include <sid/logged_sensors.hpp>
 #include <sid/measurement_noise.hpp>
 #include <sid/model/chain_model.hpp>
 #include <sid/model/robot_description.hpp>
@@ -90,18 +91,8 @@ struct RobotSimulationOptions {
   double sample_time = 0.0025;  ///< of a tracked run [s]; a driven run has the torque's times
   SimulatorOptions simulator = SimulatorOptions{1e-9, 1e-9};
   MeasurementNoise<double> noise{1e-6, 1e-2};  ///< the sensors' (angle, torque) variances
-  /// The encoders' resolution in bits per turn of the shaft each sits on: one for every joint
-  /// or one per joint (revolute joints only); empty: the angles are not quantised. The logged
-  /// angle is the noisy one rounded to the encoder's step, 2π / (2^bits · ratio). 12 bits on the
-  /// joint is 1.5e-3 rad, about a hobby servo's.
-  std::vector<int> encoder_bits;
-  /// Turns of each encoder's shaft per turn of its joint: the gear ratio of an encoder on the
-  /// motor, one for every joint or one per joint; empty: 1 (on the joint).
-  std::vector<double> encoder_ratio;
-  /// [s] How far the torque channel lags the angles': the torque logged at t is the drives' at
-  /// t − torque_delay (linear between samples, the first sample's before the start); negative:
-  /// the angles lag. Cheap arms log servo currents and positions over separate paths.
-  double torque_delay = 0.0;
+  /// Encoders that round the noisy angles, a torque channel behind the angles'.
+  LoggedSensors sensors;
 };
 
 /// @brief The experiment before any noise: the model simulated (viscous, Coulomb and armature

@@ -1,6 +1,7 @@
 #pragma once
 // Definitions of sid/study/chain_montecarlo.hpp (see sid/config.hpp).
 
+#include <sid/detail/format.hpp>
 #include <sid/measurement_noise.hpp>
 #include <sid/study/chain_montecarlo.hpp>
 
@@ -27,6 +28,33 @@ inline std::pair<double, double> chain_study_window(StudyMethod method,
   return {truth.t[0] + skip, truth.t[truth.size() - 1] - k.skip_end};
 }
 
+/// Each joint's angle error variance: the noise's and the encoder's rounding's (step² / 12).
+inline Eigen::VectorXd angle_error_variance(const ChainModel& model, double sigma_q2,
+                                            const LoggedSensors& sensors) {
+  const Eigen::VectorXd steps = encoder_steps(sensors, model.chain(), "sid::run_chain_monte_carlo");
+  return (sigma_q2 + steps.array().square() / 12.0).matrix();
+}
+
+/// sid_identify --robot's pipeline on the run: cutoffs chosen by held-out torque prediction,
+/// torque filtered alike, equations at rest left out; the torque's delay estimated if asked.
+inline ChainStudyFit identify_study_run(const ChainModel& model, const BaseParameters<double>& base,
+                                        const ChainTrajectory<double>& measured,
+                                        const ChainMonteCarloOptions& options) {
+  ChainIdentifyOptions identify = options.identify;
+  std::optional<double> delay;
+  if (options.estimate_torque_delay) {
+    delay =
+        estimate_torque_delay(model, {measured}, identify, *options.estimate_torque_delay).delay;
+    identify.torque_delay = *delay;
+  }
+  const ChainIdentification id = identify_chain(model, {measured}, identify);
+  if (id.base.independent != base.independent)
+    throw std::invalid_argument("sid::fit_chain_study_method: the run leaves " +
+                                std::to_string(base.rank() - id.base.rank()) +
+                                " base parameters undetermined");
+  return {id.fit, {}, delay};
+}
+
 }  // namespace detail
 
 SID_INLINE ChainStudyFit fit_chain_study_method(StudyMethod method, const ChainModel& model,
@@ -42,18 +70,11 @@ SID_INLINE ChainStudyFit fit_chain_study_method(StudyMethod method, const ChainM
         std::string(who) +
         ": css_iv needs the IV step (sid::chain_instrumental_variable_step() "
         "from sid/cvode/chain_instrumental_variables.hpp)");
-  if (method == StudyMethod::CssTorqueCv) {
-    // sid_identify --robot's pipeline: cutoffs chosen by held-out torque prediction, torque
-    // filtered alike, equations at rest left out.
-    const ChainIdentification id = identify_chain(model, {measured}, options.identify);
-    if (id.base.independent != base.independent)
-      throw std::invalid_argument(std::string(who) + ": the run leaves " +
-                                  std::to_string(base.rank() - id.base.rank()) +
-                                  " base parameters undetermined");
-    return {id.fit, {}};
-  }
+  if (method == StudyMethod::CssTorqueCv)
+    return detail::identify_study_run(model, base, measured, options);
   const ChainKinematics<double> k = detail::method_kinematics(
-      method, truth, measured, sigma_q2, options.kinematics, kChainInstrumentalVariableLambdaScale);
+      method, truth, measured, detail::angle_error_variance(model, sigma_q2, options.sensors),
+      options.kinematics, kChainInstrumentalVariableLambdaScale);
   const auto [from, to] = detail::chain_study_window(method, truth, options.kinematics);
   const ChainKinematics<double> kept = detail::window_rows(k, from, to);
   const std::vector<Eigen::Index> samples =
@@ -67,19 +88,19 @@ SID_INLINE ChainStudyFit fit_chain_study_method(StudyMethod method, const ChainM
   LeastSquaresResult<double> fit = least_squares(r.x, r.y, joints, ls);
   if (method == StudyMethod::CssIv && fit.ok()) {
     try {
-      return {options.refine(model, base, kept, samples, fit), {}};
+      return {options.refine(model, base, kept, samples, fit), {}, {}};
     } catch (const RefinementDeclined& e) {
-      return {std::move(fit), e.what()};
+      return {std::move(fit), e.what(), {}};
     }
   }
   if (method != StudyMethod::CssWls || !fit.ok() || !(fit.sigma2_per_joint.array() > 0.0).all())
-    return {std::move(fit), {}};
+    return {std::move(fit), {}, {}};
   // Gautier's IDIM-WLS, as fit_two_link_weighted: each joint's rows by 1/σ̂_j² of a first fit.
   const Eigen::Index m = r.y.size() / joints;
   Eigen::VectorXd weights(r.y.size());
   for (Eigen::Index j = 0; j < joints; ++j)
     weights.segment(j * m, m).setConstant(1.0 / fit.sigma2_per_joint[j]);
-  return {weighted_least_squares(r.x, r.y, weights, joints, ls), {}};
+  return {weighted_least_squares(r.x, r.y, weights, joints, ls), {}, {}};
 }
 
 namespace detail {
@@ -89,6 +110,13 @@ SID_INLINE void check_chain_monte_carlo_input(const ChainModel& model, const Eig
                                               const ChainMonteCarloOptions& options) {
   const char* who = "sid::run_chain_monte_carlo";
   check_study_settings(options, who);
+  (void)encoder_steps(options.sensors, model.chain(), who);
+  const double reach = std::min(options.identify.skip, options.identify.skip_end);
+  if (options.estimate_torque_delay && !(options.estimate_torque_delay->max_delay > 0.0 &&
+                                         options.estimate_torque_delay->max_delay <= reach))
+    throw std::invalid_argument(
+        std::string(who) + ": the torque delay's search reaches max_delay within (0, " +
+        detail::format_number("%g", reach) + "] s, the identification's skips");
   for (StudyMethod m : options.methods)
     if (m == StudyMethod::CssIv && !options.refine)
       throw std::invalid_argument(std::string(who) +
@@ -116,6 +144,7 @@ SID_INLINE ChainMonteCarloResult run_chain_monte_carlo(const ChainModel& model,
                                                        const Eigen::VectorXd& theta,
                                                        const ChainKinematics<double>& truth,
                                                        const ChainMonteCarloOptions& options) {
+  const char* who = "sid::run_chain_monte_carlo";
   detail::check_chain_monte_carlo_input(model, theta, truth, options);
   const auto start = std::chrono::steady_clock::now();
   const BaseParameters<double> base = chain_base_parameters(model, options.identify);
@@ -161,21 +190,38 @@ SID_INLINE ChainMonteCarloResult run_chain_monte_carlo(const ChainModel& model,
       summary.declined.assign(static_cast<std::size_t>(options.runs), std::string());
     }
   const ChainTrajectory<double> exact_run{truth.t, truth.q, truth.tau};
+  const Eigen::VectorXd steps = encoder_steps(options.sensors, model.chain(), who);
+  // The delay shifts the torque, not its noise: logged = delayed truth + the same draws.
+  const Eigen::MatrixXd torque_shift =
+      delayed_channel(truth.t, truth.tau, options.sensors.torque_delay) - truth.tau;
+  const auto tcv =
+      std::find(options.methods.begin(), options.methods.end(), StudyMethod::CssTorqueCv);
+  if (options.estimate_torque_delay && tcv != options.methods.end())
+    result.torque_delays.assign(
+        options.sigma_q2_levels.size(),
+        Eigen::VectorXd::Constant(options.runs, std::numeric_limits<double>::quiet_NaN()));
   result.threads_used = detail::run_study_jobs(
       options, result.levels,
       [&](std::size_t l, int run, const std::function<void(std::size_t, std::string)>& fail) {
         const double sigma_q2 = options.sigma_q2_levels[l];
         std::mt19937_64 rng = run_generator(options.seed, l, run);
-        const ChainTrajectory<double> measured = add_measurement_noise(
+        const ChainTrajectory<double> noisy = add_measurement_noise(
             exact_run, MeasurementNoise<double>{sigma_q2, options.sigma_tau2}, rng);
+        ChainTrajectory<double> logged = noisy;
+        if (options.sensors.torque_delay != 0.0) logged.tau += torque_shift;
+        round_to_encoders(steps, logged.q);
         for (std::size_t m = 0; m < options.methods.size(); ++m) {
           MethodSummary& summary = result.levels[l].methods[m];
+          const StudyMethod method = options.methods[m];
           std::string failure;
           try {
-            ChainStudyFit study_fit = fit_chain_study_method(options.methods[m], model, base, truth,
-                                                             measured, sigma_q2, options);
+            ChainStudyFit study_fit = fit_chain_study_method(
+                method, model, base, truth, method == StudyMethod::Oracle ? noisy : logged,
+                sigma_q2, options);
             const LeastSquaresResult<double>& fit = study_fit.fit;
             summary.declined[static_cast<std::size_t>(run)] = std::move(study_fit.declined);
+            if (study_fit.torque_delay && !result.torque_delays.empty())
+              result.torque_delays[l][run] = *study_fit.torque_delay;
             if (fit.ok() && fit.theta.allFinite()) {
               summary.estimates.row(run) = fit.theta.transpose();
               summary.torque_error_pct[run] =

@@ -15,20 +15,25 @@
 /// css_tcv and oracle.
 ///
 /// The true trajectory is an input (e.g. sid::simulate_chain_experiment) and the IV step a
-/// function, so this header needs no SUNDIALS.
+/// function, so this header needs no SUNDIALS. A cheap arm's sensors (sid::LoggedSensors:
+/// encoders that round the angles, a torque channel behind them) may stand between the truth
+/// and each run's log.
 
 #include <sid/base_parameters.hpp>
 #include <sid/chain_regression.hpp>
 #include <sid/config.hpp>
 #include <sid/identify_chain.hpp>
 #include <sid/least_squares.hpp>
+#include <sid/logged_sensors.hpp>
 #include <sid/model/chain_model.hpp>
 #include <sid/study/montecarlo.hpp>
+#include <sid/torque_delay.hpp>
 #include <sid/trajectory.hpp>
 
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -52,6 +57,15 @@ struct ChainMonteCarloOptions : StudySettings {
   LeastSquaresOptions least_squares;
   /// The IV step of method css_iv (sid::chain_instrumental_variable_step()); required by css_iv.
   ChainEstimateRefinement refine;
+  /// The sensors every run is logged through after its noise is drawn: the torque channel's
+  /// delay, then the encoders' rounding. The methods smooth with δq² = σq² + step² / 12 (the
+  /// rounding's variance) and, but for css_tcv, pair the torque with the angles of its own
+  /// sample; the oracle takes the exact motion and the torque as logged without the delay.
+  LoggedSensors sensors;
+  /// css_tcv estimates the torque's delay (sid::estimate_torque_delay, on options.identify) and
+  /// fits paired at it, as sid_identify --robot --estimate-torque-delay does; unset, it pairs
+  /// at identify.torque_delay.
+  std::optional<TorqueDelaySearch> estimate_torque_delay;
 
   /// The paper's windows, and the last 0.25 s left out too: a natural spline's q̈ is wrong
   /// over its last samples unless the motion stops there, and a random excitation does not.
@@ -76,6 +90,9 @@ struct ChainMonteCarloResult {
   std::uint64_t seed = 0;
   Eigen::Index equations = 0;  ///< rows of the true regression (samples × joints in the window)
   std::vector<LevelSummary> levels;
+  /// Per level, css_tcv's estimate of the torque's delay on each run [s] (NaN where it failed);
+  /// empty unless options.estimate_torque_delay and css_tcv is among the methods.
+  std::vector<Eigen::VectorXd> torque_delays;
   double wall_seconds = 0.0;
   int threads_used = 1;
 };
@@ -85,10 +102,14 @@ struct ChainStudyFit {
   LeastSquaresResult<double> fit;
   /// Why the refinement (css_iv's IV step) declined, so that fit is the first one; "" otherwise.
   std::string declined;
+  /// css_tcv with options.estimate_torque_delay: the delay it found and fitted at [s].
+  std::optional<double> torque_delay;
 };
 
 /// @brief β̂ of one method on one noisy data set (windowed as options say); NaN-free on success.
 /// @param base the base parameters (chain_base_parameters(model, options.identify)).
+/// @param measured the run as logged (options.sensors applied); for the oracle, the torque
+///        without the delay.
 /// @throws std::invalid_argument for css_iv without options.refine, too few equations, or a
 ///         css_tcv fit whose run leaves a base parameter undetermined.
 SID_INLINE ChainStudyFit fit_chain_study_method(StudyMethod method, const ChainModel& model,

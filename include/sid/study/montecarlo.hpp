@@ -264,13 +264,13 @@ int run_study_jobs(const StudySettings& settings, std::vector<LevelSummary>& lev
 
 /// The kinematics of every method but css_tcv (which needs the model to choose its cutoff) for
 /// any joint count: the paper's arm (Joints = 2) and a chain (Eigen::Dynamic) alike. `base`
-/// gives the filters and the cross-validation's settings; δq = σq on every joint; css_iv
-/// smooths with GCV's λ times iv_lambda_scale.
+/// gives the filters and the cross-validation's settings; δq_j = the square root of each
+/// joint's angle error variance; css_iv smooths with GCV's λ times iv_lambda_scale.
 template <int Joints>
 Kinematics<double, Joints> method_kinematics(
     StudyMethod method, const Kinematics<double, Joints>& truth,
-    const Trajectory<double, Joints>& measured, double sigma_q2, const IdentifyOptions& base,
-    double iv_lambda_scale = kInstrumentalVariableLambdaScale) {
+    const Trajectory<double, Joints>& measured, const Eigen::VectorXd& q_error_variance,
+    const IdentifyOptions& base, double iv_lambda_scale = kInstrumentalVariableLambdaScale) {
   if (method == StudyMethod::Oracle) {
     Kinematics<double, Joints> k = truth;
     k.tau = measured.tau;
@@ -287,8 +287,18 @@ Kinematics<double, Joints> method_kinematics(
                    method == StudyMethod::CssIv;
   options.smoothing = gcv ? SmoothingMode::Gcv : SmoothingMode::SConstraint;
   if (method == StudyMethod::CssIv) options.cross_validation_lambda_scale = iv_lambda_scale;
-  const Eigen::VectorXd sigma_q = Eigen::VectorXd::Constant(measured.joints(), std::sqrt(sigma_q2));
+  const Eigen::VectorXd sigma_q = q_error_variance.cwiseSqrt();
   return estimate_joint_kinematics(measured, options, sigma_q, nullptr, "sid::estimate_kinematics");
+}
+
+/// The same with σq² on every joint.
+template <int Joints>
+Kinematics<double, Joints> method_kinematics(
+    StudyMethod method, const Kinematics<double, Joints>& truth,
+    const Trajectory<double, Joints>& measured, double sigma_q2, const IdentifyOptions& base,
+    double iv_lambda_scale = kInstrumentalVariableLambdaScale) {
+  const Eigen::VectorXd variance = Eigen::VectorXd::Constant(measured.joints(), sigma_q2);
+  return method_kinematics(method, truth, measured, variance, base, iv_lambda_scale);
 }
 
 }  // namespace detail
