@@ -91,6 +91,21 @@ sid::ChainIdentifyOptions make_options(const ChainIdentifyAppOptions& o, int joi
 
 std::string number(const char* format, double v) { return format_number(format, v); }
 
+/// "v ± s" with s to two significant digits and v to the same decimals: a delay found at
+/// 7e-17 ms is 0.0 ± 1.4 ms.
+std::string value_and_std(double v, double s) {
+  if (!(std::isfinite(v) && std::isfinite(s) && s > 0.0))
+    return number("%.3g", v) + " ± " + number("%.2g", s);
+  int decimals = std::max(0, 1 - static_cast<int>(std::floor(std::log10(s))));
+  // 9.97 rounds to 10: two digits are "10", not "10.0".
+  if (decimals > 0 && std::round(s * std::pow(10.0, decimals)) >= 100.0) --decimals;
+  const double scale = std::pow(10.0, decimals);
+  const double rounded = std::round(v * scale) / scale + 0.0;  // + 0.0: no "-0.0"
+  char text[96];
+  std::snprintf(text, sizeof text, "%.*f ± %.*f", decimals, rounded, decimals, s);
+  return text;
+}
+
 /// The kinds of drive term the model fits, in its order, and the names of their parameters.
 std::vector<std::string> drive_term_keywords(const sid::ChainModel& model) {
   std::vector<std::string> kinds;
@@ -151,10 +166,10 @@ std::string report_text(const ChainIdentifyAppOptions& o, const sid::ChainModel&
   for (int j = 0; j < model.joints(); ++j) out << " " << number("%.3g", id.cutoff_hz[j]);
   out << "\n";
   if (const auto& d = r.torque_delay_estimate)
-    out << "torque's delay behind the angles: " << number("%.3g", 1e3 * d->delay) << " ± "
-        << number("%.2g", 1e3 * d->std_dev) << " ms (estimated within ±"
-        << number("%g", 1e3 * d->delays.maxCoeff()) << " ms, every joint smoothed at "
-        << number("%.3g", d->cutoff_hz) << " Hz); each torque paired with the angles then\n";
+    out << "torque's delay behind the angles: " << value_and_std(1e3 * d->delay, 1e3 * d->std_dev)
+        << " ms (estimated within ±" << number("%g", 1e3 * d->delays.maxCoeff())
+        << " ms, every joint smoothed at " << number("%.3g", d->cutoff_hz)
+        << " Hz); each torque paired with the angles then\n";
   else if (r.torque_delay != 0.0)
     out << "torque paired with the angles " << number("%.4g", 1e3 * r.torque_delay)
         << " ms before it was logged (--torque-delay)\n";

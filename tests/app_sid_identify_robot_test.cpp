@@ -18,6 +18,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -702,7 +703,17 @@ TEST_F(IdentifyRobot, EstimatesHowFarTheTorqueLagsTheAngles) {
   const sid_test::AppRun r = shell(app("sid_identify") + " " + robot +
                                    " --estimate-torque-delay 0.01 --json fit.json servo.csv");
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  EXPECT_NE(r.out.find("torque's delay behind the angles: "), std::string::npos) << r.out;
+  const auto line = r.out.find("torque's delay behind the angles: ");
+  ASSERT_NE(line, std::string::npos) << r.out;
+  // The delay to the decimals of its standard deviation (two significant digits), as the JSON's.
+  const nlohmann::json said = nlohmann::json::parse(read(file("fit.json")));
+  const double ms = 1e3 * said["torque_delay"].get<double>(),
+               std_ms = 1e3 * said["torque_delay_std_dev"].get<double>();
+  int decimals = std::max(0, 1 - static_cast<int>(std::floor(std::log10(std_ms))));
+  if (decimals > 0 && std::round(std_ms * std::pow(10.0, decimals)) >= 100.0) --decimals;
+  char expected[96];
+  std::snprintf(expected, sizeof expected, "%.*f ± %.*f ms", decimals, ms, decimals, std_ms);
+  EXPECT_EQ(r.out.substr(line + 34, std::strlen(expected)), expected) << r.out;
   EXPECT_NE(r.out.find("(estimated within ±10 ms, every joint smoothed at "), std::string::npos)
       << r.out;
   const nlohmann::json fit = nlohmann::json::parse(read(file("fit.json")));
