@@ -143,6 +143,11 @@ std::string path_in(const std::string& dir, const std::string& file) {
   return (fs::path(dir) / file).string();
 }
 
+std::string torque_pairing(double delay) {
+  return "each torque paired with the angles " + format_number("%.3g", 1e3 * std::abs(delay)) +
+         (delay < 0.0 ? " ms later" : " ms earlier");
+}
+
 std::string shortest_number(double v) {
   char buffer[64];
   const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);

@@ -77,6 +77,9 @@ std::uint64_t parse_seed(const std::string& text);
 /// @brief The shortest text that reads back as exactly v (for settings recorded in a file).
 std::string shortest_number(double v);
 
+/// "each torque paired with the angles 3.1 ms earlier" ("later" for a negative delay [s]).
+std::string torque_pairing(double delay);
+
 /// @brief Parses "0.1, 0.2,3e-4" (commas, optional spaces). what names the option in messages.
 /// @throws InputError "--theta: value 3 'abc' is not a number" and the like; NaN/Inf rejected.
 std::vector<double> parse_doubles(const std::string& text, const std::string& what);

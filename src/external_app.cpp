@@ -65,6 +65,11 @@ ExternalResult external_torque(const IdentifiedArm& arm, const ChainRunFile& run
   const Eigen::Index samples = log.size();
   sid::ExternalTorqueOptions options = external_options(o, n, run);
   options.effort_limit = arm.effort_limit;
+  require(std::abs(arm.torque_delay) <= options.skip,
+          "--skip " + number("%.3g", options.skip) + " s is shorter than the torque delay of " +
+              arm.source + " (" + number("%.3g", 1e3 * arm.torque_delay) +
+              " ms): the rates would be taken before the log starts");
+  options.torque_delay = arm.torque_delay;
   ExternalResult result;
   result.method = o.method;
   try {
@@ -87,8 +92,10 @@ ExternalResult external_torque(const IdentifiedArm& arm, const ChainRunFile& run
                : std::string("inverse-dynamics residual (smoothed accelerations)"))
        << "\nangles smoothed at [Hz]:";
   for (int j = 0; j < n; ++j) text << " " << number("%.3g", cutoff[j]);
-  text << " (" << cutoff_choice << ")"
-       << "\ncontacts are looked for from " << number("%.3g", o.skip)
+  text << " (" << cutoff_choice << ")";
+  if (arm.torque_delay != 0.0)
+    text << "\n" << torque_pairing(arm.torque_delay) << " (the fit's torque delay)";
+  text << "\ncontacts are looked for from " << number("%.3g", o.skip)
        << " s after the start to as long before the end (the spline's ends)"
        << "\nthresholds (" << number("%.3g", o.threshold_factor)
        << " x the fit's residual RMS on its own logs, or x this estimate's robust spread where "
@@ -121,6 +128,7 @@ ExternalResult external_torque(const IdentifiedArm& arm, const ChainRunFile& run
   nlohmann::json& j = result.json;
   j["log"] = run.file;
   j["model"] = arm.source;
+  j["torque_delay"] = arm.torque_delay;
   j["joint_names"] = model.joint_names();
   j["method"] = o.method;
   if (o.method == "observer") j["gain"] = r.gain;

@@ -98,6 +98,7 @@ IdentifiedArm identified_arm(const nlohmann::json& j, const std::string& where,
                     std::move(model),
                     numbers(consistent, "theta", where + ": physically_consistent"),
                     numbers(j, "cutoff_hz", where),
+                    0.0,
                     numbers(j, "residual_rms", where),
                     numbers(j, "residual_rms_measured", where),
                     {},
@@ -111,6 +112,12 @@ IdentifiedArm identified_arm(const nlohmann::json& j, const std::string& where,
     if (v->size() != n)
       throw InputError(where + ": a per-joint list (cutoff_hz, residual_rms) does not have " +
                        std::to_string(n) + " values");
+  if (j.contains("torque_delay")) {
+    const nlohmann::json& delay = j["torque_delay"];
+    if (!delay.is_number() || !std::isfinite(delay.get<double>()))
+      throw InputError(where + ": 'torque_delay' is not a finite number [s]");
+    arm.torque_delay = delay.get<double>();
+  }
   const auto flag = [&](const char* key) {
     const nlohmann::json& v = member(consistent, key, where + ": physically_consistent");
     if (!v.is_boolean())

@@ -25,6 +25,9 @@ struct IdentifiedArm {
   /// each link a real body, so that its mass matrix is positive definite everywhere.
   Eigen::VectorXd theta;
   Eigen::VectorXd cutoff_hz;  ///< the smoothing the fit used, per joint
+  /// [s] How far the fit found (or was told) the torque lags the angles: each torque is paired
+  /// with the angles this much earlier, in its logs and in the logs the arm is put to work on.
+  double torque_delay = 0.0;
   /// The fit's residual per joint on its own logs [N m]: at the regression's samples (filtered
   /// torque) and against the log as recorded.
   Eigen::VectorXd residual_rms, residual_rms_measured;

@@ -38,6 +38,8 @@ std::string report_text(const PayloadResult& r, const IdentifiedArm& arm,
       << number("%.4g", p.condition_number) << "\n";
   if (dh_table)
     out << "  (a DH table: the frame is its last link's; --payload-frame needs a URDF)\n";
+  if (arm.torque_delay != 0.0)
+    out << "  " << torque_pairing(arm.torque_delay) << " (the arm's torque delay)\n";
   out << "  mass " << number("%.6g", p.body.mass) << " kg (std " << number("%.2g", p.mass_std)
       << ")\n";
   out << "  centre of mass (" << number("%.5g", p.body.com[0]) << ", "
@@ -74,6 +76,7 @@ nlohmann::json report_json(const PayloadResult& r, const IdentifiedArm& arm,
   const sid::PayloadIdentification& p = r.id;
   nlohmann::json j;
   j["arm"] = arm.source;
+  j["torque_delay"] = arm.torque_delay;
   j["runs"] = nlohmann::json::array();
   for (const auto& run : runs) j["runs"].push_back(run.file);
   j["cutoff_hz"] = to_json_array(arm.cutoff_hz);
@@ -128,8 +131,13 @@ PayloadResult identify_payload(const IdentifiedArm& arm, const std::vector<Chain
   const bool dh_table = options.frame.empty();
   r.frame = dh_table ? "link " + std::to_string(n) : options.frame;
   r.warnings = arm.warnings;
+  sid::PayloadOptions payload = options.payload;
+  require(std::abs(arm.torque_delay) <= std::min(payload.rows.skip, payload.rows.skip_end),
+          "the torque delay of " + arm.source + " (" + number("%.3g", 1e3 * arm.torque_delay) +
+              " ms) is longer than the skips at the runs' ends");
+  payload.rows.torque_delay = arm.torque_delay;
   try {
-    r.id = sid::identify_payload(arm.model, arm.theta, data, arm.cutoff_hz, options.payload);
+    r.id = sid::identify_payload(arm.model, arm.theta, data, arm.cutoff_hz, payload);
   } catch (const sid::PayloadNotIdentifiable& e) {
     const std::string robot = options.robot.empty() ? "FILE" : options.robot;
     const sid::FramePose<double>& frame = options.payload.frame;
@@ -224,9 +232,12 @@ std::string urdf_with_payload(const RobotDescription& robot, const sid::LinkPara
 int identify_payload_robot(const ChainIdentifyAppOptions& o, const std::string& payload_of,
                            const std::string& payload_frame, const char* app_name) {
   require(!o.inputs.empty(), "no run given");
-  require(o.effects.empty() && !o.no_default_effects && !o.coulomb_epsilon && o.cutoff.empty(),
-          "--payload-of: the drive terms and the smoothing are the arm's (" + payload_of +
-              "); --effects, --no-default-effects, --coulomb-epsilon and --cutoff do not apply");
+  require(o.effects.empty() && !o.no_default_effects && !o.coulomb_epsilon && o.cutoff.empty() &&
+              !o.torque_delay && !o.estimate_torque_delay,
+          "--payload-of: the drive terms, the smoothing and the torque's delay are the arm's (" +
+              payload_of +
+              "); --effects, --no-default-effects, --coulomb-epsilon, --cutoff, --torque-delay "
+              "and --estimate-torque-delay do not apply");
   require(o.validate.empty() && !o.validate_fraction && o.estimator == "ls",
           "--payload-of: --validate, --validate-fraction and --estimator do not apply");
   if (!o.json.empty()) ensure_writable(o.json, o.force);

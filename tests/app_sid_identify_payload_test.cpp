@@ -4,6 +4,7 @@
 // it, of the fit of another robot and of a frame not fixed to the last moving link, and the URDF
 // with the load read back.
 
+#include <sid/logged_sensors.hpp>
 #include <sid/payload.hpp>
 
 #include <nlohmann/json.hpp>
@@ -426,6 +427,43 @@ TEST_F(Payload, RecoversAnOffAxisLoadWithTheArmOfItsOwnIdentification) {
   EXPECT_NE(again.err.find("refusing to overwrite"), std::string::npos) << again.err;
 }
 
+// Both logs with the torque 10 ms behind the angles, the arm identified with that delay: the
+// payload is fitted with each torque paired as the arm was, and the load comes out as without
+// a delay. The same arm with its delay left out pairs the torque with the wrong motion.
+TEST_F(Payload, PairsEachTorqueWithTheAnglesAtTheArmsDelay) {
+  const Ur5 arm;
+  const auto delayed = [](sid::ChainTrajectory<double> run) {
+    run.tau = sid::delayed_channel(run.t, run.tau, 0.01);
+    return run;
+  };
+  write_log(file("unloaded.csv"),
+            delayed(inverse_dynamics_log(arm.model, arm.theta, 20.0, 1, kAllMove)));
+  write_log(file("loaded.csv"), delayed(inverse_dynamics_log(arm.model, with_load(arm, the_load()),
+                                                             20.0, 2, kAllMove)));
+  const sid_test::AppRun fit = shell(ur5() + " --torque-delay 0.01 --json arm.json unloaded.csv");
+  ASSERT_EQ(fit.exit_code, 0) << fit.err;
+  nlohmann::json without = nlohmann::json::parse(read(file("arm.json")));
+  without.erase("torque_delay");
+  write("arm0.json", without.dump());
+  const auto mass_error = [&](const std::string& model) {
+    const sid_test::AppRun r =
+        shell(ur5() + " --payload-of " + model + " --json p.json --force loaded.csv");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    const nlohmann::json j = nlohmann::json::parse(read(file("p.json")));
+    if (model == "arm.json") {
+      EXPECT_EQ(j["torque_delay"].get<double>(), 0.01);
+      EXPECT_NE(r.out.find("each torque paired with the angles 10 ms earlier"), std::string::npos)
+          << r.out;
+    }
+    return std::abs(j["payload"]["mass"].get<double>() - the_load().mass) / the_load().mass;
+  };
+  const double paired = mass_error("arm.json"), unpaired = mass_error("arm0.json");
+  std::printf("[ errors ] mass %.3f %% paired at the delay, %.3f %% at none\n", 100.0 * paired,
+              100.0 * unpaired);
+  EXPECT_LT(paired, kMassTolerance);
+  EXPECT_LT(paired, unpaired);
+}
+
 TEST_F(Payload, ReportsTheSameBodyInTheFrameOfAnyLinkFixedToTheLastMovingLink) {
   const std::string run =
       " --payload-of '" + shared("arm.json") + "' '" + shared("loaded.csv") + "'";
@@ -541,7 +579,10 @@ TEST_F(Payload, RefusesTheFitOfAnotherRobotAndFilesThatAreNoFit) {
           "--payload-of needs --robot");
   refused("--robot '" + ur5_path() + "' --tip tool0 --cutoff 5 --payload-of '" +
               shared("arm.json") + "' '" + shared("loaded.csv") + "'",
-          "the drive terms and the smoothing are the arm's");
+          "the drive terms, the smoothing and the torque's delay are the arm's");
+  refused("--robot '" + ur5_path() + "' --tip tool0 --torque-delay 0.002 --payload-of '" +
+              shared("arm.json") + "' '" + shared("loaded.csv") + "'",
+          "--torque-delay and --estimate-torque-delay do not apply");
 }
 
 }  // namespace

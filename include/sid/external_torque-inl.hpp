@@ -141,6 +141,9 @@ inline void check_external_torque_input(const ChainModel& model, const Eigen::Ve
   if (!(2.0 * o.skip < run.t[run.size() - 1] - run.t[0]))
     throw std::invalid_argument(who + "a skip of " + format_number("%.3g", o.skip) +
                                 " s at each end leaves nothing of the run");
+  if (!(std::isfinite(o.torque_delay) && std::abs(o.torque_delay) <= o.skip + 1e-12))
+    throw std::invalid_argument(who + "the torque delay must be finite and within the skip (" +
+                                format_number("%.3g", o.skip) + " s)");
   if (!(o.gain >= 0.0 && std::isfinite(o.gain)))
     throw std::invalid_argument(who + "the gain must be > 0 [1/s] (0: the default)");
   if (!o.cutoff_hz.empty() && o.cutoff_hz.size() != 1 && o.cutoff_hz.size() != std::size_t(n))
@@ -192,6 +195,15 @@ inline double observer_gain(const ExternalTorqueOptions& o, const ChainTrajector
   return std::min({300.0, 0.5 / mean_step(log), 2.0 * kPi * rate_cutoff_hz.minCoeff()});
 }
 
+/// How the rates are taken from the angles: the torque left as logged, paired with the motion
+/// torque_delay earlier.
+inline ChainIdentifyOptions rate_smoothing(const ExternalTorqueOptions& o) {
+  ChainIdentifyOptions smoothing;
+  smoothing.filter_torque = false;
+  smoothing.torque_delay = o.torque_delay;
+  return smoothing;
+}
+
 /// The smoothing of a measured log's angles: the fit's cutoffs scaled by the half octave (from
 /// 1/2 to 4) at which the observer's estimate on this log is least, measured in the fit's own
 /// residual per joint (its mean square away from the ends, each sample's capped at the contact
@@ -205,8 +217,7 @@ inline std::pair<Eigen::VectorXd, double> measured_log_cutoff(
     const Eigen::VectorXd& fit_cutoff_hz, const Eigen::VectorXd& fit_residual_rms,
     const ChainTrajectory<double>& log) {
   const double h = mean_step(log);
-  ChainIdentifyOptions smoothing;
-  smoothing.filter_torque = false;
+  const ChainIdentifyOptions smoothing = rate_smoothing(o);
   const double cap = o.threshold_factor * o.threshold_factor;
   std::pair<Eigen::VectorXd, double> best{fit_cutoff_hz, 1.0};
   double least = std::numeric_limits<double>::infinity();
@@ -327,14 +338,20 @@ SID_INLINE ExternalTorque estimate_external_torque(const ChainModel& model,
                                                    const Eigen::VectorXd& fit_cutoff_hz,
                                                    const Eigen::VectorXd& fit_residual_rms,
                                                    const ChainTrajectory<double>& log,
-                                                   const ExternalTorqueOptions& o) {
-  detail::check_external_torque_input(model, theta, fit_cutoff_hz, fit_residual_rms, log, o);
+                                                   const ExternalTorqueOptions& options) {
+  detail::check_external_torque_input(model, theta, fit_cutoff_hz, fit_residual_rms, log, options);
+  // The rates at t are the spline's at t − delay: its ends, which the skip keeps out, reach
+  // |delay| further into the log.
+  ExternalTorqueOptions o = options;
+  o.skip += std::abs(options.torque_delay);
+  if (!(2.0 * o.skip < log.t[log.size() - 1] - log.t[0]))
+    throw std::invalid_argument(
+        "sid::estimate_external_torque: the skip and the torque delay leave nothing of the run");
   const ArmDynamics dynamics(model, theta);
   ExternalTorque r;
   std::tie(r.rate_cutoff_hz, r.rate_cutoff_choice) =
       detail::rate_cutoff(o, model, dynamics, fit_cutoff_hz, fit_residual_rms, log);
-  ChainIdentifyOptions smoothing;
-  smoothing.filter_torque = false;
+  const ChainIdentifyOptions smoothing = detail::rate_smoothing(o);
   const ChainKinematics<double> k = smooth_chain_run(log, r.rate_cutoff_hz, smoothing);
   r.t = log.t;
   if (o.method == ExternalTorqueMethod::InverseDynamicsResidual) {

@@ -50,6 +50,10 @@ struct ExternalTorqueOptions {
   /// Per joint, what its drive can give [N m or N] (a URDF's `<limit effort>`; NaN: not known;
   /// empty: none known). An excursion beyond it is the model's failure, not a contact.
   Eigen::VectorXd effort_limit;
+  /// [s] How far the log's torque lags its angles (the fit's, ChainIdentifyOptions::torque_delay):
+  /// each torque is compared with the motion this much earlier, and contacts are looked for
+  /// |delay| further from the ends than skip. |delay| at most the skip.
+  double torque_delay = 0.0;
 };
 
 /// @brief One contact: from the first to the last sample above threshold.

@@ -54,8 +54,11 @@ struct SmoothedChainRun {
     const auto fit = spline.fit_penalized(run->q.col(j), 1.0, p);
     if (torque_delay != 0.0) {
       // The angles when the logged torque was applied; the skips keep every sample an
-      // equation is taken at inside the log.
-      const Eigen::VectorXd at = run->t.array() - torque_delay;
+      // equation is taken at inside the log. Before its start (after its end) the log's first
+      // (last) state stands: the end piece's cubic, extrapolated, wanders.
+      const Eigen::Index last = run->t.size() - 1;
+      const Eigen::VectorXd at =
+          (run->t.array() - torque_delay).max(run->t[0]).min(run->t[last]).matrix();
       k.q.col(j) = fit.spline.evaluate(at, 0);
       k.qd.col(j) = fit.spline.evaluate(at, 1);
       k.qdd.col(j) = fit.spline.evaluate(at, 2);
