@@ -114,7 +114,12 @@ squares; css_tcv is sid_identify --robot's own pipeline on the run (cutoffs chos
 torque prediction, torques filtered alike, equations at rest left out); css_iv takes its
 instruments from simulations of the physically consistent arm nearest to each estimate, at
 GCV's own lambda, and a run where that iteration does not converge or leaves more than 1.5 times
-the first fit's residual keeps the first (css_gcv) fit, counted as declined. The report gives, per level and method, the median and largest |bias| and
+the first fit's residual keeps the first (css_gcv) fit, counted as declined. --encoder-bits,
+--encoder-ratio and --torque-delay log each run through a cheap arm's sensors, as
+sid_simulate does: the methods smooth with dq^2 = sigma_q2 + step^2 / 12, the oracle takes
+the torque without the delay; --estimate-torque-delay MAX has css_tcv estimate the delay on
+every run and fit paired at it (the delays found are in the report and the JSON). The
+report gives, per level and method, the median and largest |bias| and
 std over the base parameters in % of each true value (parameters whose true value is 0 have
 none), the RMS relative error, and how the estimate predicts the true torque at the true
 motion (100 |tau - Y beta-hat| / |tau|, mean and largest over the runs). --json FILE writes
