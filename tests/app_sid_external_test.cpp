@@ -277,6 +277,25 @@ TEST_F(SidExternal, TheLibraryCallGivesTheToolsNumbers) {
 // - The Staubli TX40 (motor-side, through its gears): the log's angles are not on a grid, so
 //   GCV chooses their rates.
 namespace {
+/// The RMS of each tau_ext column of an EXT.csv away from the ends (skip at each).
+std::vector<double> external_rms(const std::string& csv, std::size_t joints, double skip) {
+  const sid::app::CsvTable table = sid::app::read_csv(csv);
+  const Eigen::VectorXd& t = table.column("t");
+  std::vector<double> rms;
+  for (std::size_t j = 1; j <= joints; ++j) {
+    const Eigen::VectorXd& external = table.column("tau_ext" + std::to_string(j));
+    double squares = 0.0;
+    int count = 0;
+    for (Eigen::Index i = 0; i < t.size(); ++i)
+      if (t[i] >= t[0] + skip && t[i] <= t[t.size() - 1] - skip) {
+        squares += external[i] * external[i];
+        ++count;
+      }
+    rms.push_back(std::sqrt(squares / count));
+  }
+  return rms;
+}
+
 class SidExternalRealLog : public sid_test::AppTest {
  protected:
   /// Runs sid_external with its defaults on log and checks what it says against the residual
@@ -290,21 +309,9 @@ class SidExternalRealLog : public sid_test::AppTest {
     const nlohmann::json ext = nlohmann::json::parse(read(file("ext.json")));
     EXPECT_EQ(ext["contacts"].size(), 0u) << log << ": " << ext["contacts"].dump();
     EXPECT_EQ(ext["beyond_effort_limit"].size(), 0u) << log;
-    const sid::app::CsvTable table = sid::app::read_csv(file("ext.csv"));
-    const Eigen::VectorXd& t = table.column("t");
-    const double skip = 0.1;
-    for (std::size_t j = 0; j < residual.size(); ++j) {
-      const Eigen::VectorXd& external = table.column("tau_ext" + std::to_string(j + 1));
-      double squares = 0.0;
-      int count = 0;
-      for (Eigen::Index i = 0; i < t.size(); ++i)
-        if (t[i] >= t[0] + skip && t[i] <= t[t.size() - 1] - skip) {
-          squares += external[i] * external[i];
-          ++count;
-        }
-      EXPECT_LT(std::sqrt(squares / count), 2.0 * residual[j].get<double>())
-          << log << ", joint " << j + 1;
-    }
+    const std::vector<double> rms = external_rms(file("ext.csv"), residual.size(), 0.1);
+    for (std::size_t j = 0; j < residual.size(); ++j)
+      EXPECT_LT(rms[j], 2.0 * residual[j].get<double>()) << log << ", joint " << j + 1;
   }
 };
 }  // namespace
@@ -351,29 +358,6 @@ TEST_F(SidExternalRealLog, TheTx40sRunHasNoContact) {
   expect_free_motion(arm, file("tx40.csv"), model["residual_rms_measured"]);
 }
 
-namespace {
-
-/// The RMS of each tau_ext column of an EXT.csv away from the ends (skip at each).
-std::vector<double> external_rms(const std::string& csv, double skip) {
-  const sid::app::CsvTable table = sid::app::read_csv(csv);
-  const Eigen::VectorXd& t = table.column("t");
-  std::vector<double> rms;
-  for (int j = 1; j <= 6; ++j) {
-    const Eigen::VectorXd& external = table.column("tau_ext" + std::to_string(j));
-    double squares = 0.0;
-    int count = 0;
-    for (Eigen::Index i = 0; i < t.size(); ++i)
-      if (t[i] >= t[0] + skip && t[i] <= t[t.size() - 1] - skip) {
-        squares += external[i] * external[i];
-        ++count;
-      }
-    rms.push_back(std::sqrt(squares / count));
-  }
-  return rms;
-}
-
-}  // namespace
-
 // A torque logged 10 ms behind the angles, identified with that delay: sid_external pairs each
 // torque with the motion 10 ms earlier, as the fit did, and its estimate on free motion is the
 // model's small error. Paired at no delay (the same fit without it), the motion's lag is taken
@@ -405,8 +389,8 @@ TEST_F(SidExternal, PairsEachTorqueWithTheAnglesAtTheFitsDelay) {
   const nlohmann::json j = nlohmann::json::parse(read(file("paired.json")));
   EXPECT_EQ(j["torque_delay"].get<double>(), 0.01);
   EXPECT_EQ(j["contacts"].size(), 0u) << j["contacts"].dump();
-  const std::vector<double> at_delay = external_rms(file("paired.csv"), 0.12),
-                            at_none = external_rms(file("unpaired.csv"), 0.12);
+  const std::vector<double> at_delay = external_rms(file("paired.csv"), 6, 0.12),
+                            at_none = external_rms(file("unpaired.csv"), 6, 0.12);
   for (int joint = 0; joint < 3; ++joint)
     EXPECT_LT(at_delay[joint], 0.5 * at_none[joint]) << "joint " << joint + 1;
   for (int joint = 0; joint < 6; ++joint)
