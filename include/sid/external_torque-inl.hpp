@@ -138,12 +138,14 @@ inline void check_external_torque_input(const ChainModel& model, const Eigen::Ve
     throw std::invalid_argument(who + "threshold_factor must be > 0");
   if (!(o.min_duration >= 0.0 && o.merge_gap >= 0.0 && o.skip >= 0.0))
     throw std::invalid_argument(who + "min_duration, merge_gap and skip must be >= 0 s");
-  if (!(2.0 * o.skip < run.t[run.size() - 1] - run.t[0]))
-    throw std::invalid_argument(who + "a skip of " + format_number("%.3g", o.skip) +
-                                " s at each end leaves nothing of the run");
   if (!(std::isfinite(o.torque_delay) && std::abs(o.torque_delay) <= o.skip + 1e-12))
     throw std::invalid_argument(who + "the torque delay must be finite and within the skip (" +
                                 format_number("%.3g", o.skip) + " s)");
+  // Contacts are looked for |torque_delay| further from the ends (estimate_external_torque).
+  const double ends = o.skip + std::abs(o.torque_delay);
+  if (!(2.0 * ends < run.t[run.size() - 1] - run.t[0]))
+    throw std::invalid_argument(who + "a skip of " + format_number("%.3g", ends) +
+                                " s at each end leaves nothing of the run");
   if (!(o.gain >= 0.0 && std::isfinite(o.gain)))
     throw std::invalid_argument(who + "the gain must be > 0 [1/s] (0: the default)");
   if (!o.cutoff_hz.empty() && o.cutoff_hz.size() != 1 && o.cutoff_hz.size() != std::size_t(n))
@@ -344,9 +346,6 @@ SID_INLINE ExternalTorque estimate_external_torque(const ChainModel& model,
   // |delay| further into the log.
   ExternalTorqueOptions o = options;
   o.skip += std::abs(options.torque_delay);
-  if (!(2.0 * o.skip < log.t[log.size() - 1] - log.t[0]))
-    throw std::invalid_argument(
-        "sid::estimate_external_torque: the skip and the torque delay leave nothing of the run");
   const ArmDynamics dynamics(model, theta);
   ExternalTorque r;
   std::tie(r.rate_cutoff_hz, r.rate_cutoff_choice) =
