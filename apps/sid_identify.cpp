@@ -26,6 +26,7 @@
 #include "drive_gains_app.hpp"
 #include "payload_app.hpp"
 #include "runs_report.hpp"
+#include "windows_app.hpp"
 
 namespace {
 
@@ -204,6 +205,17 @@ iv_residual_ratio, iv_message, least_squares_theta, iv_fit (per run; the top-lev
 are then the first run's), drive_terms, drive_term_parameters and physically_consistent {theta,
 beta, relative_residual, converged, iterations, prior_weight, correlation_inflation}.
 
+Drift (--robot --window 10min LOG...; --window log: each log one window, e.g. one a day):
+each window is identified on its own (its cutoffs, base parameters, HAC std) and each
+parameter's estimates are fitted by a line over the operating time (the logs end to end);
+the report lists the windows and per parameter the slope [/h], its std (inflated by the Birge
+ratio when the windows scatter more than their std allow) and 'drifts' when |slope| > 3 std
+with 4 windows or more, and still so with any one window left out.
+The JSON has windows [{source, start, end, operating_time_h, cutoff_hz, relative_residual,
+theta, std_dev}] (theta in the order of parameters, null where a window regroups it) and
+parameters [{name, combination, windows, mean, slope_per_hour, slope_std_dev, birge_ratio,
+drifts}].
+
 Drive gains (--robot --currents): the logs' tau columns are motor currents [A], not torques.
 --payload-run LOADED.csv is a log with a load of known inertia (--known-payload m,cx,cy,cz or
 m,cx,cy,cz,ixx,iyy,izz,ixy,ixz,iyz: mass [kg], centre of mass [m] and inertia about it [kg m^2]
@@ -237,6 +249,7 @@ Examples:
   sid_identify --robot tx40.urdf --transmission tx40.yaml --validate-fraction 0.3 motor_log.csv
   sid_identify --robot arm.urdf --estimator iv run1.csv run2.csv
   sid_identify --robot arm.urdf --effects coulomb,stribeck run1.csv
+  sid_identify --robot arm.urdf --window log --json drift.json day1.csv day2.csv day3.csv
   sid_simulate | sid_identify -
 )";
 
@@ -286,6 +299,10 @@ void define_options(CLI::App& cli, Options& o) {
       ->check(CLI::ExistingFile);
   cli.add_option("--validate-fraction", o.chain.validate_fraction,
                  "--robot: fit the first 1 - F of the one run, predict its last F");
+  cli.add_option("--window", o.chain.window,
+                 "--robot: identify each window of the logs on its own (600, 600s, 10min, 2h, "
+                 "1d; 'log': each log whole) and report each parameter's drift over the "
+                 "operating time (the logs laid end to end in the order given)");
   cli.add_option("--rest-fraction", o.chain.rest_fraction,
                  "--robot: leave out joint j's equations where |qd_j| < F RMS(qd_j) "
                  "(default 0.1)");
@@ -883,6 +900,12 @@ int identify(Options o) {
             "--write-mjcf and --report do not go with --payload-of: --write-urdf writes the arm "
             "with its load");
     o.gains.payload_frame = o.payload_frame;
+    if (!o.chain.window.empty()) {
+      require(!o.gains.any() && o.payload_of.empty(),
+              "--window identifies the arm per window; --currents and --payload-of do not go "
+              "with it");
+      return sid::app::identify_robot_windows(o.chain, kName);
+    }
     if (o.gains.any()) return sid::app::identify_robot_currents(o.chain, o.gains, kName);
     if (!o.payload_of.empty())
       return sid::app::identify_payload_robot(o.chain, o.payload_of, o.payload_frame, kName);
@@ -893,8 +916,8 @@ int identify(Options o) {
               !o.chain.rest_fraction && !o.chain.coulomb_epsilon && o.chain.write_urdf.empty() &&
               o.chain.write_mjcf.empty() && o.chain.report.empty() && !o.chain.no_default_effects &&
               !o.chain.strict_consistency && !o.chain.consistency_folds && !o.chain.torque_delay &&
-              !o.chain.estimate_torque_delay,
-          "--base, --tip, --hold, --transmission, --validate-fraction, --rest-fraction, "
+              !o.chain.estimate_torque_delay && o.chain.window.empty(),
+          "--base, --tip, --hold, --transmission, --validate-fraction, --window, --rest-fraction, "
           "--coulomb-epsilon, --write-urdf, --write-mjcf, --report, --strict-consistency, "
           "--consistency-folds, --torque-delay, --estimate-torque-delay and "
           "--no-default-effects need --robot");

@@ -29,6 +29,8 @@ struct ChainIdentifyAppOptions {
   std::string columns;  ///< "t=time,q1=...,tau1=..." renames the log's columns
   std::vector<std::string> validate;
   std::optional<double> validate_fraction;  ///< fit the first 1 - f of one run, predict the rest
+  /// --window: "10min", "600" [s], "2h", or "log" (each log one window); empty: one fit of all.
+  std::string window;
   /// Blocks of the blocked cross-validation that judges the consistent links without held-out
   /// runs (0: the fitted equations judge); unset: the library's default.
   std::optional<int> consistency_folds;

@@ -468,6 +468,43 @@ TEST_F(IdentifyRobot, DhTableWithJointSideRunsAndValidation) {
   EXPECT_EQ(fit["validation"][0]["residual_rms"].size(), 3u);
 }
 
+// Two logs as two windows, then one log cut in time: a line through each parameter's
+// estimates, with the same parameters in the text and the JSON.
+TEST_F(IdentifyRobot, WindowsGiveEachParametersEstimateOverTheLogs) {
+  write_dh();
+  write_run("day1.csv", 6.0, 1);
+  write_run("day2.csv", 6.0, 2);
+  const sid_test::AppRun r = shell(app("sid_identify") +
+                                   " --robot arm.dh --cutoff 8 --window log --json drift.json "
+                                   "day1.csv day2.csv");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("2 window(s) (each log whole) of 2 log(s)"), std::string::npos) << r.out;
+  const nlohmann::json drift = nlohmann::json::parse(read(file("drift.json")));
+  ASSERT_EQ(drift["windows"].size(), 2u);
+  EXPECT_EQ(drift["windows"][1]["source"], "day2.csv");
+  EXPECT_TRUE(drift["window_s"].is_null());
+  EXPECT_TRUE(drift["warnings"].empty()) << r.err;  // each day excites every parameter
+  const std::size_t p = drift["parameters"].size();
+  ASSERT_GT(p, 20u);
+  for (const auto& w : drift["windows"]) {
+    EXPECT_EQ(w["theta"].size(), p);
+    EXPECT_LT(w["relative_residual"].get<double>(), 0.01);
+  }
+  for (const auto& q : drift["parameters"]) {
+    EXPECT_EQ(q["windows"], 2) << q["name"];
+    EXPECT_FALSE(q["drifts"].get<bool>()) << q["name"];  // two windows give no verdict
+    EXPECT_NE(r.out.find(q["name"].get<std::string>()), std::string::npos) << q["name"];
+  }
+  EXPECT_NEAR(drift["windows"][1]["operating_time_h"].get<double>() -
+                  drift["windows"][0]["operating_time_h"].get<double>(),
+              6.0 / 3600.0, 1e-5);
+  const sid_test::AppRun cut =
+      shell(app("sid_identify") + " --robot arm.dh --cutoff 8 --window 2s day1.csv");
+  ASSERT_EQ(cut.exit_code, 0) << cut.err;
+  EXPECT_NE(cut.out.find("3 window(s) (2 s each) of 1 log(s)"), std::string::npos) << cut.out;
+  EXPECT_NE(cut.out.find("day1.csv [4"), std::string::npos) << cut.out;
+}
+
 TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
   write_dh();
   write_run("run.csv", 2.0, 3);
@@ -497,6 +534,12 @@ TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
   refused("--robot arm.dh --estimate-torque-delay 0.01 --torque-delay 0.002 run.csv",
           "--torque-delay and --estimate-torque-delay exclude each other");
   refused("--estimate-torque-delay 0.01 run.csv", "need --robot");
+  refused("--robot arm.dh --window 10parsecs run.csv", "--window: '10parsecs' is no length");
+  refused("--robot arm.dh --window 0 run.csv", "--window must be a length > 0");
+  refused("--robot arm.dh --window 1min --validate run.csv run.csv", "--validate");
+  refused("--robot arm.dh --window log --estimator iv run.csv", "--window: the estimators");
+  refused("--robot arm.dh --window 0.15 run.csv", "window run.csv [");
+  refused("--window 1min run.csv", "need --robot");
   refused("--robot arm.dh --effects viscous,stiction run.csv", "stiction");
   refused("--robot arm.dh --no-default-effects run.csv", "--no-default-effects: name every");
   refused("--no-default-effects --effects coulomb run.csv", "need --robot");

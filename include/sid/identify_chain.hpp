@@ -100,6 +100,12 @@ struct ChainPrediction {
   Eigen::VectorXi equations;  ///< equations used per joint
 };
 
+/// @brief A log of the chain, joint-side, with the name the results call it by.
+struct NamedChainRun {
+  std::string name;
+  ChainTrajectory<double> data;
+};
+
 /// @brief What identify_chain found.
 struct ChainIdentification {
   BaseParameters<double> base;  ///< the base parameters in the model's columns

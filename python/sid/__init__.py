@@ -32,6 +32,7 @@ from .bag import read_bag
 from .diagnosis import Diagnosis, Term, diagnose
 from .external import Contact, External, external_torque
 from .payload import Payload
+from .windows import Windows, identify_windows
 
 __all__ = [
     "Contact",
@@ -46,10 +47,12 @@ __all__ = [
     "Spline",
     "Term",
     "Truth",
+    "Windows",
     "diagnose",
     "excite",
     "external_torque",
     "identify",
+    "identify_windows",
     "montecarlo",
     "read_bag",
     "simulate",

@@ -328,6 +328,29 @@ def _set_sensors(options: Any, encoder_bits: Any, encoder_ratio: Any, torque_del
     options.torque_delay = float(torque_delay)
 
 
+def _identify_options(
+    estimator: str,
+    effects: Union[None, str, Sequence[str]],
+    no_default_effects: bool,
+    cutoff: Union[None, float, Sequence[float]],
+    skip: Optional[float],
+    rest_fraction: Optional[float],
+    coulomb_epsilon: Optional[float],
+    torque_delay: Optional[float],
+) -> Any:
+    """The options identify() and identify_windows() share, as sid_identify's."""
+    options = _sid._IdentifyOptions()
+    options.estimator = estimator
+    options.effects = _join(effects)
+    options.no_default_effects = bool(no_default_effects)
+    options.cutoff = _join([cutoff] if isinstance(cutoff, (int, float)) else cutoff)
+    options.skip = skip
+    options.rest_fraction = rest_fraction
+    options.coulomb_epsilon = coulomb_epsilon
+    options.torque_delay = torque_delay
+    return options
+
+
 def identify(
     robot: Robot,
     runs: Union[Run, Sequence[Run]],
@@ -358,17 +381,11 @@ def identify(
     _as_robot(robot)
     runs = [runs] if isinstance(runs, Run) else list(runs)
     validate = [validate] if isinstance(validate, Run) else list(validate)
-    options = _sid._IdentifyOptions()
-    options.estimator = estimator
-    options.effects = _join(effects)
-    options.no_default_effects = bool(no_default_effects)
-    options.cutoff = _join([cutoff] if isinstance(cutoff, (int, float)) else cutoff)
-    options.skip = skip
-    options.rest_fraction = rest_fraction
-    options.coulomb_epsilon = coulomb_epsilon
+    options = _identify_options(
+        estimator, effects, no_default_effects, cutoff, skip, rest_fraction, coulomb_epsilon,
+        torque_delay)
     options.validate_fraction = validate_fraction
     options.consistency_folds = consistency_folds
-    options.torque_delay = torque_delay
     options.estimate_torque_delay = estimate_torque_delay
     data = [_as_run(r, "runs")._data() for r in runs]
     held = [_as_run(r, "validate")._data() for r in validate]

@@ -18,10 +18,12 @@
 #include "montecarlo_report.hpp"
 #include "paper_study.hpp"
 #include "robot_description.hpp"
+#include "windows_app.hpp"
 
 #include <nanobind/eigen/dense.h>
 #include <nanobind/nanobind.h>
 #include <nanobind/stl/optional.h>
+#include <nanobind/stl/pair.h>
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/tuple.h>
 #include <nanobind/stl/vector.h>
@@ -112,6 +114,7 @@ struct IdentifyOptions {
   std::optional<double> skip, rest_fraction, coulomb_epsilon, validate_fraction;
   std::optional<int> consistency_folds;
   std::optional<double> torque_delay, estimate_torque_delay;
+  std::string window;  ///< identify_windows only
 };
 
 /// An identification, as sid_identify --robot makes it.
@@ -167,8 +170,8 @@ class Fit {
   std::string robot_path_;
 };
 
-Fit identify(const Robot& robot, const std::vector<RunData>& runs,
-             const std::vector<RunData>& validate, const IdentifyOptions& options) {
+sid::app::ChainIdentifyAppOptions identify_app_options(const Robot& robot,
+                                                       const IdentifyOptions& options) {
   sid::app::ChainIdentifyAppOptions o = robot.source;
   o.estimator = options.estimator;
   o.cutoff = options.cutoff;
@@ -181,12 +184,34 @@ Fit identify(const Robot& robot, const std::vector<RunData>& runs,
   o.estimate_torque_delay = options.estimate_torque_delay;
   o.effects = options.effects;
   o.no_default_effects = options.no_default_effects;
+  o.window = options.window;
+  return o;
+}
+
+sid::app::LoadedChain loaded_runs(const sid::app::ChainIdentifyAppOptions& o,
+                                  const std::vector<RunData>& runs) {
   sid::app::require(!runs.empty(), "no run given");
   sid::app::LoadedChain loaded = sid::app::load_identify_chain(o);
   for (const auto& r : runs) loaded.runs.push_back(chain_run(r, loaded));
+  return loaded;
+}
+
+Fit identify(const Robot& robot, const std::vector<RunData>& runs,
+             const std::vector<RunData>& validate, const IdentifyOptions& options) {
+  const sid::app::ChainIdentifyAppOptions o = identify_app_options(robot, options);
+  sid::app::LoadedChain loaded = loaded_runs(o, runs);
   std::vector<sid::app::ChainRunFile> held_out;
   for (const auto& r : validate) held_out.push_back(chain_run(r, loaded));
   return Fit(sid::app::identify_loaded(o, std::move(loaded), std::move(held_out)), o.robot);
+}
+
+/// Each window identified on its own, as sid_identify --robot --window: its report and JSON.
+std::pair<std::string, std::string> identify_windows(const Robot& robot,
+                                                     const std::vector<RunData>& runs,
+                                                     const IdentifyOptions& options) {
+  const sid::app::ChainIdentifyAppOptions o = identify_app_options(robot, options);
+  const sid::app::WindowsResult r = sid::app::identify_windows_loaded(o, loaded_runs(o, runs));
+  return {r.text, r.json.dump()};
 }
 
 /// The arm a fit holds (sid_identify --json's text), on the robot's chain and transmission.
@@ -544,7 +569,8 @@ NB_MODULE(_sid, m) {
       .def_rw("validate_fraction", &IdentifyOptions::validate_fraction)
       .def_rw("consistency_folds", &IdentifyOptions::consistency_folds)
       .def_rw("torque_delay", &IdentifyOptions::torque_delay)
-      .def_rw("estimate_torque_delay", &IdentifyOptions::estimate_torque_delay);
+      .def_rw("estimate_torque_delay", &IdentifyOptions::estimate_torque_delay)
+      .def_rw("window", &IdentifyOptions::window);
 
   nb::class_<Fit>(m, "_Fit")
       .def_prop_ro("parameter_names",
@@ -578,6 +604,9 @@ NB_MODULE(_sid, m) {
           "report_html", [](const Fit& f) { return sid::app::identify_report_html(f.result()); },
           nb::call_guard<nb::gil_scoped_release>());
   m.def("identify", &identify, "robot"_a, "runs"_a, "validate"_a, "options"_a,
+        nb::call_guard<nb::gil_scoped_release>());
+
+  m.def("identify_windows", &identify_windows, "robot"_a, "runs"_a, "options"_a,
         nb::call_guard<nb::gil_scoped_release>());
 
   m.def("identify_payload", &identify_payload, "robot"_a, "model_json"_a, "source"_a, "runs"_a,

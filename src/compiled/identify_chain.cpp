@@ -5,3 +5,5 @@
 #include <sid/diagnose_chain-inl.hpp>
 // The delay search too.
 #include <sid/torque_delay-inl.hpp>
+// The windows over time are identify_chain runs.
+#include <sid/identify_windows-inl.hpp>

@@ -33,12 +33,6 @@ enum class ChainEstimator {
   InstrumentalVariables,
 };
 
-/// @brief A log of the chain, joint-side, with the name the results call it by.
-struct NamedChainRun {
-  std::string name;
-  ChainTrajectory<double> data;
-};
-
 /// @brief Options of identify_robot().
 struct RobotIdentifyOptions {
   /// The smoothing, the equations and the fit. Its `weighted` is set from `estimator`.

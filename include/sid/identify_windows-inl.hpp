@@ -1,0 +1,220 @@
+#pragma once
+// The definitions of <sid/identify_windows.hpp>.
+
+#include <sid/detail/format.hpp>
+#include <sid/detail/parallel.hpp>
+#include <sid/identify_windows.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sid {
+
+namespace detail {
+
+/// The first sample of each window of a run of `duration` seconds (offsets from its start):
+/// whole windows, the last piece joining the one before unless it is at least half a window.
+inline std::vector<double> window_starts(double duration, double window) {
+  if (window <= 0.0 || duration < window) return {0.0};
+  auto whole = static_cast<long>(std::floor(duration / window));
+  if (duration - static_cast<double>(whole) * window >= 0.5 * window) ++whole;
+  std::vector<double> starts;
+  for (long k = 0; k < whole; ++k) starts.push_back(static_cast<double>(k) * window);
+  return starts;
+}
+
+inline ChainTrajectory<double> run_rows(const ChainTrajectory<double>& run, Eigen::Index first,
+                                        Eigen::Index count) {
+  return {run.t.segment(first, count), run.q.middleRows(first, count),
+          run.tau.middleRows(first, count)};
+}
+
+}  // namespace detail
+
+SID_INLINE std::vector<NamedChainRun> cut_into_windows(const std::vector<NamedChainRun>& runs,
+                                                       double window) {
+  const std::string who = "sid::cut_into_windows: ";
+  if (!(window >= 0.0 && std::isfinite(window)))
+    throw std::invalid_argument(who + "the window must be finite and >= 0 s (0: each run whole)");
+  if (runs.empty()) throw std::invalid_argument(who + "no run given");
+  std::vector<NamedChainRun> windows;
+  for (const NamedChainRun& run : runs) {
+    run.data.validate(("sid::cut_into_windows (" + run.name + ")").c_str());
+    const Eigen::Index n = run.data.size();
+    if (n < 2) throw std::invalid_argument(who + run.name + " has fewer than 2 samples");
+    const double t0 = run.data.t[0];
+    const std::vector<double> starts = detail::window_starts(run.data.t[n - 1] - t0, window);
+    if (starts.size() == 1) {
+      windows.push_back(run);
+      continue;
+    }
+    Eigen::Index first = 0;
+    for (std::size_t k = 0; k < starts.size(); ++k) {
+      Eigen::Index next = n;
+      if (k + 1 < starts.size()) {
+        next = first;
+        while (next < n && run.data.t[next] - t0 < starts[k + 1]) ++next;
+      }
+      const Eigen::Index count = next - first;
+      if (count == 0) continue;  // a gap in the log longer than a window
+      ChainTrajectory<double> piece = detail::run_rows(run.data, first, count);
+      const std::string span = detail::format_number("%g", piece.t[0]) + "-" +
+                               detail::format_number("%g", piece.t[count - 1]) + " s";
+      windows.push_back({run.name + " [" + span + "]", std::move(piece)});
+      first = next;
+    }
+  }
+  return windows;
+}
+
+SID_INLINE ParameterDrift fit_drift(const Eigen::VectorXd& hours, const Eigen::VectorXd& value,
+                                    const Eigen::VectorXd& std_dev, double drift_z) {
+  ParameterDrift d;
+  double sw = 0.0, swt = 0.0, swy = 0.0;
+  for (Eigen::Index k = 0; k < value.size(); ++k) {
+    if (!(std_dev[k] > 0.0 && std::isfinite(std_dev[k]) && std::isfinite(value[k]))) continue;
+    const double w = 1.0 / (std_dev[k] * std_dev[k]);
+    ++d.windows;
+    sw += w;
+    swt += w * hours[k];
+    swy += w * value[k];
+  }
+  if (d.windows == 0) return d;
+  const double centre = swt / sw;
+  d.mean = swy / sw;
+  if (d.windows < 2) return d;
+  double stt = 0.0, sty = 0.0;
+  for (Eigen::Index k = 0; k < value.size(); ++k) {
+    if (!(std_dev[k] > 0.0 && std::isfinite(std_dev[k]) && std::isfinite(value[k]))) continue;
+    const double w = 1.0 / (std_dev[k] * std_dev[k]), dt = hours[k] - centre;
+    stt += w * dt * dt;
+    sty += w * dt * (value[k] - d.mean);
+  }
+  if (!(stt > 0.0)) return d;  // every window at one time: no line
+  d.slope = sty / stt;
+  d.slope_std_dev = std::sqrt(1.0 / stt);
+  if (d.windows < 3) return d;
+  double chi2 = 0.0;
+  for (Eigen::Index k = 0; k < value.size(); ++k) {
+    if (!(std_dev[k] > 0.0 && std::isfinite(std_dev[k]) && std::isfinite(value[k]))) continue;
+    const double r = (value[k] - d.mean - d.slope * (hours[k] - centre)) / std_dev[k];
+    chi2 += r * r;
+  }
+  d.birge_ratio = std::sqrt(chi2 / (d.windows - 2));
+  d.slope_std_dev *= std::max(1.0, d.birge_ratio);
+  if (d.windows < 4 || !(std::abs(d.slope) > drift_z * d.slope_std_dev)) return d;
+  // No one window may make the verdict: a window whose motion shows a model error the others
+  // do not (its estimate off by more than its std, which sees only the noise) would otherwise
+  // read as drift when it comes first or last.
+  Eigen::VectorXd without = std_dev;
+  for (Eigen::Index k = 0; k < value.size(); ++k) {
+    if (!(std_dev[k] > 0.0 && std::isfinite(std_dev[k]) && std::isfinite(value[k]))) continue;
+    without[k] = std::nan("");
+    const ParameterDrift rest = fit_drift(hours, value, without, drift_z);
+    without[k] = std_dev[k];
+    if (!(rest.slope * d.slope > 0.0 && std::abs(rest.slope) > drift_z * rest.slope_std_dev))
+      return d;
+  }
+  d.drifts = true;
+  return d;
+}
+
+namespace detail {
+
+/// Each window's middle on the runs laid end to end from 0 [s].
+inline std::vector<double> operating_times(const std::vector<NamedChainRun>& runs, double window) {
+  std::vector<double> middle;
+  double offset = 0.0;
+  for (const NamedChainRun& run : runs) {
+    const double t0 = run.data.t[0];
+    for (const NamedChainRun& w : cut_into_windows({run}, window)) {
+      const auto& t = w.data.t;
+      middle.push_back(offset + 0.5 * (t[0] + t[t.size() - 1]) - t0);
+    }
+    offset += run.data.t[run.data.size() - 1] - t0;
+  }
+  return middle;
+}
+
+}  // namespace detail
+
+SID_INLINE ChainWindows identify_chain_windows(const ChainModel& model,
+                                               const std::vector<NamedChainRun>& runs,
+                                               const ChainWindowOptions& options) {
+  if (!(options.drift_z > 0.0 && std::isfinite(options.drift_z)))
+    throw std::invalid_argument("sid::identify_chain_windows: drift_z must be finite and > 0");
+  const std::vector<NamedChainRun> cut = cut_into_windows(runs, options.window);
+  const std::vector<double> middle = detail::operating_times(runs, options.window);
+  ChainWindows result;
+  result.windows.resize(cut.size());
+  detail::for_each_index(static_cast<Eigen::Index>(cut.size()),
+                         detail::thread_count(options.threads), [&](Eigen::Index i, int) {
+                           const auto k = static_cast<std::size_t>(i);
+                           ChainWindow& w = result.windows[k];
+                           w.source = cut[k].name;
+                           w.start = cut[k].data.t[0];
+                           w.end = cut[k].data.t[cut[k].data.size() - 1];
+                           w.operating_time = middle[k];
+                           try {
+                             w.identification = identify_chain(model, {cut[k].data}, options.fit);
+                           } catch (const std::invalid_argument& e) {
+                             throw std::invalid_argument("window " + cut[k].name + ": " + e.what());
+                           }
+                         });
+  // The parameters by their full combination: windows whose data regroup a parameter differently
+  // do not determine the same quantity.
+  std::vector<std::string> keys;
+  for (const ChainWindow& w : result.windows)
+    for (std::size_t i = 0; i < w.identification.parameter_combinations.size(); ++i) {
+      const std::string& key = w.identification.parameter_combinations[i];
+      if (std::find(keys.begin(), keys.end(), key) != keys.end()) continue;
+      keys.push_back(key);
+      ParameterDrift p;
+      p.name = w.identification.parameter_names[i];
+      p.combination = key;
+      result.parameters.push_back(p);
+    }
+  const auto count = static_cast<Eigen::Index>(cut.size());
+  const auto columns = static_cast<Eigen::Index>(keys.size());
+  result.value = Eigen::MatrixXd::Constant(count, columns, std::nan(""));
+  result.std_dev = result.value;
+  for (Eigen::Index k = 0; k < count; ++k) {
+    const ChainIdentification& id = result.windows[static_cast<std::size_t>(k)].identification;
+    if (!id.fit.ok()) continue;
+    for (std::size_t i = 0; i < id.parameter_combinations.size(); ++i) {
+      const auto at = std::find(keys.begin(), keys.end(), id.parameter_combinations[i]);
+      const auto c = static_cast<Eigen::Index>(at - keys.begin());
+      result.value(k, c) = id.fit.theta[static_cast<Eigen::Index>(i)];
+      result.std_dev(k, c) = id.std_dev[static_cast<Eigen::Index>(i)];
+    }
+  }
+  Eigen::VectorXd hours(count);
+  for (Eigen::Index k = 0; k < count; ++k)
+    hours[k] = result.windows[static_cast<std::size_t>(k)].operating_time / 3600.0;
+  for (Eigen::Index c = 0; c < columns; ++c) {
+    ParameterDrift& p = result.parameters[static_cast<std::size_t>(c)];
+    ParameterDrift fitted =
+        fit_drift(hours, result.value.col(c), result.std_dev.col(c), options.drift_z);
+    fitted.name = p.name;
+    fitted.combination = p.combination;
+    p = fitted;
+  }
+  for (const ChainWindow& w : result.windows)
+    if (!w.identification.fit.ok())
+      result.warnings.push_back("window " + w.source +
+                                " could not be fitted: " + w.identification.fit.message);
+  const auto partial = std::count_if(result.parameters.begin(), result.parameters.end(),
+                                     [&](const ParameterDrift& p) { return p.windows < count; });
+  if (partial > 0)
+    result.warnings.push_back(
+        std::to_string(partial) + " of " + std::to_string(columns) +
+        " parameters are determined by some windows only: the others' motion does not excite "
+        "them and their data regroup them with others. Longer windows (or richer motion) give "
+        "every window the same parameters.");
+  return result;
+}
+
+}  // namespace sid
