@@ -34,39 +34,59 @@ inline ChainTrajectory<double> run_rows(const ChainTrajectory<double>& run, Eige
 
 }  // namespace detail
 
-SID_INLINE std::vector<NamedChainRun> cut_into_windows(const std::vector<NamedChainRun>& runs,
-                                                       double window) {
+namespace detail {
+
+/// Where a window lies: its run, its rows, its name and its middle on the operating time [s].
+struct WindowSpan {
+  std::size_t run = 0;
+  Eigen::Index first = 0, count = 0;
+  std::string name;
+  double operating_time = 0.0;
+};
+
+/// The windows of runs (see cut_into_windows), without copying a sample.
+inline std::vector<WindowSpan> window_spans(const std::vector<NamedChainRun>& runs, double window) {
   const std::string who = "sid::cut_into_windows: ";
   if (!(window >= 0.0 && std::isfinite(window)))
     throw std::invalid_argument(who + "the window must be finite and >= 0 s (0: each run whole)");
   if (runs.empty()) throw std::invalid_argument(who + "no run given");
-  std::vector<NamedChainRun> windows;
-  for (const NamedChainRun& run : runs) {
+  std::vector<WindowSpan> spans;
+  double offset = 0.0;  // the operating time at the run's start
+  for (std::size_t r = 0; r < runs.size(); ++r) {
+    const NamedChainRun& run = runs[r];
     run.data.validate(("sid::cut_into_windows (" + run.name + ")").c_str());
     const Eigen::Index n = run.data.size();
     if (n < 2) throw std::invalid_argument(who + run.name + " has fewer than 2 samples");
-    const double t0 = run.data.t[0];
-    const std::vector<double> starts = detail::window_starts(run.data.t[n - 1] - t0, window);
-    if (starts.size() == 1) {
-      windows.push_back(run);
-      continue;
-    }
+    const auto& t = run.data.t;
+    const std::vector<double> starts = window_starts(t[n - 1] - t[0], window);
     Eigen::Index first = 0;
     for (std::size_t k = 0; k < starts.size(); ++k) {
       Eigen::Index next = n;
       if (k + 1 < starts.size()) {
         next = first;
-        while (next < n && run.data.t[next] - t0 < starts[k + 1]) ++next;
+        while (next < n && t[next] - t[0] < starts[k + 1]) ++next;
       }
       const Eigen::Index count = next - first;
       if (count == 0) continue;  // a gap in the log longer than a window
-      ChainTrajectory<double> piece = detail::run_rows(run.data, first, count);
-      const std::string span = detail::format_number("%g", piece.t[0]) + "-" +
-                               detail::format_number("%g", piece.t[count - 1]) + " s";
-      windows.push_back({run.name + " [" + span + "]", std::move(piece)});
+      const double start = t[first], end = t[next - 1];
+      const std::string name = starts.size() == 1 ? run.name
+                                                  : run.name + " [" + format_number("%g", start) +
+                                                        "-" + format_number("%g", end) + " s]";
+      spans.push_back({r, first, count, name, offset + 0.5 * (start + end) - t[0]});
       first = next;
     }
+    offset += t[n - 1] - t[0];
   }
+  return spans;
+}
+
+}  // namespace detail
+
+SID_INLINE std::vector<NamedChainRun> cut_into_windows(const std::vector<NamedChainRun>& runs,
+                                                       double window) {
+  std::vector<NamedChainRun> windows;
+  for (const detail::WindowSpan& s : detail::window_spans(runs, window))
+    windows.push_back({s.name, detail::run_rows(runs[s.run].data, s.first, s.count)});
   return windows;
 }
 
@@ -122,48 +142,33 @@ SID_INLINE ParameterDrift fit_drift(const Eigen::VectorXd& hours, const Eigen::V
   return d;
 }
 
-namespace detail {
-
-/// Each window's middle on the runs laid end to end from 0 [s].
-inline std::vector<double> operating_times(const std::vector<NamedChainRun>& runs, double window) {
-  std::vector<double> middle;
-  double offset = 0.0;
-  for (const NamedChainRun& run : runs) {
-    const double t0 = run.data.t[0];
-    for (const NamedChainRun& w : cut_into_windows({run}, window)) {
-      const auto& t = w.data.t;
-      middle.push_back(offset + 0.5 * (t[0] + t[t.size() - 1]) - t0);
-    }
-    offset += run.data.t[run.data.size() - 1] - t0;
-  }
-  return middle;
-}
-
-}  // namespace detail
-
 SID_INLINE ChainWindows identify_chain_windows(const ChainModel& model,
                                                const std::vector<NamedChainRun>& runs,
                                                const ChainWindowOptions& options) {
   if (!(options.drift_z > 0.0 && std::isfinite(options.drift_z)))
     throw std::invalid_argument("sid::identify_chain_windows: drift_z must be finite and > 0");
-  const std::vector<NamedChainRun> cut = cut_into_windows(runs, options.window);
-  const std::vector<double> middle = detail::operating_times(runs, options.window);
+  const std::vector<detail::WindowSpan> spans = detail::window_spans(runs, options.window);
   ChainWindows result;
-  result.windows.resize(cut.size());
-  detail::for_each_index(static_cast<Eigen::Index>(cut.size()),
-                         detail::thread_count(options.threads), [&](Eigen::Index i, int) {
-                           const auto k = static_cast<std::size_t>(i);
-                           ChainWindow& w = result.windows[k];
-                           w.source = cut[k].name;
-                           w.start = cut[k].data.t[0];
-                           w.end = cut[k].data.t[cut[k].data.size() - 1];
-                           w.operating_time = middle[k];
-                           try {
-                             w.identification = identify_chain(model, {cut[k].data}, options.fit);
-                           } catch (const std::invalid_argument& e) {
-                             throw std::invalid_argument("window " + cut[k].name + ": " + e.what());
-                           }
-                         });
+  result.windows.resize(spans.size());
+  detail::for_each_index(
+      static_cast<Eigen::Index>(spans.size()), detail::thread_count(options.threads),
+      [&](Eigen::Index i, int) {
+        const detail::WindowSpan& span = spans[static_cast<std::size_t>(i)];
+        ChainWindow& w = result.windows[static_cast<std::size_t>(i)];
+        const ChainTrajectory<double>& run = runs[span.run].data;
+        w.source = span.name;
+        w.start = run.t[span.first];
+        w.end = run.t[span.first + span.count - 1];
+        w.operating_time = span.operating_time;
+        try {
+          w.identification =
+              identify_chain(model, {detail::run_rows(run, span.first, span.count)}, options.fit);
+        } catch (const std::invalid_argument& e) {
+          throw std::invalid_argument("window " + span.name + ": " + e.what());
+        }
+        // The one member that grows with the window: a month of windows must not keep them.
+        w.identification.fit.residual = Eigen::VectorXd();
+      });
   // The parameters by their full combination: windows whose data regroup a parameter differently
   // do not determine the same quantity.
   std::vector<std::string> keys;
@@ -177,7 +182,7 @@ SID_INLINE ChainWindows identify_chain_windows(const ChainModel& model,
       p.combination = key;
       result.parameters.push_back(p);
     }
-  const auto count = static_cast<Eigen::Index>(cut.size());
+  const auto count = static_cast<Eigen::Index>(spans.size());
   const auto columns = static_cast<Eigen::Index>(keys.size());
   result.value = Eigen::MatrixXd::Constant(count, columns, std::nan(""));
   result.std_dev = result.value;

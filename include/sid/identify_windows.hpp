@@ -63,6 +63,8 @@ struct ChainWindow {
   double end = 0.0;    ///< [s] its last sample's time
   /// [s] Its middle on the operating time (the runs laid end to end from 0).
   double operating_time = 0.0;
+  /// The window's identification, without fit.residual (one entry per equation: a month of
+  /// windows would hold the month's equations); per_run and fitted hold its RMS.
   ChainIdentification identification;
 };
 
