@@ -535,6 +535,12 @@ Mjcf consistent_mjcf(const ChainIdentifyResult& r, const std::string& what,
       paths);
 }
 
+ChainRunFile load_chain_run(const ChainIdentifyAppOptions& o, const LoadedChain& loaded,
+                            const std::string& path) {
+  return load_run(path, loaded.transmission, loaded.motor_side,
+                  chain_columns(o.columns, loaded.robot.chain.joints(), "--columns"));
+}
+
 LoadedChain load_identify_chain(const ChainIdentifyAppOptions& o) {
   // load_chain takes --effects as the exact list (sid_diagnose's --drives); here it adds.
   ChainIdentifyAppOptions exact = o;
@@ -551,10 +557,7 @@ int identify_robot(const ChainIdentifyAppOptions& o, const char* app_name) {
   LoadedChain loaded = load_identify_chain(o);
   require_model_files(o, loaded.robot);
   std::vector<ChainRunFile> held_out;
-  for (const auto& f : o.validate)
-    held_out.push_back(
-        load_run(f, loaded.transmission, loaded.motor_side,
-                 chain_columns(o.columns, loaded.robot.chain.joints(), "--columns")));
+  for (const auto& f : o.validate) held_out.push_back(load_chain_run(o, loaded, f));
   write_identify_outputs(o, identify_loaded(o, std::move(loaded), std::move(held_out)), app_name);
   return kExitOk;
 }

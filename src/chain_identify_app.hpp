@@ -89,6 +89,11 @@ LoadedChain load_chain(const ChainIdentifyAppOptions& options,
 ChainRunFile identification_run(const std::string& name, sid::ChainTrajectory<double> run,
                                 const sid::Transmission& transmission, bool motor_side);
 
+/// @brief The log at path as loaded's runs are read (--columns of o, loaded's transmission).
+/// @throws InputError naming the file.
+ChainRunFile load_chain_run(const ChainIdentifyAppOptions& o, const LoadedChain& loaded,
+                            const std::string& path);
+
 /// @brief The chain and model sid_identify --robot fits: options.effects added to the default
 /// drive terms (identify_drive_term_kinds), and the runs of options.inputs.
 /// @throws InputError as load_chain.

@@ -49,11 +49,10 @@ std::string window_length(double window) {
 
 }  // namespace
 
-std::string windows_text(const sid::ChainWindows& w, const std::vector<std::string>& inputs,
-                         double window) {
+std::string windows_text(const sid::ChainWindows& w, std::size_t logs, double window) {
   std::ostringstream out;
   out << "Identified window by window: " << w.windows.size() << " window(s) ("
-      << window_length(window) << ") of " << inputs.size()
+      << window_length(window) << ") of " << logs
       << " log(s) laid end to end in the order given.\n";
   std::size_t width = 6;
   for (const auto& win : w.windows) width = std::max(width, win.source.size());
@@ -122,9 +121,13 @@ nlohmann::json windows_json(const sid::ChainWindows& w, const sid::ChainModel& m
   return j;
 }
 
-WindowsResult identify_windows_loaded(const ChainIdentifyAppOptions& o, LoadedChain loaded) {
-  require(!loaded.runs.empty(), "no run given");
-  const double window = parse_window(o.window);
+namespace {
+
+/// The library's options from the tool's, after refusing what windows cannot do.
+sid::ChainWindowOptions window_options(const ChainIdentifyAppOptions& o,
+                                       const LoadedChain& loaded) {
+  sid::ChainWindowOptions options;
+  options.window = parse_window(o.window);
   require(o.validate.empty() && !o.validate_fraction,
           "--window: each window is judged by its own fit; --validate and --validate-fraction "
           "do not apply");
@@ -135,34 +138,47 @@ WindowsResult identify_windows_loaded(const ChainIdentifyAppOptions& o, LoadedCh
           "--window: the estimators are ls and wls (iv refines a single fit)");
   require(!o.estimate_torque_delay,
           "--window: give the delay with --torque-delay (estimate it on one log first)");
-  sid::ChainWindowOptions options;
-  options.window = window;
   options.fit = loaded.options;  // the tool's smoothing, rest rule, skips and delay
   options.fit.filter_torque = sid::ChainWindowOptions{}.fit.filter_torque;
   options.fit.weighted = o.estimator == "wls";
   options.threads = 0;
-  std::vector<std::string> files;
-  std::vector<sid::NamedChainRun> runs;
-  for (auto& r : loaded.runs) {
-    files.push_back(r.file);
-    runs.push_back({std::move(r.file), std::move(r.data)});
-  }
+  return options;
+}
+
+WindowsResult identify_windows(const ChainIdentifyAppOptions& o, const LoadedChain& loaded,
+                               std::size_t runs, const sid::ChainRunLoader& load) {
+  const sid::ChainWindowOptions options = window_options(o, loaded);
   WindowsResult result;
   try {
-    result.windows = sid::identify_chain_windows(loaded.model, runs, options);
+    result.windows = sid::identify_chain_windows(loaded.model, runs, load, options);
   } catch (const std::invalid_argument& e) {
     throw InputError(e.what());
   }
-  result.text = windows_text(result.windows, files, window);
-  result.json = windows_json(result.windows, loaded.model, window);
+  result.text = windows_text(result.windows, runs, options.window);
+  result.json = windows_json(result.windows, loaded.model, options.window);
   return result;
+}
+
+}  // namespace
+
+WindowsResult identify_windows_loaded(const ChainIdentifyAppOptions& o, LoadedChain loaded) {
+  require(!loaded.runs.empty(), "no run given");
+  return identify_windows(o, loaded, loaded.runs.size(), [&](std::size_t i) {
+    return sid::NamedChainRun{loaded.runs[i].file, loaded.runs[i].data};
+  });
 }
 
 int identify_robot_windows(const ChainIdentifyAppOptions& o, const char* app_name) {
   require(!o.inputs.empty(), "no run given");
-  (void)parse_window(o.window);  // a bad --window is said before the logs are read
   if (!o.json.empty()) ensure_writable(o.json, o.force);
-  const WindowsResult r = identify_windows_loaded(o, load_identify_chain(o));
+  ChainIdentifyAppOptions without_runs = o;
+  without_runs.inputs.clear();
+  const LoadedChain loaded = load_identify_chain(without_runs);
+  // Each log is read when its windows are fitted: memory does not grow with the logs' number.
+  const WindowsResult r = identify_windows(o, loaded, o.inputs.size(), [&](std::size_t i) {
+    ChainRunFile run = load_chain_run(o, loaded, o.inputs[i]);
+    return sid::NamedChainRun{std::move(run.file), std::move(run.data)};
+  });
   (o.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
   for (const auto& w : r.windows.warnings) std::cerr << app_name << ": warning: " << w << "\n";
   if (!o.json.empty()) write_json(o.json, r.json);

@@ -20,8 +20,7 @@ double parse_window(const std::string& text);
 
 /// @brief The report sid_identify prints for windows (one line per window, then the drift of
 /// every parameter) and what --json writes.
-std::string windows_text(const sid::ChainWindows& w, const std::vector<std::string>& inputs,
-                         double window);
+std::string windows_text(const sid::ChainWindows& w, std::size_t logs, double window);
 nlohmann::json windows_json(const sid::ChainWindows& w, const sid::ChainModel& model,
                             double window);
 

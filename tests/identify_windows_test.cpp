@@ -29,6 +29,12 @@ std::size_t parameter_index(const sid::ChainWindows& w, const std::string& name)
   return 0;
 }
 
+/// Equal entries, NaN where the other is NaN.
+bool same(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return a.rows() == b.rows() && a.cols() == b.cols() &&
+         ((a.array() == b.array()) || (a.array().isNaN() && b.array().isNaN())).all();
+}
+
 }  // namespace
 
 // Whole windows from each run's start; the last piece joins the window before unless it is at
@@ -170,4 +176,40 @@ TEST(IdentifyChainWindows, NamesTheWindowItCannotFit) {
   EXPECT_THROW(
       (void)sid::identify_chain_windows(arm.model, {{"log.csv", arm.run(2.0, 1, 0.2)}}, options),
       std::invalid_argument);
+}
+
+// Runs read through a loader, in order and as many at a time as windows are fitted side by
+// side, give what the runs in memory give, bit for bit, whatever the thread count.
+TEST(IdentifyChainWindows, ReadsTheRunsInTurnWithTheSameResult) {
+  const sid_test::SimulatedArm arm;
+  std::vector<sid::NamedChainRun> runs;
+  for (unsigned day = 0; day < 3; ++day)
+    runs.push_back({"day" + std::to_string(day), arm.run(3.0, 20 + day, 0.2)});
+  sid::ChainWindowOptions options;
+  options.fit.cutoff_hz = {16.0};
+  options.window = 1.5;
+  const sid::ChainWindows in_memory = sid::identify_chain_windows(arm.model, runs, options);
+  ASSERT_EQ(in_memory.windows.size(), 6u);
+  for (const int threads : {1, 2}) {
+    std::vector<std::size_t> asked;
+    options.threads = threads;
+    const sid::ChainWindows read = sid::identify_chain_windows(
+        arm.model, runs.size(),
+        [&](std::size_t i) {
+          asked.push_back(i);
+          return runs[i];
+        },
+        options);
+    EXPECT_EQ(asked, (std::vector<std::size_t>{0, 1, 2}));
+    ASSERT_EQ(read.windows.size(), 6u);
+    for (std::size_t k = 0; k < 6; ++k) {
+      EXPECT_EQ(read.windows[k].source, in_memory.windows[k].source);
+      EXPECT_EQ(read.windows[k].operating_time, in_memory.windows[k].operating_time);
+    }
+    EXPECT_TRUE(same(read.value, in_memory.value)) << threads << " threads";
+    EXPECT_TRUE(same(read.std_dev, in_memory.std_dev)) << threads << " threads";
+  }
+  EXPECT_THROW((void)sid::identify_chain_windows(
+                   arm.model, 0, [&](std::size_t i) { return runs[i]; }, options),
+               std::invalid_argument);
 }

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -36,12 +37,12 @@ inline ChainTrajectory<double> run_rows(const ChainTrajectory<double>& run, Eige
 
 namespace detail {
 
-/// Where a window lies: its run, its rows, its name and its middle on the operating time [s].
+/// Where a window lies: its run, its rows, its name and its middle [s] from its run's start.
 struct WindowSpan {
   std::size_t run = 0;
   Eigen::Index first = 0, count = 0;
   std::string name;
-  double operating_time = 0.0;
+  double middle = 0.0;
 };
 
 /// The windows of runs (see cut_into_windows), without copying a sample.
@@ -51,7 +52,6 @@ inline std::vector<WindowSpan> window_spans(const std::vector<NamedChainRun>& ru
     throw std::invalid_argument(who + "the window must be finite and >= 0 s (0: each run whole)");
   if (runs.empty()) throw std::invalid_argument(who + "no run given");
   std::vector<WindowSpan> spans;
-  double offset = 0.0;  // the operating time at the run's start
   for (std::size_t r = 0; r < runs.size(); ++r) {
     const NamedChainRun& run = runs[r];
     run.data.validate(("sid::cut_into_windows (" + run.name + ")").c_str());
@@ -72,10 +72,9 @@ inline std::vector<WindowSpan> window_spans(const std::vector<NamedChainRun>& ru
       const std::string name = starts.size() == 1 ? run.name
                                                   : run.name + " [" + format_number("%g", start) +
                                                         "-" + format_number("%g", end) + " s]";
-      spans.push_back({r, first, count, name, offset + 0.5 * (start + end) - t[0]});
+      spans.push_back({r, first, count, name, 0.5 * (start + end) - t[0]});
       first = next;
     }
-    offset += t[n - 1] - t[0];
   }
   return spans;
 }
@@ -142,56 +141,97 @@ SID_INLINE ParameterDrift fit_drift(const Eigen::VectorXd& hours, const Eigen::V
   return d;
 }
 
+namespace detail {
+
+/// Identifies each window of runs into `out`; run_start: each run's start on the operating time.
+inline void identify_windows_of(const ChainModel& model, const std::vector<NamedChainRun>& runs,
+                                const std::vector<double>& run_start,
+                                const ChainWindowOptions& options, std::vector<ChainWindow>& out) {
+  std::vector<WindowSpan> spans = window_spans(runs, options.window);
+  const std::size_t before = out.size();
+  out.resize(before + spans.size());
+  for_each_index(static_cast<Eigen::Index>(spans.size()), thread_count(options.threads),
+                 [&](Eigen::Index i, int) {
+                   const WindowSpan& span = spans[static_cast<std::size_t>(i)];
+                   ChainWindow& w = out[before + static_cast<std::size_t>(i)];
+                   const ChainTrajectory<double>& run = runs[span.run].data;
+                   w.source = span.name;
+                   w.start = run.t[span.first];
+                   w.end = run.t[span.first + span.count - 1];
+                   w.operating_time = run_start[span.run] + span.middle;
+                   try {
+                     w.identification = identify_chain(
+                         model, {run_rows(run, span.first, span.count)}, options.fit);
+                   } catch (const std::invalid_argument& e) {
+                     throw std::invalid_argument("window " + span.name + ": " + e.what());
+                   }
+                   // The one member that grows with the window: a month of windows must not keep
+                   // them.
+                   w.identification.fit.residual = Eigen::VectorXd();
+                 });
+}
+
+/// The parameters of every window and their drift (see ChainWindows).
+inline void fit_window_drifts(const ChainWindowOptions& options, ChainWindows& result);
+
+}  // namespace detail
+
 SID_INLINE ChainWindows identify_chain_windows(const ChainModel& model,
                                                const std::vector<NamedChainRun>& runs,
                                                const ChainWindowOptions& options) {
+  return identify_chain_windows(
+      model, runs.size(), [&](std::size_t i) { return runs[i]; }, options);
+}
+
+SID_INLINE ChainWindows identify_chain_windows(const ChainModel& model, std::size_t runs,
+                                               const ChainRunLoader& load,
+                                               const ChainWindowOptions& options) {
   if (!(options.drift_z > 0.0 && std::isfinite(options.drift_z)))
     throw std::invalid_argument("sid::identify_chain_windows: drift_z must be finite and > 0");
-  const std::vector<detail::WindowSpan> spans = detail::window_spans(runs, options.window);
+  if (runs == 0) throw std::invalid_argument("sid::identify_chain_windows: no run given");
   ChainWindows result;
-  result.windows.resize(spans.size());
-  detail::for_each_index(
-      static_cast<Eigen::Index>(spans.size()), detail::thread_count(options.threads),
-      [&](Eigen::Index i, int) {
-        const detail::WindowSpan& span = spans[static_cast<std::size_t>(i)];
-        ChainWindow& w = result.windows[static_cast<std::size_t>(i)];
-        const ChainTrajectory<double>& run = runs[span.run].data;
-        w.source = span.name;
-        w.start = run.t[span.first];
-        w.end = run.t[span.first + span.count - 1];
-        w.operating_time = span.operating_time;
-        try {
-          w.identification =
-              identify_chain(model, {detail::run_rows(run, span.first, span.count)}, options.fit);
-        } catch (const std::invalid_argument& e) {
-          throw std::invalid_argument("window " + span.name + ": " + e.what());
-        }
-        // The one member that grows with the window: a month of windows must not keep them.
-        w.identification.fit.residual = Eigen::VectorXd();
-      });
+  // As many runs at a time as windows are fitted side by side: the memory held is theirs.
+  const auto batch_size = static_cast<std::size_t>(detail::thread_count(options.threads));
+  double offset = 0.0;  // the operating time at the next run's start: the same in any batches
+  for (std::size_t next = 0; next < runs;) {
+    std::vector<NamedChainRun> batch;
+    std::vector<double> start;
+    for (; batch.size() < batch_size && next < runs; ++next) {
+      batch.push_back(load(next));
+      const ChainTrajectory<double>& run = batch.back().data;
+      start.push_back(offset);
+      if (run.size() > 0) offset += run.t[run.size() - 1] - run.t[0];
+    }
+    detail::identify_windows_of(model, batch, start, options, result.windows);
+  }
+  detail::fit_window_drifts(options, result);
+  return result;
+}
+
+namespace detail {
+
+inline void fit_window_drifts(const ChainWindowOptions& options, ChainWindows& result) {
   // The parameters by their full combination: windows whose data regroup a parameter differently
   // do not determine the same quantity.
-  std::vector<std::string> keys;
+  std::map<std::string, Eigen::Index> column_of;
   for (const ChainWindow& w : result.windows)
     for (std::size_t i = 0; i < w.identification.parameter_combinations.size(); ++i) {
       const std::string& key = w.identification.parameter_combinations[i];
-      if (std::find(keys.begin(), keys.end(), key) != keys.end()) continue;
-      keys.push_back(key);
+      if (!column_of.emplace(key, static_cast<Eigen::Index>(column_of.size())).second) continue;
       ParameterDrift p;
       p.name = w.identification.parameter_names[i];
       p.combination = key;
       result.parameters.push_back(p);
     }
-  const auto count = static_cast<Eigen::Index>(spans.size());
-  const auto columns = static_cast<Eigen::Index>(keys.size());
+  const auto count = static_cast<Eigen::Index>(result.windows.size());
+  const auto columns = static_cast<Eigen::Index>(column_of.size());
   result.value = Eigen::MatrixXd::Constant(count, columns, std::nan(""));
   result.std_dev = result.value;
   for (Eigen::Index k = 0; k < count; ++k) {
     const ChainIdentification& id = result.windows[static_cast<std::size_t>(k)].identification;
     if (!id.fit.ok()) continue;
     for (std::size_t i = 0; i < id.parameter_combinations.size(); ++i) {
-      const auto at = std::find(keys.begin(), keys.end(), id.parameter_combinations[i]);
-      const auto c = static_cast<Eigen::Index>(at - keys.begin());
+      const Eigen::Index c = column_of.at(id.parameter_combinations[i]);
       result.value(k, c) = id.fit.theta[static_cast<Eigen::Index>(i)];
       result.std_dev(k, c) = id.std_dev[static_cast<Eigen::Index>(i)];
     }
@@ -219,7 +259,8 @@ SID_INLINE ChainWindows identify_chain_windows(const ChainModel& model,
         " parameters are determined by some windows only: the others' motion does not excite "
         "them and their data regroup them with others. Longer windows (or richer motion) give "
         "every window the same parameters.");
-  return result;
 }
+
+}  // namespace detail
 
 }  // namespace sid

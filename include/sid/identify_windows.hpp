@@ -22,6 +22,8 @@
 #include <Eigen/Core>
 
 #include <cmath>
+#include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -114,6 +116,16 @@ SID_INLINE ParameterDrift fit_drift(const Eigen::VectorXd& hours, const Eigen::V
 ///         identify_chain for a window, naming the window.
 SID_INLINE ChainWindows identify_chain_windows(const ChainModel& model,
                                                const std::vector<NamedChainRun>& runs,
+                                               const ChainWindowOptions& options = {});
+
+/// @brief Gives run i of a sequence (the library reads no files; the caller's loader does).
+using ChainRunLoader = std::function<NamedChainRun(std::size_t)>;
+
+/// @brief The same over `runs` runs that `load` gives in order, as many at a time as windows are
+/// fitted side by side (options.threads): memory does not grow with the number of runs, so a
+/// month of logs is read one log after another. A loader's exception is passed on.
+SID_INLINE ChainWindows identify_chain_windows(const ChainModel& model, std::size_t runs,
+                                               const ChainRunLoader& load,
                                                const ChainWindowOptions& options = {});
 
 }  // namespace sid
