@@ -3,10 +3,8 @@
 // the parameters by each method and reports sample means and variances beside the paper's.
 
 #include <CLI/CLI.hpp>
-#include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <iostream>
@@ -30,6 +28,7 @@
 #include "montecarlo_report.hpp"
 #include "paper_study.hpp"
 #include "plot.hpp"
+#include "progress_bar.hpp"
 
 namespace {
 
@@ -225,44 +224,6 @@ sid::MonteCarloOptions study_options(const Options& o) {
       {o.runs, o.levels, o.sigma_tau2, o.methods, o.seed, o.threads});
 }
 
-// A progress bar on standard error, drawn once the study has run for a second.
-class ProgressBar {
- public:
-  explicit ProgressBar(bool enabled) : enabled_(enabled), start_(Clock::now()) {}
-
-  void update(int done, int total) {
-    if (!enabled_) return;
-    const auto now = Clock::now();
-    const double elapsed = std::chrono::duration<double>(now - start_).count();
-    if (elapsed < 1.0) return;
-    if (drawn_ && done < total && std::chrono::duration<double>(now - last_).count() < 0.1) return;
-    last_ = now;
-    drawn_ = true;
-    constexpr int kWidth = 40;
-    const int filled =
-        total > 0 ? static_cast<int>(static_cast<long long>(kWidth) * done / total) : kWidth;
-    std::string bar(static_cast<std::size_t>(filled), '#');
-    bar += std::string(static_cast<std::size_t>(kWidth - filled), '.');
-    const double left = done > 0 ? elapsed * (total - done) / done : 0.0;
-    std::fprintf(stderr, "\r%s: [%s] %d/%d runs, %.0f s, about %.0f s left ", kName, bar.c_str(),
-                 done, total, elapsed, left);
-    std::fflush(stderr);
-  }
-
-  void finish() {
-    if (!drawn_) return;
-    std::fprintf(stderr, "\r%s\r", std::string(100, ' ').c_str());
-    std::fflush(stderr);
-    drawn_ = false;
-  }
-
- private:
-  using Clock = std::chrono::steady_clock;
-  bool enabled_;
-  bool drawn_ = false;
-  Clock::time_point start_, last_;
-};
-
 // Runs check and prefixes the option's name to its InputError ("--json: refusing to ...").
 template <typename Check>
 void for_option(const std::string& option, const Check& check) {
@@ -331,7 +292,7 @@ int chain_study(const Options& o) {
   if (!json_to_stdout) std::cout << sid::app::chain_montecarlo_header(checked, setup) << std::flush;
 
   sid::ChainMonteCarloOptions options = checked;
-  ProgressBar bar(!o.quiet && ::isatty(2) != 0);
+  sid::app::ProgressBar bar(kName, "runs", !o.quiet && sid::app::stderr_is_terminal());
   options.progress = [&bar](int done, int total) { bar.update(done, total); };
   sid::ChainMonteCarloResult result;
   try {
@@ -382,7 +343,7 @@ int study(const Options& o) {
   if (!json_to_stdout)
     std::cout << sid::app::montecarlo_header(options, truth.size()) << std::flush;
 
-  ProgressBar bar(!o.quiet && ::isatty(2) != 0);
+  sid::app::ProgressBar bar(kName, "runs", !o.quiet && sid::app::stderr_is_terminal());
   options.progress = [&bar](int done, int total) { bar.update(done, total); };
   sid::MonteCarloResult result;
   try {

@@ -1,8 +1,10 @@
 #include "windows_app.hpp"
 
 #include "app.hpp"
+#include "progress_bar.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iostream>
 #include <sstream>
@@ -123,6 +125,15 @@ nlohmann::json windows_json(const sid::ChainWindows& w, const sid::ChainModel& m
 
 namespace {
 
+/// The time the windows took, per sample of the logs (what a long log will cost).
+std::string time_line(const sid::ChainWindows& w, double seconds) {
+  double samples = 0.0;
+  for (const auto& win : w.windows) samples += static_cast<double>(win.samples);
+  return "\nTime: " + format_number("%.1f", seconds) + " s for " + format_number("%.0f", samples) +
+         " samples (" + format_number("%.1f", samples > 0.0 ? 1e6 * seconds / samples : 0.0) +
+         " us per sample).\n";
+}
+
 /// The library's options from the tool's, after refusing what windows cannot do.
 sid::ChainWindowOptions window_options(const ChainIdentifyAppOptions& o,
                                        const LoadedChain& loaded) {
@@ -146,15 +157,29 @@ sid::ChainWindowOptions window_options(const ChainIdentifyAppOptions& o,
 }
 
 WindowsResult identify_windows(const ChainIdentifyAppOptions& o, const LoadedChain& loaded,
-                               std::size_t runs, const sid::ChainRunLoader& load) {
-  const sid::ChainWindowOptions options = window_options(o, loaded);
+                               std::size_t runs, const sid::ChainRunLoader& load,
+                               ProgressBar* bar = nullptr) {
+  sid::ChainWindowOptions options = window_options(o, loaded);
+  if (bar != nullptr)
+    options.progress = [bar](std::size_t done, std::size_t total) {
+      bar->update(static_cast<int>(done), static_cast<int>(total));
+    };
   WindowsResult result;
+  const auto start = std::chrono::steady_clock::now();
   try {
     result.windows = sid::identify_chain_windows(loaded.model, runs, load, options);
   } catch (const std::invalid_argument& e) {
+    if (bar != nullptr) bar->finish();
     throw InputError(e.what());
+  } catch (...) {  // a log that cannot be read
+    if (bar != nullptr) bar->finish();
+    throw;
   }
-  result.text = windows_text(result.windows, runs, options.window);
+  if (bar != nullptr) bar->finish();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.text =
+      windows_text(result.windows, runs, options.window) + time_line(result.windows, seconds);
   result.json = windows_json(result.windows, loaded.model, options.window);
   return result;
 }
@@ -175,10 +200,14 @@ int identify_robot_windows(const ChainIdentifyAppOptions& o, const char* app_nam
   without_runs.inputs.clear();
   const LoadedChain loaded = load_identify_chain(without_runs);
   // Each log is read when its windows are fitted: memory does not grow with the logs' number.
-  const WindowsResult r = identify_windows(o, loaded, o.inputs.size(), [&](std::size_t i) {
-    ChainRunFile run = load_chain_run(o, loaded, o.inputs[i]);
-    return sid::NamedChainRun{std::move(run.file), std::move(run.data)};
-  });
+  ProgressBar bar(app_name, "logs", stderr_is_terminal());
+  const WindowsResult r = identify_windows(
+      o, loaded, o.inputs.size(),
+      [&](std::size_t i) {
+        ChainRunFile run = load_chain_run(o, loaded, o.inputs[i]);
+        return sid::NamedChainRun{std::move(run.file), std::move(run.data)};
+      },
+      &bar);
   (o.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
   for (const auto& w : r.windows.warnings) std::cerr << app_name << ": warning: " << w << "\n";
   if (!o.json.empty()) write_json(o.json, r.json);

@@ -158,6 +158,7 @@ inline void identify_windows_of(const ChainModel& model, const std::vector<Named
                    w.source = span.name;
                    w.start = run.t[span.first];
                    w.end = run.t[span.first + span.count - 1];
+                   w.samples = span.count;
                    w.operating_time = run_start[span.run] + span.middle;
                    try {
                      w.identification = identify_chain(
@@ -203,6 +204,7 @@ SID_INLINE ChainWindows identify_chain_windows(const ChainModel& model, std::siz
       if (run.size() > 0) offset += run.t[run.size() - 1] - run.t[0];
     }
     detail::identify_windows_of(model, batch, start, options, result.windows);
+    if (options.progress) options.progress(next, runs);
   }
   detail::fit_window_drifts(options, result);
   return result;

@@ -50,6 +50,8 @@ struct ChainWindowOptions {
   double drift_z = 3.0;
   /// Windows identified side by side (0: every core); each window's fit uses fit.threads.
   int threads = 1;
+  /// Called from the calling thread as runs are done (runs done, runs in all): a tool's bar.
+  std::function<void(std::size_t, std::size_t)> progress;
   /// The fit of each window. Its torque is fitted as measured (filter_torque off): filtered as
   /// its angle, a torque and the regressor's Coulomb column (a near-step in q̇) disagree at
   /// every reversal, which biases Coulomb friction upward (by 0.5 to 2.3 of its std on the
@@ -63,6 +65,7 @@ struct ChainWindow {
   std::string source;  ///< the run it was cut from
   double start = 0.0;  ///< [s] its first sample's time, in the run's own clock
   double end = 0.0;    ///< [s] its last sample's time
+  Eigen::Index samples = 0;
   /// [s] Its middle on the operating time (the runs laid end to end from 0).
   double operating_time = 0.0;
   /// The window's identification, without fit.residual (one entry per equation: a month of
