@@ -211,6 +211,7 @@ parameter's estimates are fitted by a line over the operating time (the logs end
 the report lists the windows and per parameter the slope [/h], its std (inflated by the Birge
 ratio when the windows scatter more than their std allow) and 'drifts' when |slope| > 3 std
 with 4 windows or more, and still so with any one window left out.
+--report FILE.html plots each drive term's estimate and +-2 std over the operating time.
 The JSON has windows [{source, start, end, operating_time_h, cutoff_hz, relative_residual,
 theta, std_dev}] (theta in the order of parameters, null where a window regroups it) and
 parameters [{name, combination, windows, mean, slope_per_hour, slope_std_dev, birge_ratio,

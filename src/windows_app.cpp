@@ -2,6 +2,7 @@
 
 #include "app.hpp"
 #include "progress_bar.hpp"
+#include "windows_report_html.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -142,9 +143,9 @@ sid::ChainWindowOptions window_options(const ChainIdentifyAppOptions& o,
   require(o.validate.empty() && !o.validate_fraction,
           "--window: each window is judged by its own fit; --validate and --validate-fraction "
           "do not apply");
-  require(o.write_urdf.empty() && o.write_mjcf.empty() && o.report.empty(),
-          "--window writes no model file or HTML report (one per window would be needed); "
-          "identify the window you want without --window");
+  require(o.write_urdf.empty() && o.write_mjcf.empty(),
+          "--window writes no model file (one per window would be needed); identify the window "
+          "you want without --window");
   require(o.estimator == "ls" || o.estimator == "wls",
           "--window: the estimators are ls and wls (iv refines a single fit)");
   require(!o.estimate_torque_delay,
@@ -196,6 +197,7 @@ WindowsResult identify_windows_loaded(const ChainIdentifyAppOptions& o, LoadedCh
 int identify_robot_windows(const ChainIdentifyAppOptions& o, const char* app_name) {
   require(!o.inputs.empty(), "no run given");
   if (!o.json.empty()) ensure_writable(o.json, o.force);
+  if (!o.report.empty()) ensure_writable(o.report, o.force);
   ChainIdentifyAppOptions without_runs = o;
   without_runs.inputs.clear();
   const LoadedChain loaded = load_identify_chain(without_runs);
@@ -211,6 +213,7 @@ int identify_robot_windows(const ChainIdentifyAppOptions& o, const char* app_nam
   (o.json == "-" ? std::cerr : std::cout) << r.text << std::flush;
   for (const auto& w : r.windows.warnings) std::cerr << app_name << ": warning: " << w << "\n";
   if (!o.json.empty()) write_json(o.json, r.json);
+  if (!o.report.empty()) write_text(o.report, windows_report_html(r, loaded.model));
   return kExitOk;
 }
 

@@ -498,11 +498,18 @@ TEST_F(IdentifyRobot, WindowsGiveEachParametersEstimateOverTheLogs) {
   EXPECT_NEAR(drift["windows"][1]["operating_time_h"].get<double>() -
                   drift["windows"][0]["operating_time_h"].get<double>(),
               6.0 / 3600.0, 1e-5);
-  const sid_test::AppRun cut =
-      shell(app("sid_identify") + " --robot arm.dh --cutoff 8 --window 2s day1.csv");
+  const sid_test::AppRun cut = shell(app("sid_identify") +
+                                     " --robot arm.dh --cutoff 8 --window 2s --report drift.html "
+                                     "day1.csv");
   ASSERT_EQ(cut.exit_code, 0) << cut.err;
   EXPECT_NE(cut.out.find("3 window(s) (2 s each) of 1 log(s)"), std::string::npos) << cut.out;
   EXPECT_NE(cut.out.find("day1.csv [4"), std::string::npos) << cut.out;
+  // The page plots each drive term (not the links' parameters) over the three windows.
+  const std::string page = read(file("drift.html"));
+  for (const char* term : {"fv_1", "fc_2", "off_3"})
+    EXPECT_NE(page.find(std::string("<h3>") + term), std::string::npos) << term;
+  EXPECT_EQ(page.find("<h3>m_"), std::string::npos);
+  EXPECT_NE(page.find("<svg"), std::string::npos);
 }
 
 TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
@@ -539,6 +546,7 @@ TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
   refused("--robot arm.dh --window 1min --validate run.csv run.csv", "--validate");
   refused("--robot arm.dh --window log --estimator iv run.csv", "--window: the estimators");
   refused("--robot arm.dh --window 0.15 run.csv", "window run.csv [");
+  refused("--robot arm.dh --window log --write-urdf a.urdf run.csv", "--window writes no model");
   refused("--window 1min run.csv", "need --robot");
   refused("--robot arm.dh --effects viscous,stiction run.csv", "stiction");
   refused("--robot arm.dh --no-default-effects run.csv", "--no-default-effects: name every");
