@@ -92,6 +92,14 @@ TEST(FitDrift, FitsALineWeightedByTheDeviationsAndInflatesItForScatter) {
   sd5[4] = 0.2;
   y5 += 0.4 * t5;
   EXPECT_TRUE(sid::fit_drift(t5, y5, sd5).drifts);
+  // A month of daily windows on a clear trend: each left-out line is judged alone (not by
+  // leaving out more windows in turn, which would take factorial time).
+  const Eigen::VectorXd days = Eigen::VectorXd::LinSpaced(30, 0.0, 29.0 * 24.0);
+  const Eigen::VectorXd rising = 1.0 + 1e-3 * days.array();
+  const sid::ParameterDrift month =
+      sid::fit_drift(days, rising, Eigen::VectorXd::Constant(30, 0.01));
+  EXPECT_TRUE(month.drifts);
+  EXPECT_NEAR(month.slope, 1e-3, 1e-12);
   // A window that does not determine the parameter (NaN) is left out; two windows give a slope
   // but no verdict; one gives the value alone.
   const Eigen::Vector4d missing(std::nan(""), 0.1, std::nan(""), 0.2);

@@ -89,8 +89,11 @@ SID_INLINE std::vector<NamedChainRun> cut_into_windows(const std::vector<NamedCh
   return windows;
 }
 
-SID_INLINE ParameterDrift fit_drift(const Eigen::VectorXd& hours, const Eigen::VectorXd& value,
-                                    const Eigen::VectorXd& std_dev, double drift_z) {
+namespace detail {
+
+/// The weighted line alone (mean, slope, its Birge-inflated std), without a verdict.
+inline ParameterDrift drift_line(const Eigen::VectorXd& hours, const Eigen::VectorXd& value,
+                                 const Eigen::VectorXd& std_dev) {
   ParameterDrift d;
   double sw = 0.0, swt = 0.0, swy = 0.0;
   for (Eigen::Index k = 0; k < value.size(); ++k) {
@@ -124,6 +127,14 @@ SID_INLINE ParameterDrift fit_drift(const Eigen::VectorXd& hours, const Eigen::V
   }
   d.birge_ratio = std::sqrt(chi2 / (d.windows - 2));
   d.slope_std_dev *= std::max(1.0, d.birge_ratio);
+  return d;
+}
+
+}  // namespace detail
+
+SID_INLINE ParameterDrift fit_drift(const Eigen::VectorXd& hours, const Eigen::VectorXd& value,
+                                    const Eigen::VectorXd& std_dev, double drift_z) {
+  ParameterDrift d = detail::drift_line(hours, value, std_dev);
   if (d.windows < 4 || !(std::abs(d.slope) > drift_z * d.slope_std_dev)) return d;
   // No one window may make the verdict: a window whose motion shows a model error the others
   // do not (its estimate off by more than its std, which sees only the noise) would otherwise
@@ -132,7 +143,7 @@ SID_INLINE ParameterDrift fit_drift(const Eigen::VectorXd& hours, const Eigen::V
   for (Eigen::Index k = 0; k < value.size(); ++k) {
     if (!(std_dev[k] > 0.0 && std::isfinite(std_dev[k]) && std::isfinite(value[k]))) continue;
     without[k] = std::nan("");
-    const ParameterDrift rest = fit_drift(hours, value, without, drift_z);
+    const ParameterDrift rest = detail::drift_line(hours, value, without);
     without[k] = std_dev[k];
     if (!(rest.slope * d.slope > 0.0 && std::abs(rest.slope) > drift_z * rest.slope_std_dev))
       return d;
