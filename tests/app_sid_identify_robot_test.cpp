@@ -543,6 +543,7 @@ TEST_F(IdentifyRobot, RefusesBadInputNamingIt) {
   refused("--estimate-torque-delay 0.01 run.csv", "need --robot");
   refused("--robot arm.dh --window 10parsecs run.csv", "--window: '10parsecs' is no length");
   refused("--robot arm.dh --window 0 run.csv", "--window must be a length > 0");
+  refused("--robot arm.dh --window 1e-300 run.csv", "into more windows than its");
   refused("--robot arm.dh --window 1min --validate run.csv run.csv", "--validate");
   refused("--robot arm.dh --window log --estimator iv run.csv", "--window: the estimators");
   refused("--robot arm.dh --window 0.15 run.csv", "window run.csv [");

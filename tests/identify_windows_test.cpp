@@ -57,6 +57,9 @@ TEST(CutIntoWindows, RefusesWhatItCannotCut) {
   EXPECT_THROW((void)sid::cut_into_windows({ramp("a", 5.0)}, -1.0), std::invalid_argument);
   EXPECT_THROW((void)sid::cut_into_windows({ramp("a", 5.0)}, std::nan("")), std::invalid_argument);
   EXPECT_THROW((void)sid::cut_into_windows({}, 1.0), std::invalid_argument);
+  // More windows than samples: refused before a start is computed (1e-300 s would be 5e300).
+  EXPECT_THROW((void)sid::cut_into_windows({ramp("a", 5.0)}, 1e-300), std::invalid_argument);
+  EXPECT_THROW((void)sid::cut_into_windows({ramp("a", 5.0)}, 0.001), std::invalid_argument);
   sid::NamedChainRun backwards = ramp("a", 5.0);
   backwards.data.t[3] = backwards.data.t[1];
   EXPECT_THROW((void)sid::cut_into_windows({backwards}, 1.0), std::invalid_argument);

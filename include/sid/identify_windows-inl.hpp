@@ -58,6 +58,10 @@ inline std::vector<WindowSpan> window_spans(const std::vector<NamedChainRun>& ru
     const Eigen::Index n = run.data.size();
     if (n < 2) throw std::invalid_argument(who + run.name + " has fewer than 2 samples");
     const auto& t = run.data.t;
+    if (window > 0.0 && (t[n - 1] - t[0]) / window > static_cast<double>(n))
+      throw std::invalid_argument(who + "a window of " + format_number("%g", window) +
+                                  " s would cut " + run.name + " into more windows than its " +
+                                  std::to_string(n) + " samples");
     const std::vector<double> starts = window_starts(t[n - 1] - t[0], window);
     Eigen::Index first = 0;
     for (std::size_t k = 0; k < starts.size(); ++k) {
