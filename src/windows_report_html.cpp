@@ -17,7 +17,7 @@ std::vector<std::string> drive_term_names(const sid::ChainModel& model) {
 }
 
 std::string drift_plot(const sid::ChainWindows& w, std::size_t column, const Eigen::VectorXd& x) {
-  const sid::ParameterDrift& p = w.parameters[column];
+  const sid::ParameterTrend& p = w.parameters[column];
   const auto c = static_cast<Eigen::Index>(column);
   const Eigen::VectorXd value = w.value.col(c), two_std = 2.0 * w.std_dev.col(c);
   std::string verdict = std::isnan(p.slope) ? ""

@@ -70,7 +70,7 @@ TEST(CutIntoWindows, RefusesWhatItCannotCut) {
 TEST(FitDrift, FitsALineWeightedByTheDeviationsAndInflatesItForScatter) {
   const Eigen::Vector4d hours(0.0, 1.0, 2.0, 3.0), sd(0.1, 0.1, 0.2, 0.2);
   const Eigen::Vector4d on_line = 2.0 + 0.5 * hours.array();
-  const sid::ParameterDrift d = sid::fit_drift(hours, on_line, sd);
+  const sid::ParameterTrend d = sid::fit_drift(hours, on_line, sd);
   EXPECT_EQ(d.windows, 4);
   EXPECT_NEAR(d.slope, 0.5, 1e-12);
   // Σw(t − t̄)² with w = 100, 100, 25, 25: t̄ = 0.9, so 81 + 1 + 30.25 + 110.25 = 222.5.
@@ -78,7 +78,7 @@ TEST(FitDrift, FitsALineWeightedByTheDeviationsAndInflatesItForScatter) {
   EXPECT_NEAR(d.birge_ratio, 0.0, 1e-9);
   EXPECT_TRUE(d.drifts);  // 0.5 / (1/15) = 7.5 deviations
   const Eigen::Vector4d scattered = on_line + Eigen::Vector4d(1.0, -1.0, 1.0, -1.0);
-  const sid::ParameterDrift s = sid::fit_drift(hours, scattered, sd);
+  const sid::ParameterTrend s = sid::fit_drift(hours, scattered, sd);
   EXPECT_GT(s.birge_ratio, 1.0);
   EXPECT_NEAR(s.slope_std_dev, s.birge_ratio / std::sqrt(222.5), 1e-12);
   EXPECT_FALSE(s.drifts);
@@ -88,7 +88,7 @@ TEST(FitDrift, FitsALineWeightedByTheDeviationsAndInflatesItForScatter) {
   Eigen::VectorXd y5(5), sd5(5);
   y5 << 0.0, 0.1, -0.1, 0.0, 1.0;
   sd5 << 0.2, 0.2, 0.2, 0.2, 0.05;
-  const sid::ParameterDrift outlier = sid::fit_drift(t5, y5, sd5);
+  const sid::ParameterTrend outlier = sid::fit_drift(t5, y5, sd5);
   EXPECT_GT(std::abs(outlier.slope), 3.0 * outlier.slope_std_dev);
   EXPECT_FALSE(outlier.drifts);
   y5[4] = 0.4;  // on the line the others keep: drift with or without any one window
@@ -99,19 +99,19 @@ TEST(FitDrift, FitsALineWeightedByTheDeviationsAndInflatesItForScatter) {
   // leaving out more windows in turn, which would take factorial time).
   const Eigen::VectorXd days = Eigen::VectorXd::LinSpaced(30, 0.0, 29.0 * 24.0);
   const Eigen::VectorXd rising = 1.0 + 1e-3 * days.array();
-  const sid::ParameterDrift month =
+  const sid::ParameterTrend month =
       sid::fit_drift(days, rising, Eigen::VectorXd::Constant(30, 0.01));
   EXPECT_TRUE(month.drifts);
   EXPECT_NEAR(month.slope, 1e-3, 1e-12);
   // A window that does not determine the parameter (NaN) is left out; two windows give a slope
   // but no verdict; one gives the value alone.
   const Eigen::Vector4d missing(std::nan(""), 0.1, std::nan(""), 0.2);
-  const sid::ParameterDrift two = sid::fit_drift(hours, on_line, missing);
+  const sid::ParameterTrend two = sid::fit_drift(hours, on_line, missing);
   EXPECT_EQ(two.windows, 2);
   EXPECT_NEAR(two.slope, 0.5, 1e-12);
   EXPECT_FALSE(two.drifts);
   EXPECT_TRUE(std::isnan(two.birge_ratio));
-  const sid::ParameterDrift one =
+  const sid::ParameterTrend one =
       sid::fit_drift(hours, on_line, Eigen::Vector4d(0.1, std::nan(""), std::nan(""), -1.0));
   EXPECT_EQ(one.windows, 1);
   EXPECT_DOUBLE_EQ(one.mean, 2.0);
@@ -158,7 +158,7 @@ TEST(IdentifyChainWindows, SeesCoulombFrictionRiseOverDaysOfLogs) {
     }
   }
   for (const Eigen::Index i : coulomb) {
-    const sid::ParameterDrift& d =
+    const sid::ParameterTrend& d =
         w.parameters[parameter_index(w, names[static_cast<std::size_t>(i)])];
     EXPECT_EQ(d.windows, 4);
     EXPECT_TRUE(d.drifts) << d.name << ": slope " << d.slope << " ± " << d.slope_std_dev;

@@ -96,9 +96,9 @@ SID_INLINE std::vector<NamedChainRun> cut_into_windows(const std::vector<NamedCh
 namespace detail {
 
 /// The weighted line alone (mean, slope, its Birge-inflated std), without a verdict.
-inline ParameterDrift drift_line(const Eigen::VectorXd& hours, const Eigen::VectorXd& value,
+inline ParameterTrend drift_line(const Eigen::VectorXd& hours, const Eigen::VectorXd& value,
                                  const Eigen::VectorXd& std_dev) {
-  ParameterDrift d;
+  ParameterTrend d;
   double sw = 0.0, swt = 0.0, swy = 0.0;
   for (Eigen::Index k = 0; k < value.size(); ++k) {
     if (!(std_dev[k] > 0.0 && std::isfinite(std_dev[k]) && std::isfinite(value[k]))) continue;
@@ -136,9 +136,9 @@ inline ParameterDrift drift_line(const Eigen::VectorXd& hours, const Eigen::Vect
 
 }  // namespace detail
 
-SID_INLINE ParameterDrift fit_drift(const Eigen::VectorXd& hours, const Eigen::VectorXd& value,
+SID_INLINE ParameterTrend fit_drift(const Eigen::VectorXd& hours, const Eigen::VectorXd& value,
                                     const Eigen::VectorXd& std_dev, double drift_z) {
-  ParameterDrift d = detail::drift_line(hours, value, std_dev);
+  ParameterTrend d = detail::drift_line(hours, value, std_dev);
   if (d.windows < 4 || !(std::abs(d.slope) > drift_z * d.slope_std_dev)) return d;
   // No one window may make the verdict: a window whose motion shows a model error the others
   // do not (its estimate off by more than its std, which sees only the noise) would otherwise
@@ -147,7 +147,7 @@ SID_INLINE ParameterDrift fit_drift(const Eigen::VectorXd& hours, const Eigen::V
   for (Eigen::Index k = 0; k < value.size(); ++k) {
     if (!(std_dev[k] > 0.0 && std::isfinite(std_dev[k]) && std::isfinite(value[k]))) continue;
     without[k] = std::nan("");
-    const ParameterDrift rest = detail::drift_line(hours, value, without);
+    const ParameterTrend rest = detail::drift_line(hours, value, without);
     without[k] = std_dev[k];
     if (!(rest.slope * d.slope > 0.0 && std::abs(rest.slope) > drift_z * rest.slope_std_dev))
       return d;
@@ -235,7 +235,7 @@ inline void fit_window_drifts(const ChainWindowOptions& options, ChainWindows& r
     for (std::size_t i = 0; i < w.identification.parameter_combinations.size(); ++i) {
       const std::string& key = w.identification.parameter_combinations[i];
       if (!column_of.emplace(key, static_cast<Eigen::Index>(column_of.size())).second) continue;
-      ParameterDrift p;
+      ParameterTrend p;
       p.name = w.identification.parameter_names[i];
       p.combination = key;
       result.parameters.push_back(p);
@@ -257,8 +257,8 @@ inline void fit_window_drifts(const ChainWindowOptions& options, ChainWindows& r
   for (Eigen::Index k = 0; k < count; ++k)
     hours[k] = result.windows[static_cast<std::size_t>(k)].operating_time / 3600.0;
   for (Eigen::Index c = 0; c < columns; ++c) {
-    ParameterDrift& p = result.parameters[static_cast<std::size_t>(c)];
-    ParameterDrift fitted =
+    ParameterTrend& p = result.parameters[static_cast<std::size_t>(c)];
+    ParameterTrend fitted =
         fit_drift(hours, result.value.col(c), result.std_dev.col(c), options.drift_z);
     fitted.name = p.name;
     fitted.combination = p.combination;
@@ -269,7 +269,7 @@ inline void fit_window_drifts(const ChainWindowOptions& options, ChainWindows& r
       result.warnings.push_back("window " + w.source +
                                 " could not be fitted: " + w.identification.fit.message);
   const auto partial = std::count_if(result.parameters.begin(), result.parameters.end(),
-                                     [&](const ParameterDrift& p) { return p.windows < count; });
+                                     [&](const ParameterTrend& p) { return p.windows < count; });
   if (partial > 0)
     result.warnings.push_back(
         std::to_string(partial) + " of " + std::to_string(columns) +

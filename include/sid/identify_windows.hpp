@@ -46,7 +46,7 @@ struct ChainWindowOptions {
   /// is one window.
   double window = 0.0;
   /// A parameter drifts when its slope exceeds this many of its standard deviations (see
-  /// ParameterDrift::drifts).
+  /// ParameterTrend::drifts).
   double drift_z = 3.0;
   /// Windows identified side by side (0: every core); each window's fit uses fit.threads.
   int threads = 1;
@@ -74,7 +74,7 @@ struct ChainWindow {
 };
 
 /// @brief One parameter over the windows: a line fitted to its estimates in operating time.
-struct ParameterDrift {
+struct ParameterTrend {
   std::string name;                     ///< short name (base_parameter_names with six terms)
   std::string combination;              ///< in full: what identifies the parameter across windows
   int windows = 0;                      ///< windows whose identification determines it
@@ -92,7 +92,7 @@ struct ChainWindows {
   std::vector<ChainWindow> windows;
   /// Every parameter some window determines, in the order of first appearance (the model's
   /// column order in the first window).
-  std::vector<ParameterDrift> parameters;
+  std::vector<ParameterTrend> parameters;
   /// windows × parameters: each window's estimate and HAC standard deviation, NaN where its
   /// runs leave the parameter undetermined (it regrouped with others).
   Eigen::MatrixXd value;
@@ -111,7 +111,7 @@ SID_INLINE std::vector<NamedChainRun> cut_into_windows(const std::vector<NamedCh
 
 /// @brief A line θ(t) = mean + slope (t − t̄) fitted to estimates with their standard deviations
 /// (weights 1/std²) at times [h]; entries with a NaN or non-positive std are left out.
-SID_INLINE ParameterDrift fit_drift(const Eigen::VectorXd& hours, const Eigen::VectorXd& value,
+SID_INLINE ParameterTrend fit_drift(const Eigen::VectorXd& hours, const Eigen::VectorXd& value,
                                     const Eigen::VectorXd& std_dev, double drift_z = 3.0);
 
 /// @brief Identifies model on each window of runs and fits each parameter's drift.
